@@ -1,0 +1,35 @@
+# Two commands do all set-up on a fresh Debian 12 machine (see README):
+#   make demo   -> install what is missing, run the default pump scene into out/
+#   make test   -> install what is missing, run the test suite (incl. an mpirun -n 2 case)
+PY      := .venv/bin/python
+GEARDYN := .venv/bin/geardyn
+SCENE   ?= scenes/pump.toml
+OUT     ?= out
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+export OMP_NUM_THREADS := 1
+export OPENBLAS_NUM_THREADS := 1
+
+.PHONY: setup demo test test-slow lint bench clean
+
+setup:
+	@bash scripts/bootstrap.sh
+
+demo: setup
+	$(GEARDYN) run $(SCENE) --out $(OUT)/pump
+	$(GEARDYN) run scenes/gear-pair-sdof.toml --out $(OUT)/gear-pair-sdof
+
+test: setup
+	$(PY) -m pytest -q tests
+
+test-slow: setup
+	$(PY) -m pytest -q -m slow tests
+
+lint: setup
+	$(PY) -m ruff check geometry fem reduction hbm study tests benchmarks
+
+bench: setup
+	$(PY) -m benchmarks.run_all
+
+clean:
+	rm -rf out .cache .pytest_cache

@@ -1,0 +1,1 @@
+"""hbm package."""

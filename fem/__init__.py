@@ -1,1 +1,56 @@
-"""fem package."""
+"""DOLFINx (0.5) linear structural model of geared machines, eq. (4).
+
+P2 elasticity with a material per volume, extra 6-DOF nodes, rigid links (RBE2)
+and clamps eliminated exactly by a prolongation P (K_bar = P^T K P), lumped
+masses and springs, and the pump's named nodes. Matrices stay distributed PETSc
+``Mat`` objects. See docs/fem.md.
+"""
+
+from .eigen import eigenfrequencies
+from .frames import gear_pair_frame, projection_vector
+from .lumped import axial_spring, disk_mass, rigid_body_mass, two_node
+from .materials import ALUMINIUM, CAST_IRON, STEEL, Material
+from .mesh import FEMesh, gmsh_physical_groups, load_gmsh_mesh, load_meshed_model
+from .model import FEModel, build_model
+from .prolongation import Prolongation, build_prolongation
+from .pump import (
+    BearingParams,
+    DriveParams,
+    GearParams,
+    MaterialParams,
+    build_pump_model,
+    pump_spec,
+)
+from .spec import Link, Lumped, ModelSpec, Node
+
+__all__ = [
+    "ALUMINIUM",
+    "CAST_IRON",
+    "STEEL",
+    "BearingParams",
+    "DriveParams",
+    "FEMesh",
+    "FEModel",
+    "GearParams",
+    "Link",
+    "Lumped",
+    "Material",
+    "MaterialParams",
+    "ModelSpec",
+    "Node",
+    "Prolongation",
+    "axial_spring",
+    "build_model",
+    "build_prolongation",
+    "build_pump_model",
+    "disk_mass",
+    "eigenfrequencies",
+    "gear_pair_frame",
+    "gmsh_physical_groups",
+    "load_gmsh_mesh",
+    "load_meshed_model",
+    "projection_vector",
+    "pump_spec",
+    "rigid_body_mass",
+    "two_node",
+]

@@ -1,1 +1,20 @@
-"""hbm package."""
+"""Harmonic balance for gear-mesh vibro-impacts (pure NumPy/SciPy).
+
+Solves ``M q'' + C q' + K q + G f_LoA(G^T q, t) = f_ex(t)`` (eq. 4, 13-14) for
+periodic responses over a speed range: AFT, exact condensation onto the line of
+action, Newton corrector, pseudo-arc-length continuation, grazing (eq. 30) and
+fold detection, Hill stability, time reconstruction.  See docs/hbm.md.
+"""
+
+from .continuation import Branch, GrazingPoint, trace
+from .harmonics import HarmonicSet
+from .model import Excitation, GearMesh, LinearSystem
+from .postprocess import PointStats, TimeSeries, ipp_sequence, point_stats, spectrum, time_series
+from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, Point
+from .stability import floquet_exponents
+
+__all__ = [
+    "Branch", "ConvergenceError", "Excitation", "GearMesh", "GrazingPoint", "HBMProblem",
+    "HarmonicSet", "LinearSystem", "Point", "PointStats", "RPM_TO_RAD_S", "TimeSeries",
+    "floquet_exponents", "ipp_sequence", "point_stats", "spectrum", "time_series", "trace",
+]

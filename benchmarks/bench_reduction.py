@@ -1,0 +1,259 @@
+"""Craig–Bampton benchmark: time and peak memory vs DOF count and n_CM, and the
+fixed-interface eigensolve against ``scipy.sparse.linalg.eigsh`` (shift-invert σ=0).
+
+Run: ``.venv/bin/python -m benchmarks.bench_reduction [--quick] [--repeats N]``.
+Writes ``benchmarks/results/reduction.json`` (atomically). Serial only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+log = logging.getLogger("bench_reduction")
+OUT = Path(__file__).resolve().parent / "results" / "reduction.json"
+
+SIZES = [(8, 2, 2), (16, 3, 3), (24, 4, 4), (32, 5, 5)]
+SIZES_QUICK = [(8, 2, 2), (16, 3, 3)]
+N_CMS = [10, 40, 100]
+EIGSH_MAX_DOF = 15000  # eigsh comparison on small/medium sizes only
+
+
+def _rss_kib(field: str) -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    raise RuntimeError(f"{field} not in /proc/self/status")
+
+
+def _reset_peak() -> bool:
+    """Reset VmHWM (Linux clear_refs 5); False if not permitted."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def _interior_scipy(M, K, iface):
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+
+    n = K.getSize()[0]
+    keep = np.setdiff1d(np.arange(n), iface).astype(PETSc.IntType)
+    is_i = PETSc.IS().createGeneral(keep)
+    out = []
+    for A in (K, M):
+        S = A.createSubMatrix(is_i, is_i)
+        ia, ja, a = S.getValuesCSR()
+        out.append(sp.csr_matrix((a.copy(), ja.copy(), ia.copy()), shape=S.getSize()))
+    return out
+
+
+def bench_case(cells, n_cm, repeats):
+    from reduction import craig_bampton
+    from reduction.models import elastic_box
+
+    model = elastic_box(size=(0.3, 0.04, 0.04), cells=cells, clamped=True)
+    n = model.K.getSize()[0]
+    if n_cm > n // 4:
+        return None, model
+    times, peaks, phases = [], [], []
+    for _ in range(repeats):
+        ok = _reset_peak()
+        base = _rss_kib("VmRSS")
+        t0 = time.perf_counter()
+        cb = craig_bampton(model.M, model.K, model.interface_dofs, n_modes=n_cm)
+        times.append(time.perf_counter() - t0)
+        peaks.append((_rss_kib("VmHWM") - base) / 1024.0 if ok else float("nan"))
+        phases.append(cb.timings)
+        cb.T.destroy()
+    rec = {
+        "cells": list(cells), "n_dof": n, "n_cm": n_cm, "repeats": repeats,
+        "time_median_s": statistics.median(times),
+        "eigensolve_median_s": statistics.median(p["eigensolve"] for p in phases),
+        "static_modes_median_s": statistics.median(p["static_modes"] for p in phases),
+        "projection_median_s": statistics.median(p["projection"] for p in phases),
+        "peak_extra_rss_mib": statistics.median(peaks) if all(
+            math.isfinite(p) for p in peaks) else None,
+        "highest_fixed_interface_hz": float(cb.fixed_interface_hz[-1]),
+    }
+    log.info("n=%d n_cm=%d: %.3f s, peak +%s MiB", n, n_cm, rec["time_median_s"],
+             rec["peak_extra_rss_mib"])
+    return rec, model
+
+
+def bench_eigsh(model, n_cm, repeats):
+    """SLEPc (this package's settings) vs eigsh on the same K_ii, M_ii."""
+    import scipy.sparse.linalg as spla
+    from petsc4py import PETSc
+
+    from reduction.craig_bampton import _make_eps
+
+    n = model.K.getSize()[0]
+    keep = np.setdiff1d(np.arange(n), model.interface_dofs).astype(PETSc.IntType)
+    is_i = PETSc.IS().createGeneral(keep)
+    K_ii = model.K.createSubMatrix(is_i, is_i)
+    M_ii = model.M.createSubMatrix(is_i, is_i)
+    Ks, Ms = _interior_scipy(model.M, model.K, model.interface_dofs)
+    t_slepc, t_eigsh = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        eps = _make_eps(K_ii, M_ii, 1e-10)
+        eps.setDimensions(n_cm)
+        eps.solve()
+        lam_s = np.sort([eps.getEigenvalue(j).real for j in range(eps.getConverged())])[:n_cm]
+        t_slepc.append(time.perf_counter() - t0)
+        assert eps.getConvergedReason() > 0 or eps.getConverged() >= n_cm
+        eps.destroy()
+        t0 = time.perf_counter()
+        lam_e = spla.eigsh(Ks, k=n_cm, M=Ms, sigma=0.0, which="LM", tol=1e-10,
+                           return_eigenvectors=False)
+        t_eigsh.append(time.perf_counter() - t0)
+    lam_e = np.sort(lam_e)
+    diff = float(np.max(np.abs(np.sqrt(lam_s) - np.sqrt(lam_e)) / np.sqrt(lam_e)))
+    ts, te = statistics.median(t_slepc), statistics.median(t_eigsh)
+    log.info("eigsh n=%d n_cm=%d: slepc %.3f s, eigsh %.3f s", n, n_cm, ts, te)
+    return {"n_dof": n, "n_interior": int(keep.size), "n_cm": n_cm, "repeats": repeats,
+            "slepc_s": ts, "eigsh_s": te, "eigsh_over_slepc": te / ts,
+            "max_rel_freq_diff": diff}
+
+
+def _gmsh_box(size, h):
+    """Live gmsh model: box (volume ``box``), clamp face ``clamp`` at x = 0, tet10."""
+    import gmsh
+
+    gmsh.model.add("bench_box")
+    gmsh.model.occ.addBox(0, 0, 0, *size)
+    gmsh.model.occ.synchronize()
+    vol = gmsh.model.getEntities(3)[0][1]
+    face = [t for d, t in gmsh.model.getEntities(2)
+            if abs(gmsh.model.occ.getCenterOfMass(d, t)[0]) < 1e-9]
+    gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [vol]), "box")  # gmsh 4.8
+    gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, face), "clamp")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+    gmsh.model.mesh.generate(3)
+    gmsh.model.mesh.setOrder(2)
+    return gmsh.model
+
+
+def bench_calculix(h, n_modes, repeats, size=(0.3, 0.04, 0.04)):
+    """CalculiX *FREQUENCY vs SLEPc (and eigsh) on the same clamped tet10 mesh."""
+    import shutil
+
+    import gmsh
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    import fem
+    from fem import calculix
+    from reduction.craig_bampton import _make_eps
+
+    if shutil.which("ccx") is None:
+        return None
+    steel = fem.Material(210e9, 0.3, 7800.0)
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        model = _gmsh_box(size, h)
+        groups = fem.gmsh_physical_groups(model)
+        t_ccx = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            f_ccx = calculix.run_frequency(model, {"box": steel}, groups, ["clamp"], n_modes)
+            t_ccx.append(time.perf_counter() - t0)
+        fe_mesh = fem.load_gmsh_mesh(model)
+    finally:
+        gmsh.finalize()
+    spec = fem.ModelSpec()
+    spec.add_clamp("clamp")
+    m = fem.build_model(fe_mesh, {"box": steel}, spec, quadrature_degree=2)
+    n = m.K.getSize()[0]
+    t_slepc, t_eigsh = [], []
+    mats = []
+    for A in (m.K, m.M):
+        ia, ja, a = A.getValuesCSR()
+        mats.append(sp.csr_matrix((a.copy(), ja.copy(), ia.copy()), shape=A.getSize()))
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        eps = _make_eps(m.K, m.M, 1e-10)
+        eps.setDimensions(n_modes)
+        eps.solve()
+        lam = np.sort([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
+        t_slepc.append(time.perf_counter() - t0)
+        eps.destroy()
+        t0 = time.perf_counter()
+        spla.eigsh(mats[0], k=n_modes, M=mats[1], sigma=0.0, which="LM", tol=1e-10,
+                   return_eigenvectors=False)
+        t_eigsh.append(time.perf_counter() - t0)
+    f = np.sqrt(lam[:n_modes]) / (2 * math.pi)
+    ts, tc, te = (statistics.median(t) for t in (t_slepc, t_ccx, t_eigsh))
+    log.info("ccx n=%d n_modes=%d: slepc %.3f s, ccx %.3f s, eigsh %.3f s", n, n_modes,
+             ts, tc, te)
+    return {"mesh_size_m": h, "n_dof": n, "n_modes": n_modes, "repeats": repeats,
+            "slepc_s": ts, "ccx_s": tc, "eigsh_s": te,
+            "ccx_over_slepc": tc / ts, "eigsh_over_slepc": te / ts,
+            "max_rel_freq_diff_ccx": float(np.max(np.abs(f / f_ccx - 1))),
+            "note": "ccx time includes writing the deck and the ccx process (OMP 1 thread)"}
+
+
+def main(argv=None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="two small sizes only")
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--out", type=Path, default=OUT)
+    args = p.parse_args(argv)
+    if args.repeats < 1:
+        raise ValueError(f"--repeats = {args.repeats}: must be >= 1")
+    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+    cases, eig = [], []
+    for cells in SIZES_QUICK if args.quick else SIZES:
+        model = None
+        for n_cm in N_CMS:
+            rec, model = bench_case(cells, n_cm, args.repeats)
+            if rec is not None:
+                cases.append(rec)
+        n = model.K.getSize()[0]
+        if n <= EIGSH_MAX_DOF:
+            eig.append(bench_eigsh(model, 40, args.repeats))
+    ccx = []
+    for h in ([0.012] if args.quick else [0.012, 0.008]):
+        rec = bench_calculix(h, 40, args.repeats)
+        if rec is not None:
+            ccx.append(rec)
+    result = {
+        "benchmark": "reduction",
+        "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "machine": {"node": platform.node(), "cpus": os.cpu_count(),
+                    "python": platform.python_version()},
+        "model": "clamped P2 steel box 0.3x0.04x0.04 m, interface = 12 DOF at 4 corners",
+        "notes": "median of repeats; peak_extra_rss_mib = VmHWM after minus VmRSS before "
+                 "the reduction (VmHWM reset with /proc/self/clear_refs); serial.",
+        "reduction": cases,
+        "eigensolve_vs_eigsh": eig,
+        "eigensolve_vs_calculix": ccx,
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=args.out.parent, suffix=".json.tmp")
+    with os.fdopen(fd, "w") as f:
+        json.dump(result, f, indent=2)
+    os.replace(tmp, args.out)
+    log.info("written %s", args.out)
+    return result
+
+
+if __name__ == "__main__":
+    main()

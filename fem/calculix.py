@@ -1,0 +1,155 @@
+"""Independent check with CalculiX: write the gmsh tet10 mesh as C3D10, read eigenvalues.
+
+Used by the tests to compare DOLFINx frequencies with an independent FE code on the
+very same mesh. Gmsh's 10-node tetrahedron orders its mid-edge nodes
+(01, 12, 20, 03, 23, 13) while Abaqus/CalculiX C3D10 expects (01, 12, 20, 03, 13, 23):
+the last two are swapped.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .materials import Material
+
+log = logging.getLogger(__name__)
+
+GMSH_TET10 = 11
+TET10_TO_C3D10 = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])
+
+
+def _lines(values: np.ndarray, per_line: int = 16) -> str:
+    out = []
+    for i in range(0, len(values), per_line):
+        out.append(", ".join(str(int(v)) for v in values[i:i + per_line]))
+    return "\n".join(out)
+
+
+def write_inp(
+    path: Path,
+    model: Any,
+    materials: dict[str, Material],
+    groups: dict[str, tuple[int, int]],
+    clamps: list[str],
+    n_modes: int,
+) -> None:
+    """Write a CalculiX *FREQUENCY deck of the live gmsh model's tet10 mesh.
+
+    Parameters
+    ----------
+    path : Path
+        Output ``.inp`` file (written atomically).
+    model : gmsh.model
+    materials : dict[str, Material]
+        Volume group name -> material (SI units, so the deck is in m, kg, s).
+    groups : dict[str, tuple[int, int]]
+        Physical-group name -> (dim, tag).
+    clamps : list[str]
+        Surface groups whose nodes are fixed in x, y, z.
+    n_modes : int
+        Number of eigenmodes requested.
+    """
+    tags, xyz, _ = model.mesh.getNodes()
+    xyz = xyz.reshape(-1, 3)
+    elements = []
+    for name in materials:
+        dim, ptag = groups[name]
+        blocks = []
+        for ent in model.getEntitiesForPhysicalGroup(dim, ptag):
+            etypes, _, enodes = model.mesh.getElements(dim, ent)
+            for et, en in zip(etypes, enodes, strict=True):
+                if et != GMSH_TET10:
+                    raise ValueError(f"volume {name!r}: element type {et}, need tet10 (11)")
+                blocks.append(np.asarray(en, dtype=np.int64).reshape(-1, 10)[:, TET10_TO_C3D10])
+        elements.append(np.concatenate(blocks))
+    used = np.unique(np.concatenate([e.reshape(-1) for e in elements]))
+    keep = np.isin(tags, used)
+    parts = ["*HEADING\ngeardyn fem check", "*NODE"]
+    for t, (x, y, z) in zip(tags[keep], xyz[keep], strict=True):
+        parts.append(f"{int(t)}, {x:.13e}, {y:.13e}, {z:.13e}")
+    eid = 1
+    for i, (conn, mat) in enumerate(zip(elements, materials.values(), strict=True)):
+        parts.append(f"*ELEMENT, TYPE=C3D10, ELSET=E{i}")
+        for c in conn:
+            parts.append(f"{eid}, " + ", ".join(str(int(v)) for v in c))
+            eid += 1
+        parts += [f"*MATERIAL, NAME=M{i}", "*ELASTIC", f"{mat.E:.13e}, {mat.nu:.13e}",
+                  "*DENSITY", f"{mat.rho:.13e}", f"*SOLID SECTION, ELSET=E{i}, MATERIAL=M{i}"]
+    for j, name in enumerate(clamps):
+        dim, ptag = groups[name]
+        nodes = set()
+        for ent in model.getEntitiesForPhysicalGroup(dim, ptag):
+            for en in model.mesh.getElements(dim, ent)[2]:
+                nodes.update(int(v) for v in en)
+        nodes &= set(int(v) for v in used)
+        parts += [f"*NSET, NSET=FIX{j}", _lines(np.array(sorted(nodes)))]
+    parts += ["*STEP", "*FREQUENCY", f"{int(n_modes)}"]
+    if clamps:
+        parts.append("*BOUNDARY")
+        parts += [f"FIX{j}, 1, 3" for j in range(len(clamps))]
+    parts += ["*END STEP", ""]
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("\n".join(parts))
+    os.replace(tmp, path)
+
+
+def read_dat_frequencies(path: Path) -> np.ndarray:
+    """Frequencies (Hz, 'CYCLES/TIME' column) of the EIGENVALUE OUTPUT of a .dat file."""
+    text = Path(path).read_text()
+    block = text.split("E I G E N V A L U E   O U T P U T")
+    if len(block) < 2:
+        raise ValueError(f"{path}: no eigenvalue output")
+    freqs = []
+    number = r"[-+]?\d*\.?\d+(?:[EeDd][-+]?\d+)?"
+    for line in block[1].splitlines():
+        m = re.match(rf"^\s*(\d+)\s+({number})\s+({number})\s+({number})\s+({number})\s*$", line)
+        if m:
+            freqs.append(float(m.group(4)))
+        elif freqs and line.strip() and not line.strip()[0].isdigit():
+            break
+    return np.array(freqs)
+
+
+def run_frequency(
+    model: Any,
+    materials: dict[str, Material],
+    groups: dict[str, tuple[int, int]],
+    clamps: list[str],
+    n_modes: int,
+    workdir: Path | None = None,
+    timeout: float = 600.0,
+) -> np.ndarray:
+    """Run ``ccx`` on the gmsh mesh and return the first ``n_modes`` frequencies (Hz).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``ccx`` is not on PATH.
+    RuntimeError
+        If CalculiX fails.
+    """
+    exe = shutil.which("ccx")
+    if exe is None:
+        raise FileNotFoundError("ccx (Debian package calculix-ccx) not found on PATH")
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        job = Path(tmp) / "job"
+        write_inp(job.with_suffix(".inp"), model, materials, groups, clamps, n_modes)
+        env = dict(os.environ, OMP_NUM_THREADS="1", CCX_NPROC_EQUATION_SOLVER="1")
+        res = subprocess.run([exe, "-i", "job"], cwd=tmp, env=env, capture_output=True,
+                             text=True, timeout=timeout)  # fmt: skip
+        if res.returncode != 0 or not job.with_suffix(".dat").exists():
+            raise RuntimeError(f"ccx failed ({res.returncode}): {res.stdout[-2000:]}")
+        f = read_dat_frequencies(job.with_suffix(".dat"))
+    if f.size < n_modes:
+        raise RuntimeError(f"ccx returned {f.size} of {n_modes} frequencies")
+    return f[:n_modes]

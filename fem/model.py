@@ -1,0 +1,274 @@
+"""The reduced linear structural model of eq. (4): K_bar = P^T K P, M_bar = P^T M P."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from .elasticity import assemble_elasticity
+from .materials import Material
+from .mesh import FEMesh
+from .prolongation import Prolongation, build_prolongation
+from .spec import ModelSpec
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class FEModel:
+    """Linear model after rigid links and clamps were eliminated.
+
+    Attributes
+    ----------
+    M, K : PETSc.Mat
+        Reduced mass (kg) and stiffness (N/m) matrices, distributed AIJ, symmetric.
+    node_dofs : dict[str, numpy.ndarray]
+        6 global reduced indices per named node (translations then rotations, in
+        the node's local frame; -1 for a fixed DOF).
+    gear_dofs : numpy.ndarray or None
+        12 indices in the paper's order q_c = (u1..u3, th1..th3, u4..u6, th4..th6).
+    G : numpy.ndarray or None
+        Projection vector on q_c (12 floats, eq. 11), m per unit DOF.
+    P : PETSc.Mat
+        Prolongation from reduced unknowns to (P2 FE DOF, then 6 global-frame DOF per
+        node owned by the last rank).
+    V : dolfinx.fem.FunctionSpace
+    fe_mesh : FEMesh
+        Mesh, cell and facet tags, group names.
+    spec : ModelSpec
+    prolongation : Prolongation
+        Numbering details (ranges, counts).
+    """
+
+    M: Any
+    K: Any
+    node_dofs: dict[str, np.ndarray]
+    gear_dofs: np.ndarray | None
+    G: np.ndarray | None
+    P: Any
+    V: Any
+    fe_mesh: FEMesh
+    spec: ModelSpec
+    prolongation: Prolongation
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def comm(self) -> MPI.Comm:
+        """Communicator of the model."""
+        return self.fe_mesh.comm
+
+    @property
+    def cell_tags(self) -> Any:
+        """Volume tags of the local cells."""
+        return self.fe_mesh.cell_tags
+
+    @property
+    def n_red(self) -> int:
+        """Number of reduced unknowns (global)."""
+        return self.prolongation.n_red
+
+    def reduced_vector(self, q: Any, root: int | None = None) -> Any:
+        """A PETSc Vec of the reduced layout from a Vec or a NumPy array.
+
+        Parameters
+        ----------
+        q : PETSc.Vec or numpy.ndarray
+            A NumPy array must hold all n_red values on every rank, or only on
+            rank ``root`` when ``root`` is given (other ranks may pass None).
+        """
+        from petsc4py import PETSc
+
+        if isinstance(q, PETSc.Vec):
+            if q.getSize() != self.n_red:
+                raise ValueError(f"q size = {q.getSize()}: must be n_red = {self.n_red}")
+            return q
+        if root is not None:
+            q = self.comm.bcast(q if self.comm.rank == root else None, root=root)
+        arr = np.asarray(q, dtype=float).reshape(-1)
+        if arr.size != self.n_red:
+            raise ValueError(f"q size = {arr.size}: must be n_red = {self.n_red}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("q: must be finite")
+        v = self.K.createVecRight()
+        lo, hi = v.getOwnershipRange()
+        v.getArray()[:] = arr[lo:hi]
+        return v
+
+    def displacement(self, q: Any, root: int | None = None) -> Any:
+        """Displacement field u = P q of the mesh (m) as a dolfinx Function.
+
+        Parameters
+        ----------
+        q : PETSc.Vec or numpy.ndarray
+            Reduced unknowns (see :meth:`reduced_vector`).
+        root : int, optional
+            Rank holding the NumPy array when it is not on every rank.
+        """
+        from dolfinx import fem
+
+        qv = self.reduced_vector(q, root)
+        full = self.P.createVecLeft()
+        self.P.mult(qv, full)
+        u = fem.Function(self.V, name="displacement")
+        n = 3 * self.V.dofmap.index_map.size_local
+        u.x.array[:n] = full.getArray(readonly=True)[:n]
+        u.x.scatter_forward()
+        return u
+
+    def rigid_motion(self, translation: np.ndarray, rotation: np.ndarray,
+                     origin: np.ndarray) -> Any:
+        """Reduced Vec of the small rigid motion u(x) = a + theta x (x - origin).
+
+        Parameters
+        ----------
+        translation : array_like (3,), m
+        rotation : array_like (3,), rad
+        origin : array_like (3,), m
+
+        Notes
+        -----
+        Only meaningful with no clamp and no fixed node DOF (otherwise the motion is
+        not admissible); those DOF are simply absent.
+        """
+        a, th, o = (np.asarray(v, dtype=float).reshape(3) for v in (translation, rotation, origin))
+        pro = self.prolongation
+        v = self.K.createVecRight()
+        arr = v.getArray()
+        n_free = pro.free_comp.size
+        field_ = a + np.cross(th, pro.free_coords - o)
+        arr[:n_free] = field_[np.arange(n_free), pro.free_comp]
+        if self.comm.rank == self.comm.size - 1:
+            lo = v.getOwnershipRange()[0]
+            for node in self.spec.nodes:
+                red = pro.node_red[node.name]
+                u_loc = node.frame.T @ (a + np.cross(th, node.centre - o))
+                t_loc = node.frame.T @ th
+                vals = np.concatenate([u_loc, t_loc])
+                arr[red[red >= 0] - lo] = vals[red >= 0]
+        return v
+
+
+def project(A: Any, P: Any, Pt: Any = None) -> Any:
+    """Galerkin projection P^T A P of a distributed AIJ matrix.
+
+    Computed as P^T (A P) with an explicit transpose: the same product as PETSc's
+    ``MatPtAP`` (its ``rap`` variant), measured 4x faster than petsc4py's default
+    ``PtAP`` algorithm on P2 elasticity with a near-identity P.
+    """
+    from petsc4py import PETSc
+
+    own_pt = Pt is None
+    if own_pt:
+        Pt = P.transpose(PETSc.Mat())
+    AP = A.matMult(P)
+    out = Pt.matMult(AP)
+    AP.destroy()
+    if own_pt:
+        Pt.destroy()
+    return out
+
+
+def _add_lumped(K: Any, M: Any, spec: ModelSpec, node_red: dict[str, np.ndarray]) -> None:
+    """Add the lumped matrices T^T A T of ``spec`` (one rank inserts, all assemble)."""
+    from petsc4py import PETSc
+
+    for A in (K, M):
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    comm = K.getComm().tompi4py()
+    if comm.rank == comm.size - 1:
+        it = PETSc.IntType
+        all_red = np.concatenate([node_red[n.name] for n in spec.nodes] or [np.zeros(0, int)])
+        all_red = all_red[all_red >= 0].astype(it)
+        for A in (K, M):  # explicit diagonal entries for every node DOF
+            for i in all_red:
+                A.setValue(int(i), int(i), 0.0, addv=PETSc.InsertMode.ADD_VALUES)
+        for item in spec.lumped:
+            nodes = [spec.nodes[spec.node_index(n)] for n in item.nodes]
+            T = np.zeros((6 * len(nodes), 6 * len(nodes)))
+            for j, node in enumerate(nodes):
+                T[6 * j:6 * j + 3, 6 * j:6 * j + 3] = node.frame
+                T[6 * j + 3:6 * j + 6, 6 * j + 3:6 * j + 6] = node.frame
+            red = np.concatenate([node_red[n.name] for n in nodes])
+            keep = red >= 0
+            Ar = (T.T @ item.matrix @ T)[np.ix_(keep, keep)]
+            target = K if item.kind == "K" else M
+            idx = red[keep].astype(it)
+            target.setValues(idx, idx, Ar, addv=PETSc.InsertMode.ADD_VALUES)
+    for A in (K, M):
+        A.assemble()
+
+
+def build_model(
+    fe_mesh: FEMesh,
+    materials: dict[str, Material],
+    spec: ModelSpec,
+    degree: int = 2,
+    quadrature_degree: int | None = None,
+    gear_nodes: tuple[str, str] | None = None,
+    G: np.ndarray | None = None,
+) -> FEModel:
+    """Assemble K, M and eliminate links and clamps: K_bar = P^T K P (see :func:`project`).
+
+    Parameters
+    ----------
+    fe_mesh : FEMesh
+    materials : dict[str, Material]
+        Volume name -> material.
+    spec : ModelSpec
+        Extra nodes, rigid links, clamps and lumped matrices.
+    degree, quadrature_degree : int
+        See :func:`fem.elasticity.assemble_elasticity`.
+    gear_nodes : (str, str), optional
+        Names of the gear-1 and gear-2 centre nodes; sets ``gear_dofs``.
+    G : numpy.ndarray, optional
+        Projection vector on q_c (12,), eq. (11).
+
+    Returns
+    -------
+    FEModel
+    """
+    import time
+
+    in_lumped = {n for item in spec.lumped for n in item.nodes}
+    linked = {link.node for link in spec.links}
+    for node in spec.nodes:
+        if node.name not in in_lumped and node.name not in linked and not node.fixed.all():
+            raise ValueError(f"node {node.name!r}: neither linked nor carrying a lumped matrix")
+    if gear_nodes is not None:
+        if len(gear_nodes) != 2:
+            raise ValueError(f"gear_nodes = {gear_nodes}: must name 2 nodes")
+        for n in gear_nodes:
+            if spec.nodes[spec.node_index(n)].fixed.any():
+                raise ValueError(f"gear_nodes: node {n!r} has fixed DOF; gear DOF must be free")
+    if G is not None:
+        G = np.asarray(G, dtype=float).reshape(-1)
+        if G.shape != (12,) or not np.all(np.isfinite(G)):
+            raise ValueError(f"G shape = {G.shape}: must be 12 finite floats")
+    t0 = time.perf_counter()
+    V, K, M = assemble_elasticity(fe_mesh, materials, degree, quadrature_degree)
+    t1 = time.perf_counter()
+    pro = build_prolongation(V, fe_mesh, spec)
+    for name, n_dof in pro.node_links.items():
+        if name in linked and n_dof == 0 and name not in in_lumped:
+            raise ValueError(f"node {name!r}: all DOF of its surfaces went to other links")
+    Kr, Mr = project(K, pro.P_fe), project(M, pro.P_fe)
+    K.destroy()
+    M.destroy()
+    pro.P_fe.destroy()  # P (all rows) is kept for reconstruction
+    pro.P_fe = None
+    _add_lumped(Kr, Mr, spec, pro.node_red)
+    t2 = time.perf_counter()
+    gear_dofs = None
+    if gear_nodes is not None:
+        gear_dofs = np.concatenate([pro.node_red[n] for n in gear_nodes])
+    info = {"t_assemble_s": t1 - t0, "t_reduce_s": t2 - t1, "n_fe": pro.n_fe,
+            "n_red": pro.n_red, **pro.counts}  # fmt: skip
+    log.info("FE model: %s", info)
+    return FEModel(
+        M=Mr, K=Kr, node_dofs=dict(pro.node_red), gear_dofs=gear_dofs, G=G, P=pro.P, V=V,
+        fe_mesh=fe_mesh, spec=spec, prolongation=pro, info=info,
+    )  # fmt: skip

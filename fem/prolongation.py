@@ -1,0 +1,252 @@
+"""Rigid links and clamps by exact elimination: the prolongation P (reduced -> full).
+
+Full unknowns: the P2 displacement DOF of V in DOLFINx's global numbering
+(``3*block + component``, rank-contiguous) followed by 6 DOF per extra node
+(global frame), owned by the last rank: ``n_fe + 6*k + i``.
+Reduced unknowns: on each rank its free owned FE DOF (neither linked nor clamped)
+in increasing order; the last rank then appends the non-fixed DOF of the extra
+nodes, in node order, expressed in each node's local frame.
+
+A linked FE DOF of a surface tied to node c takes the row of
+u_s = u_c + theta_c x (x_s - x_c), with u_c = R u'_c, theta_c = R theta'_c.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from .mesh import FEMesh
+from .spec import ModelSpec
+
+log = logging.getLogger(__name__)
+
+FREE, CLAMPED = -1, -2
+
+
+@dataclass
+class Prolongation:
+    """Result of :func:`build_prolongation`.
+
+    Attributes
+    ----------
+    P : PETSc.Mat
+        (n_fe + 6 n_nodes) x n_red, rows FE owned ranges then nodes on the last rank.
+    P_fe : PETSc.Mat or None
+        The first n_fe rows of P (same row layout as the FE matrices); ``build_model``
+        frees it after the projection.
+    node_red : dict[str, numpy.ndarray]
+        Reduced global index of each node's 6 local DOF (-1 where fixed).
+    n_fe, n_red : int
+        Global FE DOF count and reduced DOF count.
+    red_range : tuple[int, int]
+        This rank's ownership range of reduced DOF.
+    free_coords : numpy.ndarray, shape (n_free_local, 3)
+        Coordinates (m) of this rank's free FE DOF in reduced order.
+    free_comp : numpy.ndarray, shape (n_free_local,)
+        Their component (0, 1, 2).
+    counts : dict[str, int]
+        Global numbers of free, linked and clamped FE DOF.
+    """
+
+    P: Any
+    P_fe: Any
+    node_red: dict[str, np.ndarray]
+    n_fe: int
+    n_red: int
+    red_range: tuple[int, int]
+    free_coords: np.ndarray
+    free_comp: np.ndarray
+    counts: dict[str, int]
+    node_links: dict[str, int]
+
+
+def _surface_blocks(V: Any, fe_mesh: FEMesh, name: str) -> np.ndarray:
+    """Owned DOF blocks (local indices) on surface group ``name``."""
+    from dolfinx import fem
+
+    tag = fe_mesh.tag(name, 2)
+    facets = fe_mesh.facet_tags.find(tag)
+    blocks = fem.locate_dofs_topological(V, 2, facets)  # remote=True: all ranks' facets
+    n_own = V.dofmap.index_map.size_local
+    blocks = blocks[blocks < n_own]
+    n_glob = fe_mesh.comm.allreduce(blocks.size, op=MPI.SUM)
+    if n_glob == 0:
+        raise ValueError(f"surface {name!r}: holds no DOF of the mesh")
+    return blocks
+
+
+def classify_blocks(V: Any, fe_mesh: FEMesh, spec: ModelSpec) -> np.ndarray:
+    """Owner of each owned DOF block: FREE, CLAMPED, or the index of its linked node."""
+    comm = fe_mesh.comm
+    owner = np.full(V.dofmap.index_map.size_local, FREE, dtype=np.int64)
+    first_surface: dict[int, str] = {}
+    n_shared = 0
+    for link in spec.links:
+        k = spec.node_index(link.node)
+        blocks = _surface_blocks(V, fe_mesh, link.surface)
+        prev = owner[blocks]
+        clash = (prev >= 0) & (prev != k)
+        n_clash = comm.allreduce(int(np.count_nonzero(clash)), op=MPI.SUM)
+        if n_clash:
+            others = sorted({first_surface.get(int(p), "?") for p in np.unique(prev[clash])})
+            msg = (f"surface {link.surface!r} (node {link.node!r}) shares {n_clash} DOF "
+                   f"nodes with links of surfaces {others} to other nodes")  # fmt: skip
+            if spec.shared == "error":
+                raise ValueError(msg + "; spec.shared = 'error'")
+            log.warning("%s: they stay with the link added first", msg)
+            n_shared += n_clash
+        owner[blocks[prev < 0]] = k
+        first_surface.setdefault(k, link.surface)
+    for surface in spec.clamps:
+        blocks = _surface_blocks(V, fe_mesh, surface)
+        n_over = comm.allreduce(int(np.count_nonzero(owner[blocks] >= 0)), op=MPI.SUM)
+        if n_over:
+            log.warning("clamp %r overrides %d linked DOF nodes", surface, n_over)
+        owner[blocks] = CLAMPED
+    return owner
+
+
+def _csr(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, n_rows: int) -> tuple:
+    order = np.lexsort((cols, rows))
+    rows, cols, vals = rows[order], cols[order], vals[order]
+    indptr = np.zeros(n_rows + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n_rows), out=indptr[1:])
+    return indptr, cols, vals
+
+
+def _petsc_aij(comm: MPI.Comm, n_rows_local: int, n_cols_local: int, csr: tuple) -> Any:
+    from petsc4py import PETSc
+
+    it = PETSc.IntType
+    indptr, cols, vals = csr
+    A = PETSc.Mat().createAIJ(
+        size=((n_rows_local, PETSc.DETERMINE), (n_cols_local, PETSc.DETERMINE)),
+        csr=(indptr.astype(it), cols.astype(it), vals.astype(PETSc.ScalarType)),
+        comm=comm,
+    )
+    A.assemble()
+    return A
+
+
+def build_prolongation(V: Any, fe_mesh: FEMesh, spec: ModelSpec) -> Prolongation:
+    """Build P from reduced to full unknowns (rigid links and clamps eliminated).
+
+    Parameters
+    ----------
+    V : dolfinx.fem.FunctionSpace
+        Vector displacement space (block size 3).
+    fe_mesh : FEMesh
+    spec : ModelSpec
+        Nodes (centres in m), links, clamps.
+
+    Returns
+    -------
+    Prolongation
+    """
+    if spec.shared not in ("first", "error"):
+        raise ValueError(f"spec.shared = {spec.shared!r}: must be 'first' or 'error'")
+    comm = fe_mesh.comm
+    rank, last = comm.rank, comm.size - 1
+    im = V.dofmap.index_map
+    bs = V.dofmap.index_map_bs
+    if bs != 3:
+        raise ValueError(f"V block size = {bs}: must be 3 (vector displacement)")
+    n_own = im.size_local
+    n_fe = im.size_global * bs
+    coords = V.tabulate_dof_coordinates()[:n_own]
+    owner = classify_blocks(V, fe_mesh, spec)
+
+    # Reduced numbering.
+    free_blocks = np.flatnonzero(owner == FREE)
+    n_free_local = 3 * free_blocks.size
+    n_node_free = int(sum(np.count_nonzero(~n.fixed) for n in spec.nodes))
+    n_red_local = n_free_local + (n_node_free if rank == last else 0)
+    red_start = comm.exscan(n_red_local, op=MPI.SUM)  # collective; None on rank 0
+    red_start = int(red_start) if rank > 0 else 0
+    n_red = comm.allreduce(n_red_local, op=MPI.SUM)
+    node_red: dict[str, np.ndarray] = {}
+    nxt = n_red - n_node_free
+    for node in spec.nodes:
+        idx = np.full(6, -1, dtype=np.int64)
+        for i in range(6):
+            if not node.fixed[i]:
+                idx[i] = nxt
+                nxt += 1
+        node_red[node.name] = idx
+
+    # FE rows: free -> identity; linked -> rigid-body row; clamped -> empty.
+    rows = [3 * free_blocks[:, None] + np.arange(3)]
+    cols = [red_start + np.arange(n_free_local).reshape(-1, 3)]
+    vals = [np.ones((free_blocks.size, 3))]
+    for k, node in enumerate(spec.nodes):
+        blocks = np.flatnonzero(owner == k)
+        if blocks.size == 0:
+            continue
+        d = coords[blocks] - node.centre
+        R = node.frame
+        # coefficient of local DOF m on component j: translations R[j, m],
+        # rotations (R[:, m] x d)[j]  since theta x d = sum_m theta'_m (R[:, m] x d)
+        coef = np.empty((blocks.size, 3, 6))
+        coef[:, :, :3] = R[None, :, :]
+        for m in range(3):
+            coef[:, :, 3 + m] = np.cross(R[:, m][None, :], d)
+        red = node_red[node.name]
+        keep = red >= 0
+        r = np.broadcast_to(3 * blocks[:, None, None] + np.arange(3)[None, :, None], coef.shape)
+        c = np.broadcast_to(red[None, None, :], coef.shape)
+        sel = keep[None, None, :] & (coef != 0.0)
+        rows.append(r[sel])
+        cols.append(c[sel])
+        vals.append(coef[sel])
+    rows_fe = np.concatenate([a.reshape(-1) for a in rows]).astype(np.int64)
+    cols_fe = np.concatenate([a.reshape(-1) for a in cols]).astype(np.int64)
+    vals_fe = np.concatenate([a.reshape(-1) for a in vals])
+    n_rows_fe = 3 * n_own
+    P_fe = _petsc_aij(comm, n_rows_fe, n_red_local, _csr(rows_fe, cols_fe, vals_fe, n_rows_fe))
+
+    # Node rows (global frame) of the full P, on the last rank.
+    n_rows = n_rows_fe
+    if rank == last:
+        n_rows += 6 * len(spec.nodes)
+        nr, nc, nv = [], [], []
+        for k, node in enumerate(spec.nodes):
+            red = node_red[node.name]
+            for blk in (0, 3):
+                for i in range(3):
+                    for m in range(3):
+                        if red[blk + m] >= 0 and node.frame[i, m] != 0.0:
+                            nr.append(n_rows_fe + 6 * k + blk + i)
+                            nc.append(red[blk + m])
+                            nv.append(node.frame[i, m])
+        rows_fe = np.concatenate([rows_fe, np.asarray(nr, dtype=np.int64)])
+        cols_fe = np.concatenate([cols_fe, np.asarray(nc, dtype=np.int64)])
+        vals_fe = np.concatenate([vals_fe, np.asarray(nv, dtype=float)])
+    P = _petsc_aij(comm, n_rows, n_red_local, _csr(rows_fe, cols_fe, vals_fe, n_rows))
+
+    counts = {
+        "free": comm.allreduce(n_free_local, op=MPI.SUM),
+        "linked": comm.allreduce(3 * int(np.count_nonzero(owner >= 0)), op=MPI.SUM),
+        "clamped": comm.allreduce(3 * int(np.count_nonzero(owner == CLAMPED)), op=MPI.SUM),
+        "node": n_node_free,
+    }
+    per_node = np.bincount(owner[owner >= 0], minlength=len(spec.nodes))
+    per_node = comm.allreduce(per_node, op=MPI.SUM)
+    node_links = {n.name: 3 * int(c) for n, c in zip(spec.nodes, per_node, strict=True)}
+    log.info("prolongation: %d FE DOF -> %d reduced (%s)", n_fe, n_red, counts)
+    return Prolongation(
+        P=P,
+        P_fe=P_fe,
+        node_red=node_red,
+        n_fe=n_fe,
+        n_red=n_red,
+        red_range=(red_start, red_start + n_red_local),
+        free_coords=np.repeat(coords[free_blocks], 3, axis=0),
+        free_comp=np.tile(np.arange(3), free_blocks.size),
+        counts=counts,
+        node_links=node_links,
+    )

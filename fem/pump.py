@@ -1,0 +1,230 @@
+"""The pump of the paper as an FEModel: named nodes, links, bearings, gears, drive.
+
+Node names (the contract with ``reduction`` and ``study``), for s in ("in", "out"):
+``{s}/gear`` (linked to ``{s}/hub``; DOF in the gear-pair frame of Fig. 1),
+``{s}/bearing_a|b`` (linked to the journal seats), ``housing/bore_{s}_a|b``
+(linked to the bores, joined to the shaft bearing nodes by bearing springs),
+``{s}/station_1..6`` and ``{s}/coupling``. ``housing/feet`` is clamped.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from .frames import gear_pair_frame, projection_vector
+from .lumped import axial_spring, disk_mass, rigid_body_mass
+from .materials import Material
+from .mesh import FEMesh, load_meshed_model
+from .model import FEModel, build_model
+from .spec import ModelSpec
+
+log = logging.getLogger(__name__)
+
+SHAFTS = ("in", "out")
+N_STATIONS = 6
+
+
+def _check(cls: str, name: str, value: float, lo: float, hi: float = math.inf,
+           lo_open: bool = True) -> None:
+    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value < hi
+    if not ok:
+        rng = f"{'(' if lo_open else '['}{lo}, {hi})"
+        raise ValueError(f"{cls}.{name} = {value}: must be in {rng}")
+
+
+@dataclass(frozen=True)
+class MaterialParams:
+    """Shaft and housing materials (Pa, -, kg/m^3). Defaults: steel, cast iron."""
+
+    shaft_E: float = 210e9
+    shaft_nu: float = 0.3
+    shaft_rho: float = 7850.0
+    housing_E: float = 110e9
+    housing_nu: float = 0.28
+    housing_rho: float = 7200.0
+
+    def __post_init__(self) -> None:
+        for part in ("shaft", "housing"):
+            _check("materials", f"{part}_E", getattr(self, f"{part}_E"), 0.0)
+            _check("materials", f"{part}_nu", getattr(self, f"{part}_nu"), -1.0, 0.5)
+            _check("materials", f"{part}_rho", getattr(self, f"{part}_rho"), 0.0)
+
+    def by_volume(self) -> dict[str, Material]:
+        """Volume group name -> Material."""
+        shaft = Material(self.shaft_E, self.shaft_nu, self.shaft_rho)
+        housing = Material(self.housing_E, self.housing_nu, self.housing_rho)
+        return {"shaft_in": shaft, "shaft_out": shaft, "housing": housing}
+
+
+@dataclass(frozen=True)
+class GearParams:
+    """Gear pair of Table 1 (SI: m, rad, kg/m^3); blanks are rigid disks.
+
+    ``outer_radius`` defaults to the tip radius rb / cos(alpha) + 100/76 mm,
+    ``bore_radius`` to the hub seat radius of the geometry (16 mm).
+    """
+
+    base_radius_1: float = 46.984e-3
+    base_radius_2: float = 46.984e-3
+    pressure_angle: float = math.radians(20.0)
+    helix_angle: float = 0.0
+    face_width: float = 0.020
+    bore_radius: float = 0.016
+    outer_radius: float = 0.0
+    density: float = 7850.0
+
+    def __post_init__(self) -> None:
+        _check("gears", "base_radius_1", self.base_radius_1, 0.0)
+        _check("gears", "base_radius_2", self.base_radius_2, 0.0)
+        _check("gears", "pressure_angle", self.pressure_angle, 0.0, 0.5 * math.pi, False)
+        _check("gears", "helix_angle", self.helix_angle, -0.5 * math.pi, 0.5 * math.pi)
+        _check("gears", "face_width", self.face_width, 0.0)
+        _check("gears", "bore_radius", self.bore_radius, 0.0, lo_open=False)
+        _check("gears", "outer_radius", self.outer_radius, 0.0, lo_open=False)
+        _check("gears", "density", self.density, 0.0)
+        for i in (1, 2):
+            if self.blank_outer_radius(i) <= self.bore_radius:
+                raise ValueError(f"gears.bore_radius = {self.bore_radius}: must be < the "
+                                 f"outer radius {self.blank_outer_radius(i)} of gear {i}")
+
+    def blank_outer_radius(self, gear: int) -> float:
+        """Outer radius (m) of blank ``gear`` (1 or 2)."""
+        if self.outer_radius > 0:
+            return self.outer_radius
+        rb = self.base_radius_1 if gear == 1 else self.base_radius_2
+        return rb / math.cos(self.pressure_angle) + 0.100 / 76.0
+
+    def G(self) -> np.ndarray:
+        """Projection vector on q_c, eq. (11)."""
+        return projection_vector(self.pressure_angle, self.helix_angle,
+                                 self.base_radius_1, self.base_radius_2)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class BearingParams:
+    """Ball-bearing stiffness between shaft and bore nodes (N/m, N m/rad)."""
+
+    radial: float = 1.0e8
+    axial: float = 2.0e7
+    tilting: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check("bearings", "radial", self.radial, 0.0)
+        _check("bearings", "axial", self.axial, 0.0)
+        _check("bearings", "tilting", self.tilting, 0.0, lo_open=False)
+
+    def matrix(self) -> np.ndarray:
+        """6x6 stiffness on the relative motion, shaft axis z."""
+        return axial_spring(self.radial, self.axial, self.tilting, 0.0, axis=2)
+
+
+@dataclass(frozen=True)
+class DriveParams:
+    """Motor torsional stiffness on ``in/coupling`` (to ground, about z, N m/rad) and
+    impeller polar inertia (kg m^2) and mass (kg) on ``out/coupling``."""
+
+    motor_torsional_stiffness: float = 2.0e3
+    impeller_inertia: float = 2.0e-3
+    impeller_mass: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check("drive", "motor_torsional_stiffness", self.motor_torsional_stiffness, 0.0)
+        _check("drive", "impeller_inertia", self.impeller_inertia, 0.0, lo_open=False)
+        _check("drive", "impeller_mass", self.impeller_mass, 0.0, lo_open=False)
+
+
+def pump_spec(
+    groups: dict[str, tuple[int, int]],
+    centres: dict[str, np.ndarray],
+    gears: GearParams,
+    bearings: BearingParams,
+    drive: DriveParams,
+) -> ModelSpec:
+    """Nodes, links, clamp and lumped parts of the pump (see module docstring)."""
+    for name in ("housing/feet", *(f"{s}/hub" for s in SHAFTS)):
+        if name not in groups:
+            raise ValueError(f"groups: missing surface group {name!r}")
+    spec = ModelSpec(shared="first")
+    frame = gear_pair_frame(gears.pressure_angle)
+
+    def centre(name: str) -> np.ndarray:
+        if name not in centres:
+            raise ValueError(f"centres: missing {name!r}")
+        return np.asarray(centres[name], dtype=float)
+
+    for i, s in enumerate(SHAFTS, start=1):
+        spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
+        spec.add_link(f"{s}/hub", f"{s}/gear")
+        spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i), gears.bore_radius,
+                                             gears.face_width, gears.density))  # fmt: skip
+        for end in ("a", "b"):
+            shaft_node, bore_node = f"{s}/bearing_{end}", f"housing/bore_{s}_{end}"
+            c_shaft, c_bore = centre(shaft_node), centre(bore_node)
+            gap = float(np.linalg.norm(c_shaft - c_bore))
+            if gap > 1e-3:
+                log.warning("bearing %s: shaft and bore centres %.3g m apart", shaft_node, gap)
+            spec.add_node(shaft_node, c_shaft)
+            spec.add_node(bore_node, c_bore)
+            spec.add_link(shaft_node, shaft_node)
+            spec.add_link(bore_node, bore_node)
+            spec.add_spring(shaft_node, bearings.matrix(), other=bore_node)
+        for k in range(1, N_STATIONS + 1):
+            name = f"{s}/station_{k}"
+            spec.add_node(name, centre(name))
+            spec.add_link(name, name)
+        spec.add_node(f"{s}/coupling", centre(f"{s}/coupling"))
+        spec.add_link(f"{s}/coupling", f"{s}/coupling")
+    spec.add_clamp("housing/feet")
+    spec.add_torsion_to_ground("in/coupling", drive.motor_torsional_stiffness, [0, 0, 1.0])
+    if drive.impeller_inertia > 0 or drive.impeller_mass > 0:
+        spec.add_mass("out/coupling", rigid_body_mass(drive.impeller_mass,
+                                                      [0.0, 0.0, drive.impeller_inertia]))
+    return spec
+
+
+def build_pump_model(
+    meshed: Any,
+    materials: MaterialParams | None = None,
+    gears: GearParams | None = None,
+    bearings: BearingParams | None = None,
+    drive: DriveParams | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    quadrature_degree: int | None = None,
+    fe_mesh: FEMesh | None = None,
+) -> FEModel:
+    """Build the pump's FEModel from a ``geometry.MeshedModel`` (gmsh model alive).
+
+    Parameters
+    ----------
+    meshed : geometry.MeshedModel or None
+        On rank 0 (other ranks may pass None); ignored when ``fe_mesh`` is given.
+    materials, gears, bearings, drive : parameter dataclasses (SI units)
+    comm : MPI communicator
+    quadrature_degree : int, optional
+        See :func:`fem.elasticity.assemble_elasticity`.
+    fe_mesh : FEMesh, optional
+        An already distributed mesh (with ``groups`` and ``centres``).
+
+    Returns
+    -------
+    FEModel
+        With ``gear_dofs`` = (in/gear, out/gear) DOF in the frame of Fig. 1 and G of
+        eq. (11). K is singular by one mode: the output shaft's rotation is held
+        only by the gear mesh, which ``reduction`` adds (k_m G G^T).
+    """
+    materials = MaterialParams() if materials is None else materials
+    gears = GearParams() if gears is None else gears
+    bearings = BearingParams() if bearings is None else bearings
+    drive = DriveParams() if drive is None else drive
+    if fe_mesh is None:
+        fe_mesh = load_meshed_model(meshed, comm)
+    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive)
+    mats = {k: v for k, v in materials.by_volume().items() if k in fe_mesh.groups}
+    return build_model(fe_mesh, mats, spec, quadrature_degree=quadrature_degree,
+                       gear_nodes=("in/gear", "out/gear"), G=gears.G())  # fmt: skip

@@ -1,0 +1,535 @@
+"""Pseudo-arc-length continuation in Omega with grazing, fold and stability tracking.
+
+Unknowns and equations are scaled (``x_hat = u / x_scale``, ``R_hat = R /
+eq_scale``, see problem.py) and the speed by the speed range,
+``w_hat = Omega / |Omega_end - Omega_start|``, so the arc length ``s`` is
+dimensionless: a step of 0.01 moves the speed by at most 1 % of the range.
+Predictor: unit tangent of the branch (null vector of ``[J_x, J_w]``); on a
+failed step the step is halved and, from the second failure on, a secant
+predictor through the last two points is tried. Corrector: Newton on the
+augmented system ``R_hat = 0, t . (y - y_pred) = 0`` (pseudo-arc-length).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .postprocess import point_stats
+from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton
+from .stability import floquet_exponents
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Branch", "GrazingPoint", "trace"]
+
+
+@dataclass
+class GrazingPoint:
+    """Grazing bifurcation (eq. 30) located on the branch.
+
+    ``kind`` is ``"onset"`` (impacts start, along the direction of travel) or
+    ``"end"``; ``side`` is ``"active"`` (contact loss on the driving flank,
+    sign change of phi_GR) or ``"reverse"`` (the back flank starts/stops being hit).
+    """
+
+    rpm: float
+    kind: str
+    side: str
+
+
+FOLD_MERGE_POINTS = 3   # sign changes of dOmega/ds closer than this (points) cancel
+
+_ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
+           "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
+           "contact_loss_fraction", "impacts_per_mesh_period", "margin_active",
+           "margin_reverse", "ipp", "tangents")
+
+
+@dataclass
+class Branch:
+    """A continuation branch: one entry per accepted point (all arrays).
+
+    Attributes
+    ----------
+    rpm, omega
+        Shaft speed (rpm) and Omega (rad/s).
+    coefficients
+        Complex (n_points, n_harmonics) Fourier coefficients of Delta (m).
+    unknowns
+        Real unknown vectors of the problem's condensation (physical units).
+    residual
+        Relative residual norm of each point (all < tol).
+    newton_iterations, stable, floquet_max_real
+        Corrector iterations; Hill stability and largest Floquet real part (1/s).
+    mesh_load_std, mesh_load_max
+        Standard deviation and maximum in time of f_LoA (N).
+    contact
+        0 permanent contact, 1 single-sided, 2 double-sided impacts.
+    contact_loss_fraction, impacts_per_mesh_period
+        Per point; ``ipp[i]`` the impacts in each mesh period of the
+        fundamental period (the IPP sequence, see :meth:`ipp_sequence`).
+    margin_active, margin_reverse
+        Contact margins (m), see :class:`hbm.postprocess.PointStats`.
+    tangents
+        Scaled unit tangents (n_points, n_unknowns + 1), for resuming.
+    grazing, folds
+        Located grazing points and fold speeds (rpm).
+    fold_index
+        For each fold, the index of the point where the speed turns back.
+    status, message
+        ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
+        through rpm_start), ``"max_points"``, ``"step_failed"``,
+        ``"start_failed"``; the message says why in words.
+    """
+
+    harmonics: tuple
+    condensation: str
+    rpm_start: float
+    rpm_end: float
+    omega_scale: float
+    rpm: np.ndarray
+    omega: np.ndarray
+    coefficients: np.ndarray
+    unknowns: np.ndarray
+    residual: np.ndarray
+    newton_iterations: np.ndarray
+    stable: np.ndarray
+    floquet_max_real: np.ndarray
+    mesh_load_std: np.ndarray
+    mesh_load_max: np.ndarray
+    contact: np.ndarray
+    contact_loss_fraction: np.ndarray
+    impacts_per_mesh_period: np.ndarray
+    margin_active: np.ndarray
+    margin_reverse: np.ndarray
+    ipp: np.ndarray
+    tangents: np.ndarray
+    grazing: list = field(default_factory=list)
+    folds: list = field(default_factory=list)
+    fold_index: list = field(default_factory=list)
+    status: str = "running"
+    message: str = ""
+    next_step: float = 0.0
+
+    def __len__(self) -> int:
+        return int(self.rpm.size)
+
+    def ipp_sequence(self, i: int) -> np.ndarray:
+        """Impacts per mesh period along the shaft rotation at point i."""
+        return self.ipp[i]
+
+
+class _Recorder:
+    def __init__(self, problem: HBMProblem, rpm_start, rpm_end, omega_scale, resume=None):
+        self.meta = dict(harmonics=tuple(problem.harmonics.indices),
+                         condensation=problem.condensation, rpm_start=float(rpm_start),
+                         rpm_end=float(rpm_end), omega_scale=float(omega_scale))
+        self.lists: dict[str, list] = {k: [] for k in _ARRAYS}
+        self.grazing: list[GrazingPoint] = []
+        self.folds: list[float] = []
+        self.fold_index: list[int] = []
+        if resume is not None:
+            for k in _ARRAYS:
+                self.lists[k] = list(getattr(resume, k))
+            self.grazing = list(resume.grazing)
+            self.folds = list(resume.folds)
+            self.fold_index = list(resume.fold_index)
+            if len(self.fold_index) != len(self.folds):     # branch rebuilt without it
+                self.fold_index = [-(10 ** 9)] * len(self.folds)
+
+    def __len__(self) -> int:
+        return len(self.lists["rpm"])
+
+    def last(self, key):
+        return self.lists[key][-1]
+
+    def add(self, **values) -> None:
+        for k in _ARRAYS:
+            self.lists[k].append(values[k])
+
+    def branch(self, status: str, message: str, next_step: float) -> Branch:
+        arrays = {}
+        for k in _ARRAYS:
+            v = self.lists[k]
+            arrays[k] = np.array(v) if v else np.zeros((0,))
+        return Branch(**self.meta, **arrays, grazing=list(self.grazing), folds=list(self.folds),
+                      fold_index=list(self.fold_index),
+                      status=status, message=message, next_step=float(next_step))
+
+
+class _StepRejected(Exception):
+    pass
+
+
+def _augmented(problem: HBMProblem, omega_scale: float):
+    def evaluate(y, jacobian=True):
+        omega = y[-1] * omega_scale
+        if not omega > 0:
+            raise ConvergenceError(f"corrector reached Omega = {omega:.3g} <= 0")
+        if not jacobian:
+            return problem._scaled(y[:-1], omega, False)
+        r, jx, jw = problem._scaled(y[:-1], omega)
+        return r, jx, jw * omega_scale
+    return evaluate
+
+
+def _correct(evaluate, y_pred, direction, tol, max_iter):
+    """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0."""
+    y = y_pred.copy()
+    res0 = None
+    for it in range(max_iter + 1):
+        r, jx, jw = evaluate(y)
+        res = float(np.linalg.norm(r) / max(np.linalg.norm(y[:-1]), 1.0))
+        if not np.isfinite(res):
+            raise ConvergenceError("non-finite residual", res)
+        res0 = res if res0 is None else res0
+        if res < tol:
+            return y, it, res, jx, jw
+        if it == max_iter or (it > 2 and res > 1e3 * res0):
+            break
+        j = np.vstack([np.hstack([jx, jw[:, None]]), direction[None, :]])
+        rhs = -np.concatenate([r, [direction @ (y - y_pred)]])
+        try:
+            dy = np.linalg.solve(j, rhs)
+        except np.linalg.LinAlgError as exc:
+            raise ConvergenceError("singular augmented Jacobian", res) from exc
+        if it >= 2:
+            # Newton may cycle on the piecewise-linear force: backtrack on ||R||
+            # (the constraint is linear, so every partial step keeps it)
+            alpha = 1.0
+            for _ in range(6):
+                yt = y + alpha * dy
+                try:
+                    rt = evaluate(yt, False)
+                except ConvergenceError:
+                    rt = None
+                if rt is not None:
+                    rest = np.linalg.norm(rt) / max(np.linalg.norm(yt[:-1]), 1.0)
+                    if rest < (1 - 1e-4 * alpha) * res:
+                        break
+                alpha *= 0.5
+            dy = alpha * dy
+        y = y + dy
+    raise ConvergenceError(f"corrector: residual {res:.3g} after {it} iterations", res)
+
+
+def _tangent(jx, jw, previous):
+    j = np.vstack([np.hstack([jx, jw[:, None]]), previous[None, :]])
+    rhs = np.zeros(j.shape[0])
+    rhs[-1] = 1.0
+    t = np.linalg.solve(j, rhs)
+    t /= np.linalg.norm(t)
+    return t if t @ previous >= 0 else -t
+
+
+def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float = 0.01,
+          min_step: float = 1e-6, max_step: float = 0.05, tol: float = 1e-8,
+          max_points: int = 2000, max_iter: int = 12,
+          on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
+          stability: bool = True, hill_max_size: int = 600, overshoot: float = 0.25,
+          grazing_tol_rpm: float | None = None) -> Branch:
+    """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
+
+    Parameters
+    ----------
+    problem
+        The HBM problem.
+    rpm_start, rpm_end
+        Speed bounds (rpm, > 0, different); the sweep direction is start -> end.
+    step, min_step, max_step
+        Initial, smallest and largest arc-length step (dimensionless, scaled
+        unknowns, speed scaled by the range).
+    tol
+        Relative residual tolerance of every point.
+    max_points
+        Total number of points (including resumed ones).
+    on_point
+        Called with the branch so far after every accepted point (checkpoint).
+    resume
+        A previous Branch of the same problem and bounds: continue from its
+        last point, tangent and step, giving the same curve as one run.
+    stability
+        Compute Hill stability per point (cost O((2 m n_real)^3) per point).
+    hill_max_size
+        Largest Hill companion matrix; beyond it the modes of largest static
+        mesh participation are kept (approximation, logged once).
+    grazing_tol_rpm
+        Tolerance on located grazing speeds (default 1e-9 of rpm_end).
+    overshoot
+        A branch that folds back may go past ``rpm_start`` by this fraction of
+        the range (never below half of rpm_start when sweeping up) before the
+        trace stops with ``"left_range"``; those points are kept.
+
+    Returns
+    -------
+    Branch
+        Never holds an unconverged point; ``status``/``message`` say why it stopped.
+    """
+    for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end)):
+        if not np.isfinite(v) or v <= 0:
+            raise ValueError(f"trace.{name} = {v!r}: must be > 0 rpm")
+    if rpm_start == rpm_end:
+        raise ValueError(f"trace.rpm_end = {rpm_end!r}: must differ from rpm_start")
+    if not (0 < min_step <= step <= max_step):
+        raise ValueError(f"trace.step = {step!r}: need 0 < min_step ({min_step}) <= step <= "
+                         f"max_step ({max_step})")
+    if not (0 < tol < 1e-2):
+        raise ValueError(f"trace.tol = {tol!r}: must be in (0, 1e-2)")
+    if int(max_points) != max_points or max_points < 1:
+        raise ValueError(f"trace.max_points = {max_points!r}: must be an integer >= 1")
+    w_start, w_end = rpm_start * RPM_TO_RAD_S, rpm_end * RPM_TO_RAD_S
+    dirn = 1.0 if w_end > w_start else -1.0
+    wscale = abs(w_end - w_start)
+    if not overshoot >= 0:
+        raise ValueError(f"trace.overshoot = {overshoot!r}: must be >= 0")
+    # a branch folding back may leave the range through its start by this much
+    w_floor = w_start - dirn * overshoot * wscale
+    if dirn > 0:
+        w_floor = max(w_floor, 0.5 * w_start)
+    gtol = 1e-9 * rpm_end if grazing_tol_rpm is None else float(grazing_tol_rpm)
+    xs = problem.x_scale
+    evaluate = _augmented(problem, wscale)
+    if stability:
+        n_hill = 2 * problem.nr * (int(np.sum(~problem.rigid)) if problem.modal
+                                   else problem.n_dof)
+        if n_hill > hill_max_size and not problem.modal:
+            raise ValueError(
+                f"trace.hill_max_size = {hill_max_size}: the Hill matrix of this non-modal "
+                f"damping has size {n_hill}; raise it or pass stability=False")
+        if n_hill > hill_max_size:
+            logger.warning("Hill matrix %d > hill_max_size %d: stability from the modes of "
+                           "largest mesh participation only (approximate)", n_hill, hill_max_size)
+
+    def record(rec, y, it, res, tangent):
+        omega = y[-1] * wscale
+        u = y[:-1] * xs
+        pt = problem.point(u, omega, it, res)
+        st = point_stats(problem, pt)
+        if stability:
+            fmax, _ = floquet_exponents(problem, pt, hill_max_size)
+            w0 = problem.harmonics.fundamental_rad_s(omega)
+            stable = fmax <= 1e-9 * (w0 + np.sqrt(np.max(problem.w2)))
+        else:
+            fmax, stable = 0.0, True
+        rec.add(rpm=pt.rpm, omega=omega, coefficients=pt.coefficients, unknowns=u,
+                residual=res, newton_iterations=it, stable=bool(stable), floquet_max_real=fmax,
+                mesh_load_std=st.mesh_load_std, mesh_load_max=st.mesh_load_max,
+                contact=st.contact, contact_loss_fraction=st.contact_loss_fraction,
+                impacts_per_mesh_period=st.impacts_per_mesh_period,
+                margin_active=st.margin_active, margin_reverse=st.margin_reverse,
+                ipp=st.ipp, tangents=tangent)
+
+    if resume is not None:
+        if len(resume) == 0:
+            raise ValueError("trace.resume: the branch has no point to resume from")
+        if resume.unknowns.ndim != 2 or resume.unknowns.shape[1] != problem.n_unknowns:
+            raise ValueError("trace.resume: branch does not match this problem's unknowns")
+        if resume.status == "completed":
+            return resume
+        wscale = resume.omega_scale
+        evaluate = _augmented(problem, wscale)
+        rec = _Recorder(problem, rpm_start, rpm_end, wscale, resume)
+        ds = resume.next_step if resume.next_step > 0 else step
+    else:
+        rec = _Recorder(problem, rpm_start, rpm_end, wscale)
+        try:
+            p0 = problem.solve(rpm_start, tol=tol)
+        except ConvergenceError as exc:
+            msg = f"no converged solution at rpm_start = {rpm_start}: {exc}"
+            logger.error(msg)
+            return rec.branch("start_failed", msg, step)
+        y0 = np.concatenate([p0.unknowns / xs, [p0.omega / wscale]])
+        _, jx, jw = evaluate(y0)
+        tx = -np.linalg.solve(jx, jw)
+        t0 = np.concatenate([tx, [1.0]]) * dirn
+        t0 /= np.linalg.norm(t0)
+        record(rec, y0, p0.iterations, p0.residual, t0)
+        ds = step
+        if on_point:
+            on_point(rec.branch("running", "", ds))
+
+    def state(i):
+        return np.concatenate([rec.lists["unknowns"][i] / xs, [rec.lists["omega"][i] / wscale]])
+
+    status, message = "running", ""
+    while True:
+        if len(rec) >= max_points:
+            status, message = "max_points", f"stopped after max_points = {max_points} points"
+            break
+        y = state(-1)
+        t = rec.last("tangents")
+        fails = 0
+        accepted = None
+        while accepted is None:
+            d = t
+            if fails >= 2 and len(rec) >= 2 and fails % 2 == 0:
+                sec = y - state(-2)
+                if np.linalg.norm(sec) > 0:
+                    d = sec / np.linalg.norm(sec)
+            y_pred = y + ds * d
+            try:
+                yn, it, res, jx, jw = _correct(evaluate, y_pred, d, tol, max_iter)
+                tn = _tangent(jx, jw, t)
+                jump = np.linalg.norm(yn - y_pred)
+                if jump > 0.5 * ds and ds > 4 * min_step:
+                    # a long way from the predictor: likely a jump onto another branch
+                    raise _StepRejected(f"corrector moved {jump / ds:.2f} steps off the predictor")
+                if tn @ t < 0.7 and ds > 4 * min_step:
+                    angle = np.degrees(np.arccos(np.clip(tn @ t, -1, 1)))
+                    raise _StepRejected(f"tangent turned by {angle:.0f} deg")
+                accepted = (yn, it, res, tn)
+            except (ConvergenceError, _StepRejected, np.linalg.LinAlgError) as exc:
+                fails += 1
+                ds *= 0.5
+                logger.debug("step cut to %.3g at rpm %.6g: %s", ds, rec.last("rpm"), exc)
+                if ds < min_step:
+                    status = "step_failed"
+                    message = (f"step fell below min_step = {min_step} after {fails} failures "
+                               f"near rpm {rec.last('rpm'):.6g}: {exc}")
+                    break
+        if accepted is None:
+            break
+        yn, it, res, tn = accepted
+        wn = yn[-1] * wscale
+        beyond_end = dirn * (wn - w_end) > 0
+        before_start = dirn * (wn - w_floor) < 0
+        if beyond_end or before_start:
+            wb = w_end if beyond_end else w_floor
+            lam = (wb - y[-1] * wscale) / (wn - y[-1] * wscale)
+            guess = y[:-1] + lam * (yn[:-1] - y[:-1])
+            try:
+                xb, itb, resb = newton(lambda x, j=True, wb=wb: problem._scaled(x, wb, j), guess,
+                                       tol, 30)
+                yb = np.concatenate([xb, [wb / wscale]])
+                _, jx, jw = evaluate(yb)
+                tb = _tangent(jx, jw, tn)
+                _check_events(problem, rec, evaluate, yb, tb, itb, resb, wscale, tol, max_iter,
+                              gtol, record)
+            except (ConvergenceError, np.linalg.LinAlgError) as exc:
+                logger.warning("could not land on the bound %.6g rpm: %s", wb / RPM_TO_RAD_S, exc)
+            if beyond_end:
+                status, message = "completed", f"reached rpm_end = {rpm_end}"
+            else:
+                status, message = "left_range", (
+                    f"the branch turned back and left the range through rpm_start = {rpm_start} "
+                    f"(by more than overshoot = {overshoot} of the range)")
+            break
+        _check_events(problem, rec, evaluate, yn, tn, it, res, wscale, tol, max_iter, gtol, record)
+        if it <= 3:
+            ds = min(ds * 1.5, max_step)
+        elif it >= 7:
+            ds = max(ds * 0.6, min_step)
+        if on_point:
+            on_point(rec.branch("running", "", ds))
+    if status != "completed":
+        logger.warning("continuation stopped: %s", message)
+    else:
+        logger.info("continuation %s: %d points", message, len(rec))
+    branch = rec.branch(status, message, ds)
+    if on_point:
+        on_point(branch)
+    return branch
+
+
+def _check_events(problem, rec, evaluate, yn, tn, it, res, wscale, tol, max_iter, gtol, record):
+    """Record the new point after locating grazing and fold events since the last one."""
+    xs = problem.x_scale
+    ya = np.concatenate([rec.last("unknowns") / xs, [rec.last("omega") / wscale]])
+    ma, mra = rec.last("margin_active"), rec.last("margin_reverse")
+    record(rec, yn, it, res, tn)
+    mb, mrb = rec.last("margin_active"), rec.last("margin_reverse")
+    _check_fold(rec, wscale, xs)
+    events = []
+    if (ma > 0) != (mb > 0):
+        events.append(("active", 0, "onset" if ma > 0 else "end"))
+    if (mra > 0) != (mrb > 0):
+        events.append(("reverse", 1, "onset" if mrb > 0 else "end"))
+    for side, which, kind in events:
+        rpm = _locate(problem, evaluate, ya, yn, which, wscale, tol, max_iter, gtol)
+        rec.grazing.append(GrazingPoint(rpm=rpm, kind=kind, side=side))
+        logger.info("grazing (%s, %s flank) at %.9g rpm", kind, side, rpm)
+
+
+def _check_fold(rec, wscale, xs) -> None:
+    """Fold (turning point): the speed increments of the last two steps change sign.
+
+    Secant increments, not the tangent, are used: at kinks of the
+    piecewise-smooth branch the one-sided Jacobian can give a tangent whose
+    speed component has the wrong sign. The fold speed is the vertex of the
+    parabola through the last three points in arc length.
+    """
+    if len(rec) < 3:
+        return
+    w = np.array(rec.lists["omega"][-3:])
+    if (w[1] - w[0]) * (w[2] - w[1]) >= 0:
+        return
+    here = len(rec) - 2
+    if rec.fold_index and here - rec.fold_index[-1] < FOLD_MERGE_POINTS:
+        # two turns within a few points: a kink of the branch, not two folds
+        logger.debug("fold pair near %.6g rpm merged", rec.folds[-1])
+        rec.folds.pop()
+        rec.fold_index.pop()
+        return
+    y = np.array(rec.lists["unknowns"][-3:]) / xs
+    s1 = np.linalg.norm(np.append(y[1] - y[0], (w[1] - w[0]) / wscale))
+    s2 = s1 + np.linalg.norm(np.append(y[2] - y[1], (w[2] - w[1]) / wscale))
+    c = np.polyfit([0.0, s1, s2], w, 2)
+    w_fold = w[1]
+    if c[0] != 0:
+        sv = -c[1] / (2 * c[0])
+        if 0 <= sv <= s2:
+            w_fold = np.polyval(c, sv)
+    rec.folds.append(float(w_fold / RPM_TO_RAD_S))
+    rec.fold_index.append(here)
+    logger.info("fold near %.6g rpm", rec.folds[-1])
+
+
+def _locate(problem, evaluate, ya, yb, which, wscale, tol, max_iter, gtol) -> float:
+    """Illinois regula falsi on the chord parameter for a zero contact margin."""
+    xs = problem.x_scale
+
+    def margin(y):
+        st = point_stats(problem, y[:-1] * xs)
+        return st.margin_active if which == 0 else st.margin_reverse
+
+    d = yb - ya
+    d /= np.linalg.norm(d)
+    lo, hi = 0.0, 1.0
+    flo, fhi = margin(ya), margin(yb)
+    ylo, yhi = ya, yb
+    side = 0
+    mscale = problem.length_scale
+    for _ in range(60):
+        if abs(yhi[-1] - ylo[-1]) * wscale / RPM_TO_RAD_S < gtol:
+            break
+        s = hi - fhi * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
+        if not (lo < s < hi):
+            s = 0.5 * (lo + hi)
+        y_pred = ya + s * (yb - ya)
+        try:
+            y, *_ = _correct(evaluate, y_pred, d, tol, max_iter)
+        except ConvergenceError as exc:
+            logger.warning("grazing location stopped (corrector failed: %s); bracket "
+                           "[%.9g, %.9g] rpm", exc, ylo[-1] * wscale / RPM_TO_RAD_S,
+                           yhi[-1] * wscale / RPM_TO_RAD_S)
+            break
+        f = margin(y)
+        if abs(f) <= 1e-12 * mscale:
+            ylo = yhi = y
+            break
+        if (f > 0) == (fhi > 0):
+            hi, fhi, yhi = s, f, y
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        else:
+            lo, flo, ylo = s, f, y
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+    w = 0.5 * (ylo[-1] + yhi[-1]) * wscale
+    return float(w / RPM_TO_RAD_S)

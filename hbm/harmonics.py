@@ -1,0 +1,216 @@
+"""Harmonic sets and the real/complex Fourier layout of the HBM unknowns.
+
+Convention (docs/architecture.md, "Fourier convention"): a periodic signal is
+``x(t) = Re sum_{k in S} x_k exp(i k w0 t)`` with ``S`` a sorted set of
+non-negative integer indices containing 0 and ``x_0`` real (eq. 20).  The real
+unknown layout of one signal is ``[x_0, Re x_k1, Im x_k1, Re x_k2, Im x_k2, ...]``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["HarmonicSet", "default_n_time"]
+
+
+def default_n_time(max_index: int) -> int:
+    """Number of AFT time samples for a largest harmonic index ``max_index``.
+
+    The contact force is ``k_m(t)`` times a piecewise-linear function of ``Delta``;
+    a product of two signals of largest index H lands on indices up to 2H, and
+    projecting it onto indices <= H without aliasing needs N > 3H samples.  The
+    kinks of the dead zone add a slowly decaying tail, so we take four times that
+    margin: the smallest power of two >= max(64, 8 H + 4).
+    """
+    need = max(64, 8 * int(max_index) + 4)
+    return int(2 ** int(np.ceil(np.log2(need))))
+
+
+@dataclass(frozen=True)
+class HarmonicSet:
+    """Explicit set of harmonic indices of the fundamental ``w0 = divisor * Omega``.
+
+    Parameters
+    ----------
+    indices
+        Sorted unique non-negative integers containing 0.
+    fundamental
+        ``"shaft"`` (``w0 = Omega``, divisor 1) or ``"mesh"`` (``w0 = Z Omega``,
+        divisor Z).
+    divisor
+        Integer ratio ``w0 / Omega`` (1 or the tooth count Z). A shaft order k is
+        harmonic index ``k / divisor``; mesh harmonic m is index ``m Z / divisor``.
+    n_time
+        AFT samples per fundamental period (default :func:`default_n_time`).
+    """
+
+    indices: tuple[int, ...]
+    fundamental: str = "mesh"
+    divisor: int = 1
+    n_time: int = field(default=0)
+
+    def __init__(self, indices, fundamental: str = "mesh", divisor: int = 1,
+                 n_time: int | None = None) -> None:
+        try:
+            arr = [int(i) for i in indices]
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"harmonics.indices = {indices!r}: must be integers") from exc
+        if any(i != j for i, j in zip(arr, indices, strict=True)):
+            raise ValueError(f"harmonics.indices = {indices!r}: must be integers")
+        if len(arr) == 0 or 0 not in arr:
+            raise ValueError(f"harmonics.indices = {list(arr)}: must contain 0 (the mean)")
+        if min(arr) < 0:
+            raise ValueError(f"harmonics.indices = {list(arr)}: must be >= 0")
+        if arr != sorted(set(arr)):
+            raise ValueError(f"harmonics.indices = {list(arr)}: must be sorted and unique")
+        if fundamental not in ("shaft", "mesh"):
+            raise ValueError(f"harmonics.fundamental = {fundamental!r}: must be 'shaft' or 'mesh'")
+        if int(divisor) != divisor or divisor < 1:
+            raise ValueError(f"harmonics.divisor = {divisor!r}: must be an integer >= 1")
+        hmax = max(arr)
+        n = default_n_time(hmax) if n_time is None else int(n_time)
+        if n <= 2 * hmax:
+            raise ValueError(
+                f"harmonics.n_time = {n}: must be > 2 * max index = {2 * hmax}")
+        object.__setattr__(self, "indices", tuple(arr))
+        object.__setattr__(self, "fundamental", fundamental)
+        object.__setattr__(self, "divisor", int(divisor))
+        object.__setattr__(self, "n_time", n)
+
+    # ------------------------------------------------------------------ builders
+    @classmethod
+    def build(cls, n_teeth: int, mesh_harmonics: int, external_orders=(),
+              sideband_order: int = 1, max_index: int | None = None,
+              n_time: int | None = None) -> HarmonicSet:
+        """Smallest set carrying the mesh harmonics, external orders and sidebands.
+
+        Parameters
+        ----------
+        n_teeth
+            Tooth count Z of the gear whose shaft speed is Omega.
+        mesh_harmonics
+            Number of mesh harmonics kZ kept (k = 1 .. mesh_harmonics).
+        external_orders
+            Shaft orders of the external excitation (positive integers). Empty:
+            the fundamental is the mesh frequency and the set is {0, 1, ..., H}.
+        sideband_order
+            Highest combination order of the external orders: all sums
+            ``sum c_i e_i`` with ``sum |c_i| <= sideband_order`` are included, alone
+            and as sidebands ``kZ +- c``.
+        max_index
+            Indices above it are dropped.
+        """
+        if int(n_teeth) != n_teeth or n_teeth < 1:
+            raise ValueError(f"harmonics.n_teeth = {n_teeth!r}: must be an integer >= 1")
+        if int(mesh_harmonics) != mesh_harmonics or mesh_harmonics < 0:
+            raise ValueError(
+                f"harmonics.mesh_harmonics = {mesh_harmonics!r}: must be an integer >= 0")
+        if int(sideband_order) != sideband_order or sideband_order < 0:
+            raise ValueError(
+                f"harmonics.sideband_order = {sideband_order!r}: must be an integer >= 0")
+        ext = [int(e) for e in external_orders]
+        if any(e != f or e < 1 for e, f in zip(ext, external_orders, strict=True)):
+            raise ValueError(
+                f"harmonics.external_orders = {list(external_orders)!r}: must be integers >= 1")
+        z = int(n_teeth)
+        if not ext:
+            idx = set(range(int(mesh_harmonics) + 1))
+            fundamental, divisor = "mesh", z
+        else:
+            combos: set[int] = set()
+            ext = sorted(set(ext))
+            for order in range(1, int(sideband_order) + 1):
+                for coeffs in itertools.product(range(-order, order + 1), repeat=len(ext)):
+                    if sum(abs(c) for c in coeffs) != order:
+                        continue
+                    v = abs(sum(c * e for c, e in zip(coeffs, ext, strict=True)))
+                    if v > 0:
+                        combos.add(v)
+            combos.update(ext)
+            idx = {0} | combos
+            for k in range(1, int(mesh_harmonics) + 1):
+                idx.add(k * z)
+                for c in combos:
+                    idx.add(abs(k * z + c))
+                    idx.add(abs(k * z - c))
+            fundamental, divisor = "shaft", 1
+        if max_index is not None:
+            if int(max_index) != max_index or max_index < 0:
+                raise ValueError(f"harmonics.max_index = {max_index!r}: must be an integer >= 0")
+            idx = {i for i in idx if i <= max_index}
+        return cls(sorted(idx), fundamental=fundamental, divisor=divisor, n_time=n_time)
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def n_harmonics(self) -> int:
+        """Number of harmonic indices (complex coefficients per signal)."""
+        return len(self.indices)
+
+    @property
+    def n_real(self) -> int:
+        """Real unknowns per signal: ``2 * n_harmonics - 1`` (index 0 is real)."""
+        return 2 * len(self.indices) - 1
+
+    @property
+    def max_index(self) -> int:
+        return self.indices[-1]
+
+    def index_of_shaft_order(self, order: int) -> int | None:
+        """Harmonic index of shaft order ``order`` or None if not representable."""
+        if order % self.divisor:
+            return None
+        i = order // self.divisor
+        return i if i in self.indices else None
+
+    def fundamental_rad_s(self, omega: float) -> float:
+        """Fundamental angular frequency ``w0 = divisor * Omega`` (rad/s)."""
+        return self.divisor * omega
+
+    def to_real(self, xc: np.ndarray) -> np.ndarray:
+        """Complex coefficients (..., n_harmonics) -> real layout (..., n_real)."""
+        xc = np.asarray(xc)
+        out = np.empty(xc.shape[:-1] + (self.n_real,))
+        out[..., 0] = xc[..., 0].real
+        out[..., 1::2] = xc[..., 1:].real
+        out[..., 2::2] = xc[..., 1:].imag
+        return out
+
+    def to_complex(self, xr: np.ndarray) -> np.ndarray:
+        """Real layout (..., n_real) -> complex coefficients (..., n_harmonics)."""
+        xr = np.asarray(xr, dtype=float)
+        out = np.empty(xr.shape[:-1] + (self.n_harmonics,), dtype=complex)
+        out[..., 0] = xr[..., 0]
+        out[..., 1:] = xr[..., 1::2] + 1j * xr[..., 2::2]
+        return out
+
+    def aft_matrices(self, n_time: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Synthesis ``E`` (N, n_real) and Galerkin analysis ``A`` (n_real, N).
+
+        ``x(tau_j) = E @ u`` on ``tau_j = 2 pi j / N`` (tau = w0 t) and
+        ``u = A @ x(tau)``; ``A @ E = I`` for N > 2 max index.
+        """
+        n = self.n_time if n_time is None else int(n_time)
+        tau = 2.0 * np.pi * np.arange(n) / n
+        k = np.asarray(self.indices[1:], dtype=float)
+        c = np.cos(np.outer(tau, k))
+        s = np.sin(np.outer(tau, k))
+        e = np.empty((n, self.n_real))
+        e[:, 0] = 1.0
+        e[:, 1::2] = c
+        e[:, 2::2] = -s
+        a = np.empty((self.n_real, n))
+        a[0] = 1.0 / n
+        a[1::2] = 2.0 / n * c.T
+        a[2::2] = -2.0 / n * s.T
+        return e, a
+
+    def time_grid(self, n_time: int | None = None) -> np.ndarray:
+        """Normalised time ``tau = w0 t`` of the AFT samples over one period (rad)."""
+        n = self.n_time if n_time is None else int(n_time)
+        return 2.0 * np.pi * np.arange(n) / n

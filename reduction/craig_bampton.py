@@ -1,0 +1,358 @@
+"""Craig–Bampton reduction on PETSc/SLEPc with one factorisation of K_ii (eq. 5–9).
+
+The reduced coordinates are ordered ``q = (q_c, η)``: the ``n_c`` interface
+(gear) DOF first, in the order given by ``interface_dofs``, then the ``n_CM``
+fixed-interface modal amplitudes (docs/architecture.md). The basis
+
+    T = [[Ψ, Φ],      rows of the interior DOF
+         [I, 0]]      rows of the interface DOF           # eq. (8), columns swapped
+
+is kept as a distributed dense PETSc matrix with the row layout of ``M``/``K``;
+it is never gathered on one process. ``M_r = Tᵀ M T`` and ``K_r = Tᵀ K T`` are
+small dense NumPy arrays, identical on every rank.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+log = logging.getLogger(__name__)
+
+#: Relative residual above which the static-mode solve is declared failed.
+PSI_RESIDUAL_TOL = 1e-8
+
+
+@dataclass
+class CBResult:
+    """Output of :func:`craig_bampton`.
+
+    Attributes
+    ----------
+    T : PETSc.Mat
+        Distributed dense basis, ``n × n_r``, same row layout as ``M``; columns
+        ``(q_c, η)``.
+    M_r, K_r : ndarray (n_r, n_r)
+        Reduced mass [kg-like] and stiffness [N/m-like] matrices, symmetric,
+        identical on all ranks.
+    interface_dofs : ndarray of int
+        Global indices of the interface DOF, in the column order of ``T``.
+    n_cm : int
+        Number of fixed-interface modes kept.
+    fixed_interface_hz : ndarray (n_cm,)
+        Frequencies of the kept fixed-interface modes (eq. 6) [Hz].
+    psi_residual : float
+        ``‖K_ii Ψ + K_ic‖_F / ‖K_ic‖_F`` of the static modes (eq. 7).
+    timings : dict
+        Wall time of each phase [s] (``eigensolve``, ``static_modes``,
+        ``projection``, ``total``), maxima over ranks.
+    """
+
+    T: PETSc.Mat
+    M_r: np.ndarray
+    K_r: np.ndarray
+    interface_dofs: np.ndarray
+    n_cm: int
+    fixed_interface_hz: np.ndarray
+    psi_residual: float
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def n_r(self) -> int:
+        """Number of reduced coordinates ``n_c + n_CM``."""
+        return self.M_r.shape[0]
+
+
+def cutoff_from_speed(
+    rpm_max: float, n_teeth: int, n_mesh_harmonics: int, safety: float = 1.5
+) -> float:
+    """Frequency cut-off for the fixed-interface modes [Hz].
+
+    The highest mesh-harmonic frequency at top speed, ``n_mesh_harmonics · Z ·
+    rpm_max / 60``, times ``safety`` (Sect. 4.1: the internal excitation sets the
+    frequency range the ROM must cover).
+
+    Parameters
+    ----------
+    rpm_max : float
+        Top shaft speed [rpm], > 0.
+    n_teeth : int
+        Tooth count Z of the gear whose mesh frequency is used, >= 1.
+    n_mesh_harmonics : int
+        Highest mesh harmonic kept (3 for H_3Z), >= 1.
+    safety : float
+        Multiplier >= 1.
+
+    Returns
+    -------
+    float
+        Cut-off frequency [Hz].
+    """
+    if not (math.isfinite(rpm_max) and rpm_max > 0):
+        raise ValueError(f"rpm_max = {rpm_max}: must be a finite number > 0")
+    if int(n_teeth) != n_teeth or n_teeth < 1:
+        raise ValueError(f"n_teeth = {n_teeth}: must be an integer >= 1")
+    if int(n_mesh_harmonics) != n_mesh_harmonics or n_mesh_harmonics < 1:
+        raise ValueError(f"n_mesh_harmonics = {n_mesh_harmonics}: must be an integer >= 1")
+    if not (math.isfinite(safety) and safety >= 1.0):
+        raise ValueError(f"safety = {safety}: must be a finite number >= 1")
+    return float(safety * n_mesh_harmonics * n_teeth * rpm_max / 60.0)
+
+
+def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
+    n, n2 = K.getSize()
+    if n != n2:
+        raise ValueError(f"K.size = {(n, n2)}: must be square")
+    if M.getSize() != (n, n):
+        raise ValueError(f"M.size = {M.getSize()}: must equal K.size {(n, n)}")
+    if M.getOwnershipRange() != K.getOwnershipRange():
+        raise ValueError("M and K must have the same row distribution")
+    dofs = np.asarray(interface_dofs)
+    if dofs.ndim != 1 or dofs.size == 0 or not np.issubdtype(dofs.dtype, np.integer):
+        raise ValueError(f"interface_dofs = {interface_dofs!r}: must be a non-empty 1-D int array")
+    if dofs.min() < 0 or dofs.max() >= n:
+        raise ValueError(f"interface_dofs = {dofs.tolist()}: entries must lie in [0, {n - 1}]")
+    if np.unique(dofs).size != dofs.size:
+        raise ValueError(f"interface_dofs = {dofs.tolist()}: entries must be distinct")
+    n_i = n - dofs.size
+    if (n_modes is None) == (f_cut_hz is None):
+        raise ValueError(
+            f"n_modes = {n_modes}, f_cut_hz = {f_cut_hz}: give exactly one of the two"
+        )
+    if n_modes is not None and (int(n_modes) != n_modes or not 1 <= n_modes <= n_i - 1):
+        raise ValueError(f"n_modes = {n_modes}: must be an integer in [1, {n_i - 1}]")
+    if f_cut_hz is not None and not (math.isfinite(f_cut_hz) and f_cut_hz > 0):
+        raise ValueError(f"f_cut_hz = {f_cut_hz}: must be a finite number > 0")
+    return dofs.astype(np.int64)
+
+
+def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float) -> SLEPc.EPS:
+    """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU on K_ii."""
+    eps = SLEPc.EPS().create(K_ii.getComm())
+    eps.setOptionsPrefix("cb_")
+    eps.setOperators(K_ii, M_ii)
+    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps.setTarget(0.0)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+    eps.setTolerances(tol, 500)
+    st = eps.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    st.setShift(0.0)
+    ksp = st.getKSP()
+    ksp.setType(PETSc.KSP.Type.PREONLY)
+    pc = ksp.getPC()
+    pc.setType(PETSc.PC.Type.LU)
+    pc.setFactorSolverType("mumps")
+    eps.setFromOptions()
+    return eps
+
+
+def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
+    """Run the eigensolve; return how many of the converged pairs to keep."""
+    if n_modes is not None:
+        # a few extra pairs so that no copy of a repeated eigenvalue is missed
+        eps.setDimensions(min(int(n_modes) + max(5, int(n_modes) // 10), n_i - 1))
+        eps.solve()
+        nconv = eps.getConverged()
+        if nconv < n_modes:
+            raise RuntimeError(
+                f"SLEPc converged {nconv} of the {n_modes} requested fixed-interface modes"
+            )
+        return int(n_modes)
+    lam_cut = (2.0 * math.pi * f_cut_hz) ** 2
+    nev = min(16, n_i - 1)
+    while True:
+        eps.setDimensions(nev)
+        eps.solve()  # same ST, same factorisation: only the Krylov space grows
+        nconv = eps.getConverged()
+        if nconv < nev:
+            raise RuntimeError(f"SLEPc converged {nconv} of {nev} fixed-interface modes")
+        lam = np.array([eps.getEigenvalue(j).real for j in range(nconv)])
+        n_below = int(np.count_nonzero(lam <= lam_cut))
+        if n_below < nconv or nev >= n_i - 1:
+            if n_below == 0:
+                raise ValueError(
+                    f"f_cut_hz = {f_cut_hz}: below the first fixed-interface mode "
+                    f"({math.sqrt(lam.min()) / (2 * math.pi):.6g} Hz); no mode would be kept"
+                )
+            return n_below
+        nev = min(2 * nev, n_i - 1)
+        log.debug("cut-off %.6g Hz not reached, asking for %d modes", f_cut_hz, nev)
+
+
+def craig_bampton(
+    M: PETSc.Mat,
+    K: PETSc.Mat,
+    interface_dofs,
+    n_modes: int | None = None,
+    f_cut_hz: float | None = None,
+    comm=None,
+    eps_tol: float = 1e-10,
+) -> CBResult:
+    """Craig–Bampton reduction with one MUMPS factorisation of K_ii (eq. 5–9).
+
+    The fixed-interface modes (eq. 6) come from SLEPc Krylov–Schur with
+    shift-and-invert at σ = 0, whose ST factors ``K_ii`` with MUMPS LU; the
+    static constraint modes ``Ψ = −K_ii⁻¹ K_ic`` (eq. 7) reuse that factor
+    (``MatMatSolve`` on the dense block of the interface columns, all at once).
+    Φ is mass-normalised (``Φᵀ M_ii Φ = I``).
+
+    Parameters
+    ----------
+    M, K : PETSc.Mat
+        Distributed (AIJ) mass [kg] and stiffness [N/m] matrices, symmetric,
+        same row layout; ``K_ii`` must be non-singular (the interface must
+        restrain every rigid-body motion of the interior).
+    interface_dofs : array of int
+        Global indices of the retained (gear) DOF; their order is the order of
+        the first ``n_c`` reduced coordinates. Same array on every rank.
+    n_modes : int, optional
+        Number ``n_CM`` of fixed-interface modes, in [1, n_i − 1].
+    f_cut_hz : float, optional
+        Keep every fixed-interface mode below this frequency [Hz] (see
+        :func:`cutoff_from_speed`). Exactly one of ``n_modes``/``f_cut_hz``.
+    comm : PETSc.Comm or mpi4py communicator, optional
+        Only checked against the communicator of ``K``, which is the one used.
+    eps_tol : float
+        SLEPc relative residual tolerance of the eigenpairs.
+
+    Returns
+    -------
+    CBResult
+    """
+    t_start = time.perf_counter()
+    dofs = _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz)
+    pcomm = K.getComm()
+    if comm is not None:
+        size = comm.getSize() if hasattr(comm, "getSize") else comm.Get_size()
+        if size != pcomm.getSize():
+            raise ValueError(f"comm size = {size}: must equal that of K ({pcomm.getSize()})")
+    mpi = pcomm.tompi4py()
+    n = K.getSize()[0]
+    n_c = dofs.size
+    n_i = n - n_c
+    r0, r1 = K.getOwnershipRange()
+    local = np.arange(r0, r1, dtype=np.int64)
+    is_iface_local = np.isin(local, dofs)
+    interior_rows = local[~is_iface_local]  # global, ascending; order of the interior block
+    is_i = PETSc.IS().createGeneral(interior_rows.astype(PETSc.IntType), comm=pcomm)
+    # All interface columns on rank 0 in the given order: K_ic columns follow q_c.
+    cols = dofs if pcomm.getRank() == 0 else np.empty(0, dtype=np.int64)
+    is_c = PETSc.IS().createGeneral(cols.astype(PETSc.IntType), comm=pcomm)
+
+    K_ii = K.createSubMatrix(is_i, is_i)  # eq. (5)
+    M_ii = M.createSubMatrix(is_i, is_i)
+    K_ic = K.createSubMatrix(is_i, is_c)
+
+    # --- fixed-interface modes, eq. (6)
+    t0 = time.perf_counter()
+    eps = _make_eps(K_ii, M_ii, eps_tol)
+    n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
+    lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
+    order = np.argsort(lam, kind="stable")[:n_cm]
+    lam = lam[order]
+    if lam[0] <= 1e-9 * lam[-1]:  # rigid-body motion of the interior: K_ii singular
+        raise RuntimeError(
+            f"fixed-interface eigenvalue {lam[0]:.3e} ~ 0 (largest kept {lam[-1]:.3e}): "
+            "K_ii is singular, the interface DOF do not restrain every rigid-body motion"
+        )
+    fi_hz = np.sqrt(lam) / (2.0 * math.pi)
+    if f_cut_hz is not None:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes below f_cut = %.6g Hz "
+            "(highest kept %.6g Hz)", n_cm, f_cut_hz, fi_hz[-1],
+        )
+    else:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes (user), up to %.6g Hz",
+            n_cm, fi_hz[-1],
+        )
+    t_eig = time.perf_counter() - t0
+
+    # --- assemble T: local rows of the full numbering, columns (q_c, η)
+    n_r = n_c + n_cm
+    T = PETSc.Mat().createDense(((r1 - r0, n), (PETSc.DECIDE, n_r)), comm=pcomm)
+    T.setUp()
+    Tl = T.getDenseArray()
+    Tl[:] = 0.0
+    interior_pos = interior_rows - r0
+    xr = K_ii.createVecRight()
+    y = M_ii.createVecLeft()
+    for k, j in enumerate(order):
+        eps.getEigenvector(int(j), xr)
+        M_ii.mult(xr, y)
+        mnorm = xr.dot(y)
+        s = xr.sum()  # deterministic sign across partitions
+        sign = -1.0 if s < 0 else 1.0
+        xr.scale(sign / math.sqrt(mnorm))  # mass normalisation Φᵀ M_ii Φ = I
+        Tl[interior_pos, n_c + k] = xr.getArray()
+
+    # --- static constraint modes, eq. (7), from the same MUMPS factor
+    t0 = time.perf_counter()
+    F = eps.getST().getKSP().getPC().getFactorMatrix()
+    B = K_ic.convert(PETSc.Mat.Type.DENSE)
+    X = B.duplicate()
+    F.matSolve(B, X)
+    X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
+    R = K_ii.matMult(X)
+    R.axpy(1.0, B)
+    nb = B.norm(PETSc.NormType.FROBENIUS)
+    psi_res = R.norm(PETSc.NormType.FROBENIUS) / nb if nb > 0 else 0.0
+    if not psi_res < PSI_RESIDUAL_TOL:
+        raise RuntimeError(
+            f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
+            "(K_ii singular or ill-conditioned?)"
+        )
+    Tl[interior_pos, :n_c] = X.getDenseArray()
+    for k, d in enumerate(dofs):
+        if r0 <= d < r1:
+            Tl[d - r0, k] = 1.0
+    T.assemble()
+    t_psi = time.perf_counter() - t0
+
+    # --- Galerkin projection, eq. (9)
+    t0 = time.perf_counter()
+    M_r = _project(M, T, mpi)
+    K_r = _project(K, T, mpi)
+    t_proj = time.perf_counter() - t0
+
+    for obj in (R, X, B, K_ic, K_ii, M_ii, xr, y, is_i, is_c):
+        obj.destroy()
+    eps.destroy()
+    timings = {
+        "eigensolve": t_eig,
+        "static_modes": t_psi,
+        "projection": t_proj,
+        "total": time.perf_counter() - t_start,
+    }
+    timings = {k: mpi.allreduce(v, op=_max_op()) for k, v in timings.items()}
+    log.info(
+        "Craig-Bampton: n = %d, n_c = %d, n_r = %d, psi residual %.2e, %.3f s",
+        n, n_c, n_r, psi_res, timings["total"],
+    )
+    return CBResult(T, M_r, K_r, dofs, n_cm, fi_hz, float(psi_res), timings)
+
+
+def _max_op():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+def _project(A: PETSc.Mat, T: PETSc.Mat, mpi) -> np.ndarray:
+    """Dense ``Tᵀ A T`` on every rank (local products summed with allreduce)."""
+    AT = A.matMult(T)
+    local = T.getDenseArray().T @ AT.getDenseArray()
+    AT.destroy()
+    out = np.empty_like(local)
+    from mpi4py import MPI
+
+    mpi.Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
+    return 0.5 * (out + out.T)

@@ -1,0 +1,136 @@
+"""HDF5 storage of a ROM (layout in docs/results-format.md, section ``rom/``).
+
+Rank 0 writes the dense ROM data; the basis ``T`` is written as the dataset
+``rom/basis`` (n_fe × n_r) by rows, each rank writing its own rows in turn
+(serial h5py, no parallel HDF5 needed), so it is never gathered on one process.
+The file is written under a temporary name in the target folder and
+``os.replace``d when complete.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+
+import h5py
+import numpy as np
+from petsc4py import PETSc
+
+from reduction.rom import ROM
+from reduction.validate import Validation
+
+log = logging.getLogger(__name__)
+
+FORMAT_VERSION = 1
+
+
+def save_rom(path, rom: ROM, comm=None, write_basis: bool = True) -> None:
+    """Write ``rom`` to ``path`` (HDF5), atomically; collective on ``comm``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file; its folder must exist.
+    rom : ROM
+        The model; ``rom.T`` is needed when ``write_basis``.
+    comm : mpi4py communicator, optional
+        Defaults to the communicator of ``rom.T`` or ``COMM_WORLD``.
+    write_basis : bool
+        Also write ``rom/basis`` (reconstruction data).
+    """
+    if write_basis and rom.T is None:
+        raise ValueError("rom.T = None: write_basis=True needs the basis")
+    if comm is None:
+        comm = rom.T.getComm().tompi4py() if rom.T is not None else PETSc.COMM_WORLD.tompi4py()
+    if hasattr(comm, "tompi4py"):
+        comm = comm.tompi4py()
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    tmp = None
+    if comm.rank == 0:
+        fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=folder)
+        os.close(fd)
+        with h5py.File(tmp, "w") as f:
+            _write_dense(f, rom, write_basis)
+    tmp = comm.bcast(tmp, root=0)
+    if write_basis:
+        r0, r1 = rom.T.getOwnershipRange()
+        for rank in range(comm.size):
+            if rank == comm.rank:
+                with h5py.File(tmp, "r+") as f:
+                    f["rom/basis"][r0:r1, :] = rom.T.getDenseArray()
+            comm.Barrier()
+    if comm.rank == 0:
+        os.replace(tmp, path)
+        log.info("ROM written to %s", path)
+    comm.Barrier()
+
+
+def _write_dense(f: h5py.File, rom: ROM, write_basis: bool) -> None:
+    g = f.create_group("rom")
+    g.attrs["format_version"] = FORMAT_VERSION
+    g.attrs["n_cm"] = int(rom.n_cm)
+    g.attrs["n_r"] = int(rom.n_r)
+    g.attrs["km_mean"] = float(rom.km_mean)
+    g.attrs["coordinate_order"] = "q = (q_c, eta): gear DOF first, then modal amplitudes"
+    for name in ("M", "K", "C", "G", "frequencies_hz", "mesh_energy", "fixed_interface_hz",
+                 "xi"):
+        g.create_dataset(name, data=np.asarray(getattr(rom, name), dtype=float))
+    g.create_dataset("gear_dofs", data=np.array(rom.gear_dof_names, dtype="S"))
+    g.create_dataset("gear_dof_indices", data=np.asarray(rom.gear_dofs, dtype=np.int64))
+    if rom.validation is not None:
+        v = g.create_group("validation")
+        for name in ("full_hz", "rom_hz", "relative_error"):
+            v.create_dataset(name, data=np.asarray(getattr(rom.validation, name)))
+        v.create_dataset("validity_hz", data=float(rom.validation.validity_hz))
+        v.attrs["tol"] = float(rom.validation.tol)
+    if write_basis:
+        n_fe = rom.T.getSize()[0]
+        g.create_dataset(
+            "basis", shape=(n_fe, rom.n_r), dtype=float,
+            chunks=(min(n_fe, max(1, 65536 // max(rom.n_r, 1))), rom.n_r),
+        )
+
+
+def load_rom(path) -> ROM:
+    """Read the dense part of a ROM (every rank may call it); ``T`` is None."""
+    with h5py.File(path, "r") as f:
+        g = f["rom"]
+        d = {k: g[k][()] for k in ("M", "K", "C", "G", "frequencies_hz", "mesh_energy",
+                                   "fixed_interface_hz", "xi")}
+        names = tuple(s.decode() for s in g["gear_dofs"][()])
+        val = None
+        if "validation" in g:
+            v = g["validation"]
+            val = Validation(v["full_hz"][()], v["rom_hz"][()], v["relative_error"][()],
+                             float(v["validity_hz"][()]), float(v.attrs["tol"]))
+        return ROM(gear_dof_names=names, n_cm=int(g.attrs["n_cm"]),
+                   km_mean=float(g.attrs["km_mean"]),
+                   gear_dofs=g["gear_dof_indices"][()], validation=val, T=None, **d)
+
+
+def load_basis(path, comm=None, row_range: tuple[int, int] | None = None) -> PETSc.Mat:
+    """Read ``rom/basis`` into a distributed dense PETSc matrix (collective).
+
+    Parameters
+    ----------
+    path : str or Path
+        File written by :func:`save_rom` with the basis.
+    comm : PETSc.Comm, optional
+        Defaults to ``PETSc.COMM_WORLD``.
+    row_range : (int, int), optional
+        This rank's rows ``[r0, r1)``; give the ownership range of the FE
+        matrices to reconstruct on their layout. Default: PETSc's split.
+    """
+    comm = comm or PETSc.COMM_WORLD
+    with h5py.File(path, "r") as f:
+        ds = f["rom/basis"]
+        n_fe, n_r = ds.shape
+        nloc = PETSc.DECIDE if row_range is None else row_range[1] - row_range[0]
+        T = PETSc.Mat().createDense(((nloc, n_fe), (PETSc.DECIDE, n_r)), comm=comm)
+        T.setUp()
+        r0, r1 = T.getOwnershipRange()
+        T.getDenseArray()[:] = ds[r0:r1, :]
+    T.assemble()
+    return T

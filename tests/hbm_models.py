@@ -1,0 +1,39 @@
+"""Small models shared by the hbm tests (no project imports besides hbm)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import hbm
+
+RPM = hbm.RPM_TO_RAD_S
+
+
+def sdof_problem(harmonics=30, zeta=0.05, fm=0.1, fa=0.05, alpha=0.2, b=1.0,
+                 condensation="loa", te=None, n_time=None):
+    """Kahraman-Singh pair x'' + 2 zeta x' + k(t) f(x - e(t)) = F_m + F_a cos(w t).
+
+    Unit mass, unit mean stiffness (w_n = 1 rad/s), one tooth so that the mesh
+    frequency equals Omega; k(t) = 1 + alpha cos(Omega t).
+    """
+    system = hbm.LinearSystem(M=[[1.0]], C=[[2 * zeta]], K=[[0.0]], G=[1.0])
+    mesh = hbm.GearMesh(n_teeth=1, stiffness={0: 1.0, 1: alpha}, te=te or {}, backlash=b)
+    exc = hbm.Excitation(1, constant={0: [fm], 1: [fa]})
+    hs = hbm.HarmonicSet.build(1, harmonics, n_time=n_time)
+    return hbm.HBMProblem(system, mesh, exc, hs, condensation)
+
+
+def random_modal_system(n=20, seed=0, zeta=0.03, kbar=2.0e3, n_gear=12):
+    """Random (M, C, K, G) with the modal damping of eq. (17)-(19)."""
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((n, n))
+    m = a @ a.T / n + np.eye(n)
+    b = rng.standard_normal((n, n))
+    k = 1e3 * (b @ b.T / n + 0.1 * np.eye(n))
+    g = np.zeros(n)
+    g[:n_gear] = rng.standard_normal(n_gear)
+    g /= np.linalg.norm(g)
+    import scipy.linalg as sla
+    w2, phi = sla.eigh(k + kbar * np.outer(g, g), m)
+    c = m @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ m            # eq. (19)
+    return m, c, k, g

@@ -1,0 +1,255 @@
+"""Scene validation: good scenes load with the right SI values, broken scenes are refused
+with a SceneError naming the field (never another exception type)."""
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from study.scene import (
+    SCHEMA,
+    SceneError,
+    apply_overrides,
+    estimate_mesh_stiffness,
+    load_scene,
+    parse_scene,
+    parse_set_values,
+    scene_from_dict,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
+
+MINIMAL = {
+    "scene": {"name": "t", "kind": "lumped"},
+    "mesh_stiffness": {"mean_N_per_um": 200.0, "amplitudes_N_per_um": [40.0, 20.0, 10.0],
+                       "phases_deg": [0.0, 90.0, 0.0]},
+    "transmission_error": {"amplitudes_um": [1.0, 0.5, 0.2]},
+    "continuation": {"speed_rpm": [500.0, 4000.0]},
+}
+
+
+def test_sdof_scene_loads_in_si():
+    s = load_scene(SDOF)
+    assert s.scene.kind == "lumped"
+    assert s.gear.teeth == 76
+    assert s.gear.base_radius == pytest.approx(46.984e-3, rel=1e-12)
+    assert s.gear.backlash == pytest.approx(40e-6, rel=1e-12)
+    # F_s = T / r_b1
+    assert s.static_load == pytest.approx(s.load.torque / 46.984e-3, rel=1e-12)
+    assert s.damping.modal_ratio == pytest.approx(0.05)
+    lo, hi = s.continuation.speed
+    assert lo < hi
+
+
+def test_units_converted():
+    s = scene_from_dict(MINIMAL)
+    assert s.mesh_stiffness.mean == pytest.approx(200e6)
+    assert s.mesh_stiffness.phases[1] == pytest.approx(math.pi / 2)
+    assert s.transmission_error.amplitudes[0] == pytest.approx(1e-6)
+    assert s.gear.pressure_angle == pytest.approx(math.radians(20))
+    # Table 1: pitch radius from r_b and α (docs/architecture.md), centre distance 100 mm
+    assert s.gear.centre_distance == pytest.approx(2 * 46.984e-3 / math.cos(math.radians(20)))
+    c = s.mesh_stiffness.coefficients()
+    assert c[2] == pytest.approx(20e6 * 1j, abs=1e-3)
+
+
+def test_contact_ratio_against_textbook_formula():
+    # standard spur gears, z1 = z2 = 20, m = 5 mm, α = 20°: ε_α = 1.557 (textbook value)
+    m, z, a = 5e-3, 20, math.radians(20)
+    s = scene_from_dict({**MINIMAL, "gear": {"teeth": z, "base_radius_mm": m * z / 2 * 1e3
+                                                    * math.cos(a), "backlash_um": 40}})
+    assert s.gear.contact_ratio == pytest.approx(1.557, abs=2e-3)
+
+
+def test_iso6336_estimate_table1():
+    s = scene_from_dict({**MINIMAL, "mesh_stiffness": {"estimate": True}})
+    ms = s.mesh_stiffness
+    # c'_th = 1/q' for z_n = 76, x = 0: q' = 0.04723 + 0.41342/76
+    cth = 1 / (0.04723 + (0.15551 + 0.25791) / 76)
+    ft_b = s.static_load * math.cos(s.gear.pressure_angle) / 20.0  # N/mm
+    k1 = cth * 0.8 * (ft_b / 100) ** 0.25 * 20 * 1e6  # N/m
+    assert ms.mean == pytest.approx(k1 * s.gear.contact_ratio, rel=1e-12)
+    assert len(ms.amplitudes) == 3
+    # rectangular wave between k1 and 2 k1: the truncated series stays within it
+    assert ms.minimum() > 0
+    g = estimate_mesh_stiffness(s.gear, s.static_load, 0.8, 200)
+    import numpy as np
+    t = np.linspace(0, 1, 2001)
+    k = g.mean + sum(a * np.cos(2 * np.pi * (j + 1) * t + p)
+                     for j, (a, p) in enumerate(zip(g.amplitudes, g.phases, strict=True)))
+    d = s.gear.contact_ratio - 1
+    inside = np.abs(((t + 0.5) % 1) - 0.5) < d / 2 - 0.02
+    outside = np.abs(((t + 0.5) % 1) - 0.5) > d / 2 + 0.02
+    assert np.allclose(k[inside], 2 * k1, rtol=0.03)
+    assert np.allclose(k[outside], k1, rtol=0.03)
+
+
+def test_estimated_ste_is_static_deflection():
+    s = scene_from_dict({**MINIMAL, "mesh_stiffness": {"estimate": True},
+                         "transmission_error": {"estimate": True}})
+    # mean of F_s/k_m(t) >= F_s/k̄ (Jensen), within the stiffness variation
+    assert s.transmission_error.mean >= s.static_load / s.mesh_stiffness.mean
+
+
+# ---------------------------------------------------------------- broken scenes
+
+BROKEN = [
+    ({"gear": {"backlash_um": -3}}, "gear.backlash_um = -3"),
+    ({"gear": {"backlash_um": 0}}, "gear.backlash_um = 0"),
+    ({"gear": {"backlsh_um": 40}}, "did you mean 'backlash_um'"),
+    ({"gear": {"teeth": 76.5}}, "gear.teeth = 76.5"),
+    ({"gear": {"teeth": "76"}}, "gear.teeth = '76'"),
+    ({"gear": {"teeth": True}}, "gear.teeth = True"),
+    ({"gear": {"module_mm": 1.0}}, "gear.module_mm = 1"),
+    ({"gear": {"pressure_angle_deg": 60}}, "gear.pressure_angle_deg = 60"),
+    ({"gear": {"dedendum_coef": 0.9}}, "gear.dedendum_coef = 0.9"),
+    ({"gear": {"face_width_mm": float("nan")}}, "gear.face_width_mm = nan"),
+    ({"gear": {"backlash_um": 5000}}, "gear.backlash_um = 5000"),
+    ({"continuation": {"speed_rpm": [4000, 500]}}, "continuation.speed_rpm = [4000, 500]"),
+    ({"continuation": {"speed_rpm": [500]}}, "continuation.speed_rpm = [500]"),
+    ({"continuation": {"speed_rpm": [500, 4000], "step_rpm": 5000}}, "continuation.step_rpm"),
+    ({"hbm": {"harmonics": [1, 2, 3]}}, "hbm.harmonics = [1, 2, 3]: must contain 0"),
+    ({"hbm": {"harmonics": [0, 2, 1, 3]}}, "hbm.harmonics"),
+    ({"hbm": {"harmonics": [0, 1]}}, "lacks the excited mesh harmonics"),
+    ({"hbm": {"condensation": "LOA"}}, "hbm.condensation = 'LOA'"),
+    ({"mesh_stiffness": {"mean_N_per_um": -5}}, "mesh_stiffness.mean_N_per_um = -5"),
+    ({"mesh_stiffness": {"amplitudes_N_per_um": [150, 100]}}, "mesh_stiffness.amplitudes_N_per_um"),
+    ({"mesh_stiffness": {"phases_deg": [0, 0]}}, "mesh_stiffness.phases_deg"),
+    ({"transmission_error": {"kind": "static"}}, "transmission_error.kind = 'static'"),
+    ({"damping": {"modal_ratio": 1.5}}, "damping.modal_ratio = 1.5"),
+    ({"load": {"torque_Nm": -1}}, "load.torque_Nm = -1"),
+    ({"scene": {"kind": "fem"}}, "scene.kind = 'fem'"),
+    ({"scen": {"kind": "fe"}}, "did you mean 'scene'"),
+    ({"external": {"unbalance": [{"shaft": "in", "m_unb_kgm": 3e-5}]}}, "external.unbalance[0]"),
+    ({"external": {"aero": [{"shaft": "in", "order": 2, "force_N": [1, 0, 0]}]}},
+     "external.aero[0].force_N"),
+    ({"external": {"aero": [{"shaft": "up", "order": 2}]}}, "external.aero[0].shaft = 'up'"),
+    ({"external": {"aero": [{"shaft": "in"}]}}, "external.aero[0].order: missing"),
+    ({"external": {"aero": {"shaft": "in"}}}, "external.aero"),
+    ({"outputs": {"plots": ["forced_respons"]}}, "did you mean 'forced_response'"),
+    ({"outputs": {"time_series_rpm": [9000]}}, "outputs.time_series_rpm"),
+    ({"outputs": {"housing_field_rpm": [1000]}}, "outputs.housing_field_rpm"),
+    ({"geometry": {"wall_mm": 5}}, "[geometry]: only allowed when scene.kind = 'fe'"),
+    ({"lumped": {"inertia_kgm2": [1e-3]}}, "lumped.inertia_kgm2"),
+    ({"lumped": {"inertia_kgm2": [1e-3, 1e-3], "equivalent_mass_kg": 0.3}},
+     "lumped.equivalent_mass_kg"),
+    ({"rom": {"n_cm": 0}}, "rom.n_cm = 0"),
+]
+
+
+def _merge(base: dict, patch: dict) -> dict:
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
+    for sec, tab in patch.items():
+        if isinstance(tab, dict) and isinstance(out.get(sec), dict):
+            out[sec].update(tab)
+        else:
+            out[sec] = tab
+    return out
+
+
+@pytest.mark.parametrize(("patch", "message"), BROKEN)
+def test_broken_scene_names_the_field(patch, message):
+    with pytest.raises(SceneError) as err:
+        scene_from_dict(_merge(MINIMAL, patch))
+    assert message in str(err.value)
+
+
+def test_invalid_toml_and_missing_file(tmp_path):
+    with pytest.raises(SceneError, match="not valid TOML"):
+        parse_scene("[gear\nteeth = 3")
+    with pytest.raises(SceneError, match="cannot be read"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_overrides_and_set_values():
+    raw = apply_overrides(MINIMAL, {"load.torque_Nm": 5.0})
+    assert scene_from_dict(raw).load.torque == 5.0
+    assert MINIMAL.get("load") is None  # original untouched
+    assert parse_set_values("1,2.5,3") == [1, 2.5, 3]
+    assert parse_set_values("[500,4000],[600,5000]") == [[500, 4000], [600, 5000]]
+    assert parse_set_values("loaded,unloaded") == ["loaded", "unloaded"]
+    with pytest.raises(SceneError, match="load.torque_Nm = 'abc'"):
+        scene_from_dict(apply_overrides(MINIMAL, {"load.torque_Nm": "abc"}))
+
+
+# ---------------------------------------------------------------- property-based fuzzing
+
+_BAD_VALUES = st.one_of(
+    st.text(max_size=5), st.booleans(), st.just(float("nan")), st.just(float("inf")),
+    st.just(-1e30), st.just(1e30), st.lists(st.integers(), max_size=3),
+    st.dictionaries(st.text(max_size=3), st.integers(), max_size=2), st.just(-1),
+)
+
+
+def _valid_keys():
+    keys = []
+    for sec, specs in SCHEMA.items():
+        if "." in sec:
+            continue
+        for k, sp in specs.items():
+            if sp.kind in ("float", "int", "pair", "vec3", "floats", "ints", "choice", "bool"):
+                keys.append((sec, k))
+    return keys
+
+
+KEYS = _valid_keys()
+
+
+@st.composite
+def broken_scenes(draw):
+    raw = {k: dict(v) for k, v in tomllib.loads(SDOF.read_text()).items()}
+    n = draw(st.integers(1, 3))
+    for _ in range(n):
+        how = draw(st.sampled_from(["typo", "type", "section", "reverse", "harm", "value"]))
+        if how == "typo":
+            sec, key = draw(st.sampled_from(KEYS))
+            raw.setdefault(sec, {})[key + draw(st.sampled_from(["_", "x", "s"]))] = 1.0
+        elif how == "section":
+            raw[draw(st.sampled_from(["gears", "Load", "hbmm", "foo"]))] = {}
+        elif how == "reverse":
+            a = draw(st.floats(10, 1e4))
+            raw.setdefault("continuation", {})["speed_rpm"] = [a + draw(st.floats(0, 1e3)), a]
+        elif how == "harm":
+            raw.setdefault("hbm", {})["harmonics"] = draw(
+                st.lists(st.integers(1, 300), min_size=1, max_size=6))
+        else:
+            sec, key = draw(st.sampled_from(KEYS))
+            val = draw(_BAD_VALUES)
+            spec = SCHEMA[sec][key]
+            # only values that are invalid for sure for this field
+            if spec.kind == "bool" and isinstance(val, bool):
+                val = "yes"
+            if spec.kind == "choice" and val in spec.choices:
+                val = val + "_"
+            if spec.kind in ("float", "int") and val == -1 and (spec.lo is None or spec.lo < -1):
+                val = "x"
+            huge_ok = (spec.hi is None or spec.hi >= 1e30) and (spec.lo is None or spec.lo <= -1e30)
+            if spec.kind in ("float", "int") and isinstance(val, float) and abs(val) == 1e30 \
+                    and huge_ok:
+                val = "x"
+            if spec.kind in ("floats", "ints") and isinstance(val, list) and \
+                    all(isinstance(v, int) and v >= (spec.lo or 0) for v in val):
+                val = ["x"]
+            if spec.kind == "pair" and isinstance(val, list) and len(val) == 2:
+                val = [2, 1]
+            raw.setdefault(sec, {})[key] = val
+    return raw
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(broken_scenes())
+def test_fuzz_broken_scenes_always_scene_error(raw):
+    with pytest.raises(SceneError):
+        scene_from_dict(raw)
+
+
+def test_docs_list_every_key():
+    text = (ROOT / "docs" / "scenes.md").read_text()
+    for sec, specs in SCHEMA.items():
+        for key in specs:
+            assert f"`{key}`" in text, (sec, key)

@@ -56,15 +56,41 @@ def render(results: Path = RESULTS) -> str:
             out += [f"Machine: {data['machine']}", ""]
         if "summary" in data:
             out += [str(data["summary"]), ""]
-        tables = data.get("tables")
-        if tables:
-            for table in tables:
-                out += _table(table)
-        else:
-            scalars = {k: v for k, v in data.items() if isinstance(v, int | float | str)
-                       and k not in {"benchmark", "command", "summary"}}
-            out += [f"- {k}: {_fmt(v)}" for k, v in scalars.items()] + [""]
+        for table in data.get("tables") or _tables_from(data):
+            out += _table(table)
+        scalars = {k: v for k, v in data.items() if isinstance(v, int | float | str)
+                   and k not in _HEADER_KEYS}
+        out += [f"- {k}: {_fmt(v)}" for k, v in scalars.items()] + [""]
     return "\n".join(out)
+
+
+_HEADER_KEYS = {"benchmark", "command", "summary", "machine", "tables"}
+
+
+def _flatten(row: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in row.items():
+        if isinstance(value, dict):
+            flat.update(_flatten(value, f"{prefix}{key}."))
+        elif isinstance(value, list) and len(value) > 6:
+            continue  # long arrays are in the JSON, not in the table
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
+
+
+def _tables_from(data: dict[str, Any]) -> list[dict[str, Any]]:
+    """Tables for files without a ``tables`` key: each list of records, and each record."""
+    tables = []
+    for key, value in data.items():
+        if key in _HEADER_KEYS:
+            continue
+        records = value if isinstance(value, list) else [value] if isinstance(value, dict) else []
+        if records and all(isinstance(r, dict) for r in records):
+            rows = [_flatten(r) for r in records]
+            columns = list(dict.fromkeys(c for r in rows for c in r))
+            tables.append({"title": key, "columns": columns, "rows": rows})
+    return tables
 
 
 def main() -> None:

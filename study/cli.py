@@ -1,13 +1,221 @@
-"""The ``geardyn`` command line (skeleton; filled in by the study issue)."""
+"""The ``geardyn`` command line (also ``python -m study``).
+
+::
+
+    geardyn run SCENE --out DIR [--set section.key=v1,v2,...] [--resume] [-q|-v]
+    geardyn mesh SCENE --out DIR        # FE scenes: geometry + mesh stage only
+    geardyn reduce SCENE --out DIR      # FE scenes: mesh, FE model and ROM stages
+    geardyn export SCENE --out DIR      # all stages (cached ones reused), results.h5 and
+                                        # housing fields, no plots
+    geardyn report SCENE --out DIR      # plots + report.md from DIR/results.h5
+    geardyn convergence SCENE --out DIR [--set hbm.mesh_harmonics=4,8,16]
+
+Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
+the field); 3 solver failure (continuation stopped early; the points computed so
+far are in results.h5, ``--resume`` continues); 4 a stage cannot run here
+(missing FE package); 5 file system error; 1 unexpected internal error;
+130 interrupted (Ctrl-C; checkpoints are kept).
+"""
 from __future__ import annotations
 
 import argparse
+import itertools
+import logging
+import os
+import re
+import sys
+from pathlib import Path
+
+from study.scene import SceneError
+
+EXIT_OK, EXIT_INTERNAL, EXIT_INPUT, EXIT_SOLVER, EXIT_UNAVAILABLE, EXIT_IO = 0, 1, 2, 3, 4, 5
+EXIT_INTERRUPTED = 130
+
+logger = logging.getLogger("geardyn")
+
+__all__ = ["main", "build_parser", "parse_sets"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="geardyn",
+        description="Vibro-impact dynamics of geared machines: scene -> forced response.",
+        epilog="Exit codes: 0 ok, 2 invalid input, 3 solver failure, 4 stage unavailable, "
+               "5 file error, 130 interrupted.")
+    p.add_argument("command", choices=["run", "mesh", "reduce", "export", "report", "convergence"],
+                   help="what to do")
+    p.add_argument("scene", help="scene file (TOML, see docs/scenes.md)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=V1[,V2...]",
+                   help="override a scene value; several values run one variant each "
+                        "(TOML syntax: --set load.torque_Nm=50,100 --set "
+                        "continuation.speed_rpm=[500,3000])")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted continuation from OUT/results.h5")
+    p.add_argument("--cache", default=None,
+                   help="stage cache folder (default $GEARDYN_CACHE or OUT/../.geardyn-cache)")
+    p.add_argument("--no-cache", action="store_true",
+                   help="recompute every stage (and overwrite its cache entry)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    g.add_argument("-v", "--verbose", action="store_true", help="debug messages")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    return p
+
+
+def parse_sets(items: list[str]) -> list[dict]:
+    """``["a.b=1,2", "c.d=x"]`` -> list of override dicts (Cartesian product)."""
+    from study.scene import parse_set_values
+
+    axes = []
+    for item in items:
+        if "=" not in item:
+            raise SceneError(f"--set {item!r}: must be SECTION.KEY=VALUE[,VALUE...]")
+        key, val = item.split("=", 1)
+        key = key.strip()
+        if not re.fullmatch(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)+", key):
+            raise SceneError(f"--set {item!r}: {key!r} must be section.key")
+        if not val.strip():
+            raise SceneError(f"--set {item!r}: no value given")
+        axes.append([(key, v) for v in parse_set_values(val)])
+    if not axes:
+        return [{}]
+    return [dict(combo) for combo in itertools.product(*axes)]
+
+
+class _OnceFilter(logging.Filter):
+    """Drop repeats of an identical warning (e.g. one per continuation point)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[tuple[str, str]] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno != logging.WARNING:
+            return True
+        key = (record.name, record.getMessage())
+        if key in self.seen:
+            return False
+        self.seen.add(key)
+        return True
+
+
+def _setup_logging(quiet: bool, verbose: bool) -> None:
+    level = logging.WARNING if quiet else (logging.DEBUG if verbose else logging.INFO)
+    root = logging.getLogger()
+    for h in list(root.handlers):
+        root.removeHandler(h)
+    h = logging.StreamHandler(sys.stderr)
+    h.setFormatter(logging.Formatter("%(asctime)s %(levelname)-7s %(name)s: %(message)s",
+                                     "%H:%M:%S"))
+    h.addFilter(_OnceFilter())
+    root.addHandler(h)
+    root.setLevel(level)
+    for noisy in ("matplotlib", "PIL", "h5py"):
+        logging.getLogger(noisy).setLevel(max(level, logging.WARNING))
+
+
+def _label(ov: dict) -> str:
+    return ",".join(f"{k}={v}" for k, v in ov.items())
+
+
+def _folder(ov: dict) -> str:
+    def val(v) -> str:
+        return "-".join(str(x) for x in v) if isinstance(v, list) else str(v)
+    s = "_".join(f"{k.split('.')[-1]}={val(v)}" for k, v in ov.items())
+    return re.sub(r"[^\w.=+-]+", "-", s).strip("-") or "base"
+
+
+def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> int:
+    import study
+    from study.pipeline import SolverError
+
+    out = Path(args.out)
+    cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
+    if len(variants) == 1:
+        study.run(scene_path, out, overrides=variants[0], cache_dir=cache, resume=args.resume,
+                  refresh=args.no_cache, progress=not args.no_progress, until=until)
+        return EXIT_OK
+    # validate every variant before any heavy work
+    scenes = [study.load_scene(scene_path, ov) for ov in variants]
+    cache = cache or str(out.resolve().parent / ".geardyn-cache")  # shared with `run --out OUT`
+    results, failed = [], []
+    for ov, sc in zip(variants, scenes, strict=True):
+        logger.info("variant %s", _label(ov))
+        try:
+            r = study.run(sc, out / _folder(ov), cache_dir=cache, resume=args.resume,
+                          refresh=args.no_cache, progress=not args.no_progress, until=until)
+            results.append((ov, r))
+        except SolverError as exc:
+            logger.error("variant %s: %s", _label(ov), exc)
+            failed.append(ov)
+            if exc.result is not None and exc.result.branch is not None \
+                    and len(exc.result.branch) > 1:
+                results.append((ov, exc.result))
+    if results and until == "export":
+        from study.variants import write_variants
+        write_variants(out, results)
+    return EXIT_SOLVER if failed else EXIT_OK
+
+
+def _report(args, scene_path: Path, overrides: dict) -> int:
+    from study.variants import report_from_results
+    report_from_results(scene_path, Path(args.out), overrides,
+                        cache=args.cache or os.environ.get("GEARDYN_CACHE"))
+    return EXIT_OK
+
+
+def _dispatch(args) -> int:
+    scene_path = Path(args.scene)
+    variants = parse_sets(args.set)
+    cmd = args.command
+    if cmd == "report":
+        if len(variants) != 1:
+            raise SceneError("report: --set takes a single value per key")
+        return _report(args, scene_path, variants[0])
+    if cmd == "convergence":
+        if variants == [{}]:
+            import study
+            sc = study.load_scene(scene_path)
+            n = sc.hbm.mesh_harmonics
+            vals = sorted({max(1, round(n * f)) for f in (0.25, 0.5, 0.75, 1.0)})
+            variants = [{"hbm.mesh_harmonics": v} for v in vals]
+        return _run_variants(args, scene_path, variants, "export")
+    until = {"run": "export", "mesh": "mesh", "reduce": "rom", "export": "hbm"}[cmd]
+    return _run_variants(args, scene_path, variants, until)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="geardyn")
-    parser.add_argument("command", choices=["mesh", "reduce", "run", "export", "report", "convergence"])
-    parser.add_argument("scene")
-    parser.add_argument("--out", required=True)
-    parser.parse_args(argv)
-    return 2
+    """Entry point; returns the exit code (see module docstring)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: usage errors -> 2, --help -> 0
+        return int(exc.code or 0)
+    _setup_logging(args.quiet, args.verbose)
+    from hbm import ConvergenceError
+    from study.pipeline import SolverError, StageUnavailable
+
+    try:
+        return _dispatch(args)
+    except SceneError as exc:
+        logger.error("invalid input: %s", exc)
+        return EXIT_INPUT
+    except (SolverError, ConvergenceError) as exc:
+        logger.error("solver failure: %s", exc)
+        return EXIT_SOLVER
+    except StageUnavailable as exc:
+        logger.error("stage unavailable: %s", exc)
+        return EXIT_UNAVAILABLE
+    except KeyboardInterrupt:
+        logger.error("interrupted; checkpoints are kept (rerun with --resume)")
+        return EXIT_INTERRUPTED
+    except ValueError as exc:  # invalid model data caught by hbm/fem/reduction checks
+        logger.error("invalid input: %s", exc)
+        return EXIT_INPUT
+    except OSError as exc:
+        logger.error("file error: %s", exc)
+        return EXIT_IO
+    except Exception:  # noqa: BLE001 - last resort: a traceback for a bug report
+        logger.exception("internal error (please report)")
+        return EXIT_INTERNAL

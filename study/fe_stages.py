@@ -1,0 +1,392 @@
+"""FE stages of the pipeline (``scene.kind = "fe"``): mesh, FE model, ROM, the HBM
+problem on the ROM, the ``rom/`` group of results.h5, housing fields and ROM plots.
+
+Everything that needs gmsh, dolfinx, petsc4py or slepc4py is imported inside the
+functions, so that importing this module (or running a lumped scene) loads none of
+them. Scene values reach the FE packages as their parameter dataclasses
+(:class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
+:class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`,
+:class:`fem.GearParams`), built by :func:`fe_parameters`.
+
+FE-section keys are the dataclass field names in SI units, or the field name with a
+unit suffix (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``, ``radial_N_per_um = 100``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import logging
+import math
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["FEParams", "fe_parameters", "mesh_stage", "fe_stage", "rom_stage", "rom_problem",
+           "write_rom_group", "rom_plots", "housing_fields", "NODE_NAMES"]
+
+_SUFFIX = {"mm": 1e-3, "um": 1e-6, "GPa": 1e9, "MPa": 1e6, "deg": math.pi / 180,
+           "N_per_um": 1e6}
+
+#: Named FE nodes whose basis rows are kept with the ROM (loads act there).
+NODE_NAMES = tuple(f"{s}/station_{k}" for s in ("in", "out") for k in range(1, 7)) + \
+    ("in/coupling", "out/coupling", "in/gear", "out/gear")
+
+
+@dataclass(frozen=True)
+class FEParams:
+    """Parameter dataclasses of the FE packages for one scene."""
+
+    pump: Any
+    mesh: Any
+    materials: Any
+    bearings: Any
+    drive: Any
+    gears: Any
+
+
+class _Err(ValueError):
+    pass
+
+
+def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | None = None,
+             skip: tuple[str, ...] = ()) -> dict:
+    """Scene table -> keyword arguments of ``cls`` (unit suffixes converted)."""
+    from study.scene import SceneError
+
+    names = [f.name for f in dataclasses.fields(cls)]
+    defaults = {f.name: f.default for f in dataclasses.fields(cls)
+                if f.default is not dataclasses.MISSING}
+    nested = nested or {}
+    out: dict[str, Any] = {}
+    for key, val in table.items():
+        if key in skip:
+            continue
+        if key in nested:
+            if not isinstance(val, dict):
+                raise SceneError(f"{section}.{key} = {val!r}: must be a table "
+                                 f"([{section}.{key}])")
+            out[key] = nested[key](**_convert(f"{section}.{key}", val, nested[key]))
+            continue
+        field, factor = key, 1.0
+        if key not in names:
+            for suf, f in sorted(_SUFFIX.items(), key=lambda kv: -len(kv[0])):
+                if key.endswith("_" + suf) and key[: -len(suf) - 1] in names:
+                    field, factor = key[: -len(suf) - 1], f
+                    break
+        if field not in names:
+            allowed = [n for n in names if n not in skip] + list(nested)
+            m = difflib.get_close_matches(key, allowed, n=1, cutoff=0.5)
+            hint = f" (did you mean {m[0]!r}?)" if m else ""
+            raise SceneError(f"{section}.{key}: unknown key{hint}; allowed: "
+                             f"{', '.join(allowed)} (SI, or with a unit suffix "
+                             f"{', '.join('_' + s for s in _SUFFIX)})")
+        if isinstance(val, bool) or not isinstance(val, (int, float, str, list)):
+            raise SceneError(f"{section}.{key} = {val!r}: must be a number, string or list")
+        if factor != 1.0:
+            if isinstance(val, list):
+                if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val):
+                    raise SceneError(f"{section}.{key} = {val!r}: must be numbers")
+                val = tuple(v * factor for v in val)
+            elif isinstance(val, (int, float)):
+                val = val * factor
+            else:
+                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
+        elif isinstance(val, list):
+            val = tuple(val)
+        if isinstance(val, float) and not math.isfinite(val):
+            raise SceneError(f"{section}.{key} = {val!r}: must be finite")
+        default = defaults.get(field)
+        if isinstance(default, (int, float)) and not isinstance(default, bool):
+            if isinstance(val, bool) or not isinstance(val, (int, float)):
+                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
+            if isinstance(default, int) and not isinstance(default, bool) and \
+                    not (isinstance(val, int) or float(val).is_integer()):
+                raise SceneError(f"{section}.{key} = {val!r}: must be an integer")
+            val = type(default)(val) if isinstance(default, int) else float(val)
+        elif isinstance(default, str) and not isinstance(val, str):
+            raise SceneError(f"{section}.{key} = {val!r}: must be a string")
+        out[field] = val
+    return out
+
+
+def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
+    """Build and validate the FE parameter dataclasses (raises SceneError).
+
+    ``[geometry]`` holds :class:`geometry.PumpParams` fields with nested tables
+    ``[geometry.housing]``, ``[geometry.shaft_in]``, ``[geometry.shaft_out]``;
+    the centre distance, gear tip radius and gear width default to the ``[gear]``
+    values. ``[mesh]`` holds ``preset`` (default ``"coarse"``) and
+    :class:`geometry.MeshOptions` overrides.
+    """
+    import fem
+    import geometry
+    from study.scene import SceneError
+
+    try:
+        g = _convert("geometry", fe.get("geometry", {}), geometry.PumpParams,
+                     {"housing": geometry.HousingParams, "shaft_in": geometry.ShaftParams,
+                      "shaft_out": geometry.ShaftParams})
+        g.setdefault("centre_distance", gear.centre_distance)
+        g.setdefault("gear_tip_radius", gear.tip_radius)
+        g.setdefault("gear_width", gear.face_width)
+        pump = geometry.PumpParams(**g)
+        pump.validate()
+        m = dict(fe.get("mesh", {}))
+        name = m.pop("preset", "coarse")
+        if not isinstance(name, str):
+            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse' or 'fine')")
+        opts = geometry.preset(name, **_convert("mesh", m, geometry.MeshOptions))
+        opts.validate()
+        mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
+                                             fem.MaterialParams))
+        bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
+                                            fem.BearingParams))
+        drive = fem.DriveParams(**_convert("drive", fe.get("drive", {}), fem.DriveParams))
+        gears = fem.GearParams(base_radius_1=gear.base_radius, base_radius_2=gear.base_radius,
+                               pressure_angle=gear.pressure_angle, helix_angle=gear.helix_angle,
+                               face_width=gear.face_width, outer_radius=gear.tip_radius)
+    except SceneError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise SceneError(f"FE parameters: {exc}") from exc
+    return FEParams(pump, opts, mats, bear, drive, gears)
+
+
+# --------------------------------------------------------------------------- stages
+
+def mesh_stage(scene, folder: Path) -> None:
+    """Build and mesh the pump; write ``pump.msh`` and ``mesh.json`` (groups, centres)."""
+    from geometry import build_pump, gmsh_session, write_msh
+
+    p = fe_parameters(scene.fe, scene.gear)
+    with gmsh_session():
+        meshed = build_pump(p.pump, p.mesh)
+        write_msh(folder / "pump.msh")
+        q = meshed.quality
+        info = {"groups": {k: [int(v[0]), int(v[1])] for k, v in meshed.groups.items()},
+                "centres": {k: [float(x) for x in np.asarray(v).ravel()]
+                            for k, v in meshed.centres.items()},
+                "quality": {k: (float(v) if isinstance(v, (int, float, np.number)) else str(v))
+                            for k, v in dataclasses.asdict(q).items()
+                            if not isinstance(v, (dict, list, tuple))}}
+    (folder / "mesh.json").write_text(json.dumps(info, indent=1))
+
+
+def fe_stage(scene, mesh_dir: Path):
+    """FE model of the pump from the cached mesh (``fem.FEModel``)."""
+    import gmsh
+
+    from fem import build_pump_model, load_gmsh_mesh
+    from geometry import gmsh_session
+
+    p = fe_parameters(scene.fe, scene.gear)
+    info = json.loads((Path(mesh_dir) / "mesh.json").read_text())
+    groups = {k: (int(v[0]), int(v[1])) for k, v in info["groups"].items()}
+    centres = {k: np.asarray(v, dtype=float) for k, v in info["centres"].items()}
+    with gmsh_session():
+        gmsh.clear()
+        gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
+        fe_mesh = load_gmsh_mesh(None, groups=groups, centres=centres)
+    return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
+
+
+def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
+    """Craig–Bampton ROM (``rom.h5`` with basis) and the basis rows of the load nodes.
+
+    The coupled quantities stored in rom.h5 (frequencies, mesh energy, C, and the
+    Fig. 9 validation) use the scene's mean mesh stiffness at build time; the hbm
+    stage recomputes frequencies, mesh energies and C for the current k̄ and ξ.
+    """
+    import h5py
+
+    from reduction import build_rom, craig_bampton, save_rom, validate_rom
+
+    r = scene.rom
+    km, xi = scene.mesh_stiffness.mean, scene.damping.modal_ratio
+    kw = {"f_cut_hz": r.cutoff} if r.cutoff else {"n_modes": r.n_cm}
+    cb = craig_bampton(model.M, model.K, model.gear_dofs, **kw)
+    rom = build_rom(cb, model.G, km, xi)
+    if r.n_check > 0:
+        rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
+                                      min(r.n_check, rom.n_r))
+    save_rom(folder / "rom.h5", rom)
+    nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
+    rows = sorted({i for v in nodes.values() for i in v if i >= 0})
+    with h5py.File(folder / "rom.h5", "r") as f:
+        basis_rows = f["rom/basis"][rows, :] if rows else np.zeros((0, rom.n_r))
+    with h5py.File(folder / "nodes.h5", "w") as f:
+        f["rows"] = np.asarray(rows, dtype=np.int64)
+        f["basis_rows"] = basis_rows
+        f.attrs["nodes"] = json.dumps(nodes)
+        f.attrs["n_fe"] = int(model.K.getSize()[0])
+
+
+@dataclass
+class RomData:
+    """What the hbm/export stages need of a cached ROM (dense, no PETSc)."""
+
+    folder: Path
+    M: np.ndarray
+    K: np.ndarray
+    C: np.ndarray
+    G: np.ndarray
+    frequencies_hz: np.ndarray
+    mesh_energy: np.ndarray
+    km_mean: float
+    n_cm: int
+    validation: Any
+    node_rows: dict[str, np.ndarray]
+
+
+def _node_rows(folder: Path) -> dict[str, np.ndarray]:
+    import h5py
+
+    with h5py.File(folder / "nodes.h5", "r") as f:
+        rows = list(f["rows"][()])
+        br = f["basis_rows"][()]
+        nodes = json.loads(f.attrs["nodes"])
+    pos = {r: i for i, r in enumerate(rows)}
+    out = {}
+    for name, dofs in nodes.items():
+        m = np.zeros((6, br.shape[1]))
+        for j, d in enumerate(dofs):
+            if d >= 0:
+                m[j] = br[pos[d]]
+        out[name] = m  # (6, n_r): node DOF = m @ q
+    return out
+
+
+def rom_forcing(scene, rows: dict[str, np.ndarray], n_r: int) -> tuple[dict, dict]:
+    """External forcing on the ROM per shaft order: constant and Ω²-proportional parts.
+
+    Order 0: the impeller load torque T about +z on ``out/coupling`` (balanced by the
+    motor spring on the input: mesh load F_s = T/r_b). Aerodynamic loads (eq. 1):
+    node load ``[F, M] e^{iφ}`` on ``{shaft}/station_k`` projected with the basis rows,
+    ``f_r = T_nodeᵀ f``. Unbalance (eq. 2–3): ``f_x = −m Ω² sin(Ωt + φ)``,
+    ``f_y = −m Ω² cos(Ωt + φ)`` spread evenly on the six stations of the shaft,
+    i.e. Ω²-coefficients ``(i m e^{iφ}, −m e^{iφ})/6`` at order 1.
+    """
+    const: dict[int, np.ndarray] = {0: np.zeros(n_r, complex)}
+    om2: dict[int, np.ndarray] = {}
+    const[0] += rows["out/coupling"].T @ np.array([0, 0, 0, 0, 0, scene.load.torque])
+    for a in scene.external.aero:
+        f = np.concatenate([a.force, a.torque]) * np.exp(1j * a.phase)
+        v = rows[f"{a.shaft}/station_{a.station}"].T @ f
+        const[a.order] = const.get(a.order, np.zeros(n_r, complex)) + v
+    for u in scene.external.unbalance:
+        c = u.m_unb * np.exp(1j * u.phase) / 6.0
+        f = np.array([1j * c, -c, 0, 0, 0, 0])
+        for k in range(1, 7):
+            v = rows[f"{u.shaft}/station_{k}"].T @ f
+            om2[1] = om2.get(1, np.zeros(n_r, complex)) + v
+    const[0] = const[0].real.astype(complex)
+    return const, om2
+
+
+def load_rom_data(scene, rom_dir: Path) -> RomData:
+    """Dense ROM with C, coupled frequencies and mesh energies for the scene's k̄, ξ."""
+    from reduction import coupled_modes, load_rom, mesh_energy, modal_damping
+
+    rom = load_rom(Path(rom_dir) / "rom.h5")
+    km, xi = scene.mesh_stiffness.mean, scene.damping.modal_ratio
+    C = modal_damping(rom.M, rom.K, rom.G, km, xi)                  # eq. (18-19)
+    modes = coupled_modes(rom.M, rom.K, rom.G, km)                   # eq. (17)
+    rho = mesh_energy(rom.M, rom.K, rom.G, km)                       # eq. (31)
+    return RomData(Path(rom_dir), rom.M, rom.K, C, rom.G, modes.frequencies_hz, rho, km,
+                   rom.n_cm, rom.validation, _node_rows(Path(rom_dir)))
+
+
+def rom_problem(scene, rom_dir: Path):
+    """(HBMProblem, RomData) of an FE scene from its cached ROM."""
+    from study.model import build_problem
+
+    rd = load_rom_data(scene, rom_dir)
+    const, om2 = rom_forcing(scene, rd.node_rows, rd.M.shape[0])
+    return build_problem(scene, rd.M, rd.C, rd.K, rd.G, const, om2), rd
+
+
+def write_rom_group(f, result) -> None:
+    """Copy the cached ROM's dense datasets into results.h5 ``/rom`` (no basis) and
+    replace the coupled quantities by those of the run's k̄ and ξ."""
+    import h5py
+
+    rd = result.rom
+    with h5py.File(rd.folder / "rom.h5", "r") as src:
+        g = f.create_group("rom")
+        for k, v in src["rom"].attrs.items():
+            g.attrs[k] = v
+        for name in src["rom"]:
+            if name != "basis":
+                src.copy(src["rom"][name], g, name=name)
+    for name, val in (("C", rd.C), ("frequencies_hz", rd.frequencies_hz),
+                      ("mesh_energy", rd.mesh_energy)):
+        del g[name]
+        g[name] = val
+    g.attrs["km_mean"] = rd.km_mean
+    g.attrs["xi_run"] = result.scene.damping.modal_ratio
+
+
+def rom_plots(result, want: set) -> list[Path]:
+    """Campbell diagram (Fig. 8) and ROM frequency error (Fig. 9)."""
+    from study import plots
+
+    rd, out, sc = result.rom, Path(result.out), result.scene
+    paths = []
+    if "campbell" in want:
+        paths.append(plots.campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
+                                         sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
+                                         out / "campbell.png"))
+    if "rom_error" in want and rd.validation is not None:
+        paths.append(plots.rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
+                                          out / "rom_error.png",
+                                          rd.validation.relative_error))
+    return paths
+
+
+def housing_fields(result, n_frames: int = 32) -> list[Path]:
+    """Displacement of housing and shafts over one fundamental period at the scene's
+    ``housing_field_rpm`` speeds, as XDMF + HDF5 time series (P2 field on the
+    second-order mesh, so ParaView sees every P2 node, ``Tetrahedron_10``)."""
+    from dolfinx.io import XDMFFile
+    from mpi4py import MPI
+
+    from reduction import load_basis, reconstruct
+    from study.export import nearest_point
+
+    sc = result.scene
+    rd = result.rom
+    logger.info("rebuilding the FE model from the cached mesh for the housing fields")
+    model = fe_stage(sc, result.mesh_dir)
+    T = load_basis(rd.folder / "rom.h5", row_range=model.K.getOwnershipRange())
+    paths = []
+    hs = result.problem.harmonics
+    for rpm in sc.outputs.housing_field:
+        _, pt = nearest_point(result, rpm)
+        qk = result.problem.recover(pt)                      # (n_r, nS) complex
+        w0 = hs.fundamental_rad_s(pt.omega)
+        tau = 2 * np.pi * np.arange(n_frames) / n_frames
+        k = np.asarray(hs.indices, dtype=float)
+        path = Path(result.out) / f"housing_{pt.rpm:.0f}rpm.xdmf"
+        # written in a temporary folder under the final names (the .xdmf refers to
+        # the .h5 by name), then moved: the .h5 first, the .xdmf last
+        tmpdir = Path(tempfile.mkdtemp(prefix=".housing.", dir=result.out))
+        with XDMFFile(MPI.COMM_WORLD, str(tmpdir / path.name), "w") as xf:
+            xf.write_mesh(model.fe_mesh.mesh)
+            for t in tau:
+                q = (qk * np.exp(1j * k * t)[None, :]).real.sum(axis=1)
+                u = model.displacement(reconstruct(T, q))
+                xf.write_function(u, t / w0)
+        from study.results import replace_file
+        replace_file(tmpdir / path.with_suffix(".h5").name, path.with_suffix(".h5"))
+        replace_file(tmpdir / path.name, path)
+        shutil.rmtree(tmpdir, ignore_errors=True)
+        paths.append(path)
+        logger.info("wrote %s (%d frames)", path, n_frames)
+    return paths

@@ -1,0 +1,413 @@
+"""The cached pipeline: mesh → fe → rom → hbm → export.
+
+Each stage is cached on disk (:mod:`study.cache`) under a key that hashes exactly
+the inputs it depends on plus the source code of the packages that compute it:
+
+========  =====================================================================
+stage     key inputs
+========  =====================================================================
+mesh      ``[geometry]``, ``[mesh]``, gear face width/tip radius, centre distance
+fe        mesh key, ``[materials]``, ``[bearings]``, ``[drive]``, gear data of G
+          (key only: the FE model is rebuilt from the cached mesh when needed)
+rom       fe key, ``[rom]``
+hbm       rom key (FE) or ``[lumped]`` + gear (lumped), mesh stiffness, TE, load,
+          backlash, external, damping, ``[hbm]``, ``[continuation]``
+export    never cached (writes ``results.h5``, plots and ``report.md``)
+========  =====================================================================
+
+So changing the torque, backlash, mesh stiffness or speed range reruns only the
+hbm stage (the ROM keeps the physical gear DOF, Sect. 5), while changing a wall
+thickness re-meshes. A lumped scene runs only hbm and export and never imports
+dolfinx, gmsh or petsc4py. The log says which stages ran and which came from cache.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from study.cache import StageCache, source_hash, stage_key
+from study.scene import Scene, SceneError, StageUnavailable
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["RunResult", "SolverError", "StageUnavailable", "Pipeline", "run_scene",
+           "hbm_inputs"]
+
+
+class SolverError(RuntimeError):
+    """The continuation or a solve failed (exit code 3); partial results are saved.
+
+    ``result`` holds the partial :class:`RunResult` when there is one.
+    """
+
+    def __init__(self, message: str, result=None) -> None:
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass
+class RunResult:
+    """What a run produced.
+
+    Attributes
+    ----------
+    out : Path
+        Output folder.
+    results : Path
+        ``results.h5``.
+    branch
+        The :class:`hbm.Branch`.
+    problem
+        The :class:`hbm.HBMProblem` (for time series, spectra, recovery).
+    stages : dict
+        Stage name -> ``"ran"``, ``"cached"``, ``"resumed"`` or ``"skipped"``.
+    keys : dict
+        Stage name -> cache key.
+    figures : list of Path
+        PNG files written.
+    seconds : float
+        Wall time of the run.
+    """
+
+    out: Path
+    results: Path
+    branch: Any
+    problem: Any
+    scene: Scene
+    stages: dict[str, str] = field(default_factory=dict)
+    keys: dict[str, str] = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
+    seconds: float = 0.0
+    rom: Any = None
+    mesh_dir: Path | None = None
+
+
+def _require(*modules: str) -> None:
+    """Raise :class:`StageUnavailable` if a package a stage needs cannot be imported."""
+    import importlib
+
+    for m in modules:
+        try:
+            importlib.import_module(m)
+        except ImportError as exc:
+            raise StageUnavailable(f"package {m!r} is not available: {exc}") from exc
+
+
+def _asdict(x) -> dict:
+    return dataclasses.asdict(x)
+
+
+def hbm_inputs(scene: Scene) -> dict[str, Any]:
+    """Exactly what the hbm stage depends on besides the linear model's key."""
+    return {"gear": _asdict(scene.gear), "mesh_stiffness": _asdict(scene.mesh_stiffness),
+            "transmission_error": _asdict(scene.transmission_error),
+            "load": _asdict(scene.load), "external": _asdict(scene.external),
+            "damping": _asdict(scene.damping), "hbm": _asdict(scene.hbm),
+            "continuation": {k: v for k, v in _asdict(scene.continuation).items()
+                             if k != "checkpoint_every"}}  # does not change the curve
+
+
+class Pipeline:
+    """Runs the stages of one scene into one output folder.
+
+    Parameters
+    ----------
+    scene : Scene
+        Validated scene.
+    out : path
+        Output folder (created).
+    cache_dir : path, optional
+        Stage cache (default ``<out>/../.geardyn-cache``, shared by sibling runs).
+    refresh : bool
+        Recompute every stage (cache lookups miss; entries are overwritten).
+    resume : bool
+        Continue an interrupted continuation from ``<out>/results.h5``.
+    progress : bool
+        Show tqdm progress bars.
+    """
+
+    def __init__(self, scene: Scene, out: str | Path, cache_dir: str | Path | None = None,
+                 refresh: bool = False, resume: bool = False, progress: bool = True) -> None:
+        self.scene = scene
+        self.out = Path(out)
+        self.cache = StageCache(Path(cache_dir) if cache_dir else
+                                self.out.resolve().parent / ".geardyn-cache", enabled=not refresh)
+        self.resume = resume
+        self.progress = progress
+        self.stages: dict[str, str] = {}
+        self.keys: dict[str, str] = {}
+        self._fe_model = None
+
+    # ------------------------------------------------------------------ helpers
+    def _log_stage(self, name: str, how: str, seconds: float | None = None) -> None:
+        if self.stages.get(name) == "ran" and how != "ran":
+            return  # a stage that ran in this run and is looked up again stays "ran"
+        self.stages[name] = how
+        extra = f" in {seconds:.2f} s" if seconds is not None else ""
+        key = self.keys.get(name, "")
+        logger.info("stage %-6s %s%s%s", name, how, extra, f" [{key[:12]}]" if key else "")
+
+    # ------------------------------------------------------------------ FE stages
+    def mesh_key(self) -> str:
+        s = self.scene
+        return stage_key("mesh", {"geometry": s.fe.get("geometry", {}),
+                                  "mesh": s.fe.get("mesh", {}),
+                                  "gear": {"face_width": s.gear.face_width,
+                                           "tip_radius": s.gear.tip_radius,
+                                           "centre_distance": s.gear.centre_distance}},
+                         source_hash("geometry", "study.fe_stages"))
+
+    def fe_key(self) -> str:
+        s = self.scene
+        return stage_key("fe", {"mesh": self.mesh_key(),
+                                **{k: s.fe.get(k, {}) for k in ("materials", "bearings", "drive")},
+                                "gear": {"base_radius": s.gear.base_radius,
+                                         "pressure_angle": s.gear.pressure_angle,
+                                         "helix_angle": s.gear.helix_angle,
+                                         "face_width": s.gear.face_width}},
+                         source_hash("fem", "study.fe_stages"))
+
+    def rom_key(self) -> str:
+        return stage_key("rom", {"fe": self.fe_key(), "rom": _asdict(self.scene.rom)},
+                         source_hash("reduction", "study.fe_stages"))
+
+    def run_mesh(self) -> Path:
+        """Mesh stage (FE scenes): cached gmsh model file."""
+        from study import fe_stages
+
+        _require("geometry", "gmsh")
+        key = self.keys["mesh"] = self.mesh_key()
+        hit = self.cache.lookup("mesh", key)
+        if hit is not None:
+            self._log_stage("mesh", "cached")
+            return hit
+        t = time.perf_counter()
+        with _StageBar("mesh (gmsh)", self.progress):
+            d = self.cache.store("mesh", key, lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
+        self._log_stage("mesh", "ran", time.perf_counter() - t)
+        return d
+
+    def run_rom(self) -> Path:
+        """fe + rom stages (FE scenes): the FE model is built only when the ROM misses."""
+        from study import fe_stages
+
+        _require("reduction", "h5py")
+        self.keys["fe"] = self.fe_key()
+        key = self.keys["rom"] = self.rom_key()
+        hit = self.cache.lookup("rom", key)
+        if hit is not None:
+            self.keys["mesh"] = self.mesh_key()
+            self._log_stage("mesh", "skipped (rom cached)")
+            self._log_stage("fe", "skipped (rom cached)")
+            self._log_stage("rom", "cached")
+            return hit
+        mesh_dir = self.run_mesh()
+        t = time.perf_counter()
+        with _StageBar("fe (assembly)", self.progress):
+            model = fe_stages.fe_stage(self.scene, mesh_dir)
+        self._log_stage("fe", "ran", time.perf_counter() - t)
+        t = time.perf_counter()
+        with _StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
+            d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
+                self.scene, model, tmp, self.progress))
+        self._log_stage("rom", "ran", time.perf_counter() - t)
+        return d
+
+    # ------------------------------------------------------------------ hbm
+    def problem(self):
+        """The HBM problem and (FE) the ROM it was built from."""
+        from study.model import lumped_problem
+
+        if self.scene.scene.kind == "lumped":
+            self.keys.setdefault("linear", stage_key(
+                "linear", {"lumped": _asdict(self.scene.lumped), "gear": _asdict(self.scene.gear),
+                           "damping": _asdict(self.scene.damping),
+                           "mean_stiffness": self.scene.mesh_stiffness.mean},
+                source_hash("study.lumped")))
+            return lumped_problem(self.scene), None
+        from study import fe_stages
+
+        rom_dir = self.run_rom()
+        return fe_stages.rom_problem(self.scene, rom_dir)
+
+    def hbm_key(self) -> str:
+        lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
+        return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
+                         source_hash("hbm", "study.model", "study.results"))
+
+    def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
+        """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
+        from hbm import trace
+        from study.results import Checkpointer, read_branch
+
+        key = self.keys["hbm"] = self.hbm_key()
+        hit = self.cache.lookup("hbm", key)
+        if hit is not None:
+            br = read_branch(hit / "branch.h5", problem)
+            if br is not None and br.status == "completed":
+                self._log_stage("hbm", "cached")
+                return br, "cached"
+        c = self.scene.continuation
+        lo, hi = c.speed
+        span = hi - lo
+        resume = None
+        results = self.out / "results.h5"
+        if self.resume:
+            resume = read_branch(results, problem, expected_key=key)
+            if resume is None:
+                logger.warning("--resume: no matching partial run in %s; starting from %g rpm",
+                               results, lo)
+            else:
+                logger.info("resuming from point %d at %.6g rpm (%s)", len(resume),
+                            resume.rpm[-1], resume.status)
+        bar = _ProgressBar(lo, hi, self.progress)
+        ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
+        t = time.perf_counter()
+        try:
+            br = trace(problem, lo, hi, step=c.step / span, min_step=c.min_step / span,
+                       max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
+                       on_point=ck, resume=resume, stability=self.scene.hbm.stability,
+                       hill_max_size=self.scene.hbm.hill_max_size)
+        finally:
+            bar.close()
+        dt = time.perf_counter() - t
+        how = "resumed" if resume is not None else "ran"
+        self._log_stage("hbm", how, dt)
+        logger.info("continuation: %d points, %s (%s); %d checkpoints", len(br), br.status,
+                    br.message, ck.n_written)
+        if br.status == "completed" and len(br) > 0:
+            if np.max(br.residual) >= c.tolerance:
+                raise SolverError(f"continuation returned a point with residual "
+                                  f"{np.max(br.residual):.3g} >= tolerance {c.tolerance:g}")
+
+            def produce(tmp: Path) -> None:
+                import h5py
+
+                from study.results import write_branch
+                with h5py.File(tmp / "branch.h5", "w") as f:
+                    write_branch(f, br)
+            self.cache.store("hbm", key, produce, {"points": len(br)})
+        return br, how
+
+    # ------------------------------------------------------------------ all
+    def run(self, *, until: str = "export") -> RunResult:
+        """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
+        from study.export import export, write_partial
+
+        t0 = time.perf_counter()
+        s = self.scene
+        logger.info("scene %r (%s) -> %s", s.name, s.scene.kind, self.out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        if s.scene.kind == "lumped":
+            if until in ("mesh", "rom"):
+                raise SceneError(f"scene.kind = 'lumped': there is no {until} stage "
+                                 "(only hbm and export)")
+            for st in ("mesh", "fe", "rom"):
+                self._log_stage(st, "skipped (lumped scene)")
+        elif until == "mesh":
+            self.run_mesh()
+            return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
+                             self.keys, seconds=time.perf_counter() - t0)
+        elif until == "rom":
+            self.run_rom()
+            return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
+                             self.keys, seconds=time.perf_counter() - t0)
+        problem, rom = self.problem()
+        self.keys.setdefault("hbm", self.hbm_key())
+        result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
+                           self.keys, rom=rom)
+
+        def checkpoint(branch) -> None:
+            write_partial(result, branch)
+
+        branch, _ = self.run_hbm(problem, checkpoint)
+        result.branch = branch
+        if branch.status != "completed":
+            write_partial(result, branch)
+            self._log_stage("export", "partial results.h5 only")
+            raise SolverError(f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
+                              f"{branch.message} (results.h5 holds {len(branch)} points; "
+                              "rerun with --resume after changing the steps/tolerance)",
+                              result)
+        if s.scene.kind == "fe" and s.outputs.housing_field:
+            result.mesh_dir = self.run_mesh()
+        t = time.perf_counter()
+        self.stages["export"] = "ran"  # listed in report.md, written during export
+        export(result, figures=(until == "export"))
+        self._log_stage("export", "ran", time.perf_counter() - t)
+        result.seconds = time.perf_counter() - t0
+        ran = [k for k, v in self.stages.items() if v in ("ran", "resumed")]
+        cached = [k for k, v in self.stages.items() if v == "cached"]
+        logger.info("done in %.2f s; ran: %s; from cache: %s", result.seconds,
+                    ", ".join(ran) or "-", ", ".join(cached) or "-")
+        return result
+
+
+class _StageBar:
+    """Context manager: a tqdm line with the elapsed time of a long stage (mesh, FE
+    assembly, eigen-solve), refreshed twice a second by a thread."""
+
+    def __init__(self, desc: str, enabled: bool) -> None:
+        self.desc, self.enabled = desc, enabled
+
+    def __enter__(self):
+        if not self.enabled:
+            return self
+        import threading
+
+        from tqdm import tqdm
+        self.bar = tqdm(total=1, desc=self.desc, leave=False,
+                        bar_format="{desc}: running {elapsed}")
+        self.stop = threading.Event()
+
+        def tick() -> None:
+            while not self.stop.wait(0.5):
+                self.bar.refresh()
+        self.thread = threading.Thread(target=tick, daemon=True)
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.enabled:
+            self.stop.set()
+            self.thread.join()
+            self.bar.close()
+
+
+class _ProgressBar:
+    """tqdm bar over the speed range (furthest speed reached)."""
+
+    def __init__(self, lo: float, hi: float, enabled: bool) -> None:
+        self.lo, self.hi = lo, hi
+        self.bar = None
+        self.best = 0
+        if enabled:
+            from tqdm import tqdm
+            self.bar = tqdm(total=1000, desc="continuation", unit="‰", leave=False,
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
+
+    def update(self, branch) -> None:
+        if self.bar is None or len(branch) == 0:
+            return
+        rpm = float(branch.rpm[-1])
+        pos = int(1000 * (rpm - self.lo) / (self.hi - self.lo))
+        if pos > self.best:
+            self.bar.update(pos - self.best)
+            self.best = pos
+        self.bar.set_postfix_str(f"{rpm:.0f} rpm, {len(branch)} pts", refresh=False)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run_scene(scene: Scene, out: str | Path, **kwargs) -> RunResult:
+    """Run a validated scene (see :class:`Pipeline`)."""
+    until = kwargs.pop("until", "export")
+    return Pipeline(scene, out, **kwargs).run(until=until)

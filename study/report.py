@@ -1,0 +1,86 @@
+"""``report.md``: the figures and key numbers of a run."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from study.plots import contact_intervals
+
+__all__ = ["summary", "write_report"]
+
+_CLASS = ("permanent contact", "single-sided impacts", "double-sided impacts")
+
+
+def summary(result) -> dict:
+    """Key numbers of a run (SI / rpm)."""
+    br = result.branch
+    i = int(np.argmax(br.mesh_load_std))
+    return {
+        "points": len(br), "status": br.status, "max_residual": float(np.max(br.residual)),
+        "max_mesh_load_std": float(br.mesh_load_std[i]), "at_rpm": float(br.rpm[i]),
+        "grazing": [(g.rpm, g.kind, g.side) for g in br.grazing],
+        "folds": [float(f) for f in br.folds],
+        "classes": {int(c): int(np.sum(br.contact == c)) for c in np.unique(br.contact)},
+        "unstable_points": int(np.sum(~br.stable.astype(bool))),
+        "intervals": contact_intervals(br.rpm, br.contact),
+    }
+
+
+def write_report(result) -> Path:
+    """Write ``<out>/report.md`` atomically and return its path."""
+    s, sc = summary(result), result.scene
+    g = sc.gear
+    lines = [f"# {sc.name}", "", sc.scene.description or "", "",
+             "## Model", "",
+             f"- kind: {sc.scene.kind}; {result.problem.system.n_dof} DOF, condensation "
+             f"`{result.problem.condensation}`",
+             f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
+             f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
+             f"ε_α = {g.contact_ratio:.3f}",
+             f"- torque T = {sc.load.torque:g} N·m, static load F_s = {sc.static_load:.2f} N, "
+             f"half backlash b = {g.backlash * 1e6:g} µm",
+             f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
+             f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
+             f"{len(sc.transmission_error.amplitudes)} harmonics",
+             f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
+             f"{result.problem.harmonics.n_harmonics} indices of the "
+             f"{result.problem.harmonics.fundamental} frequency, "
+             f"{result.problem.harmonics.n_time} AFT samples",
+             "", "## Continuation", "",
+             f"- {s['points']} points from {sc.continuation.speed[0]:g} to "
+             f"{sc.continuation.speed[1]:g} rpm, status `{s['status']}`",
+             f"- largest relative residual {s['max_residual']:.2e} "
+             f"(tolerance {sc.continuation.tolerance:g})",
+             f"- largest std of the dynamic mesh load {s['max_mesh_load_std']:.4g} N at "
+             f"{s['at_rpm']:.1f} rpm",
+             "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
+                                                 s["classes"].items()),
+             f"- unstable points (Hill): {s['unstable_points']}",
+             "- folds (jumps) near: " + (", ".join(f"{f:.1f}" for f in s["folds"]) or "none")
+             + " rpm", "", "### Grazing bifurcations", "",
+             "| rpm | kind | flank |", "|---:|---|---|"]
+    lines += [f"| {r:.2f} | {k} | {sd} |" for r, k, sd in s["grazing"]] or ["| – | – | – |"]
+    lines += ["", "### Speed ranges with impacts (rpm)", ""]
+    for c, iv in s["intervals"].items():
+        txt = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
+        lines.append(f"- {_CLASS[c]}: {txt}")
+    lines += ["", "## Stages", ""]
+    lines += [f"- {k}: {v}" for k, v in result.stages.items()]
+    lines += ["", "## Figures", ""]
+    out = Path(result.out)
+    for p in result.figures:
+        p = Path(p)
+        if p.suffix == ".png":
+            lines += [f"![{p.stem}]({os.path.relpath(p, out)})", ""]
+        else:
+            lines += [f"- [{p.name}]({os.path.relpath(p, out)})"]
+    path = out / "report.md"
+    fd, tmp = tempfile.mkstemp(prefix=".report.", suffix=".md", dir=out)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    from study.results import replace_file
+    replace_file(tmp, path)
+    return path

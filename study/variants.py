@@ -1,0 +1,81 @@
+"""Parameter studies (``--set key=v1,v2``): overlay plot and table; reports from files."""
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from study.plots import contact_intervals, forced_response_overlay
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["write_variants", "variants_table", "report_from_results"]
+
+
+def _label(ov: dict) -> str:
+    return ", ".join(f"{k.split('.')[-1]}={v}" for k, v in ov.items())
+
+
+def variants_table(results: list) -> str:
+    """Markdown table: one row per variant with its key numbers and grazing speeds."""
+    rows = ["| variant | points | max std (N) | at rpm | grazing (rpm) | impacts (rpm) | stages |",
+            "|---|---:|---:|---:|---|---|---|"]
+    for ov, r in results:
+        br = r.branch
+        i = int(np.argmax(br.mesh_load_std))
+        gz = ", ".join(f"{g.rpm:.1f}" for g in sorted(br.grazing, key=lambda g: g.rpm)) or "–"
+        iv = contact_intervals(br.rpm, br.contact)
+        imp = "; ".join(f"{'SS' if c == 1 else 'DS'} {a:.0f}–{b:.0f}"
+                        for c, ivs in iv.items() for a, b in ivs) or "none"
+        st = ", ".join(f"{k}:{v.split(' ')[0]}" for k, v in r.stages.items()
+                       if not v.startswith("skipped"))
+        if br.status != "completed":
+            st = f"stopped at {br.rpm[-1]:.0f} rpm ({br.status})"
+        rows.append(f"| {_label(ov)} | {len(br)} | {br.mesh_load_std[i]:.4g} | "
+                    f"{br.rpm[i]:.1f} | {gz} | {imp} | {st} |")
+    return "\n".join(rows)
+
+
+def write_variants(out: Path, results: list) -> tuple[Path, Path]:
+    """``OUT/variants_forced_response.png`` and ``OUT/variants.md``."""
+    out = Path(out)
+    png = forced_response_overlay([r.branch for _, r in results],
+                                  [_label(ov) for ov, _ in results],
+                                  out / "variants_forced_response.png")
+    text = "# Parameter study\n\n" + variants_table(results) + \
+        "\n\nSS: single-sided impacts, DS: double-sided impacts.\n\n" \
+        "![variants](variants_forced_response.png)\n"
+    fd, tmp = tempfile.mkstemp(prefix=".variants.", suffix=".md", dir=out)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text)
+    from study.results import replace_file
+    md = out / "variants.md"
+    replace_file(tmp, md)
+    logger.info("wrote %s and %s", png, md)
+    return png, md
+
+
+def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
+                        cache: str | None = None):
+    """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
+    from study.pipeline import Pipeline, RunResult, SolverError
+    from study.results import read_branch
+    from study.scene import load_scene
+
+    scene = load_scene(scene_path, overrides)
+    pipe = Pipeline(scene, out, cache_dir=cache, progress=False)
+    problem, rom = pipe.problem()
+    key = pipe.hbm_key()
+    br = read_branch(Path(out) / "results.h5", problem, expected_key=key)
+    if br is None:
+        raise SolverError(f"{Path(out) / 'results.h5'}: no results of this scene; run "
+                          "`geardyn run` first")
+    res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
+                    {"hbm": "from results.h5"}, pipe.keys, rom=rom)
+    from study import plots, report
+    res.figures += plots.draw_all(res)
+    report.write_report(res)
+    return res

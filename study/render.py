@@ -1,4 +1,4 @@
-"""Off-screen pyvista rendering of the deformed housing and shafts from the XDMF field.
+"""Off-screen pyvista rendering of the housing's vibration from the XDMF field.
 
 Optional (``pyvista`` and ``meshio``, the ``viz`` extra); a missing package or a
 failing renderer only logs a warning. :func:`render_housing_isolated` runs the
@@ -36,11 +36,25 @@ def render_housing_isolated(xdmf: Path, png: Path, timeout: float = 300.0) -> Pa
     return Path(png)
 
 
-def render_housing(xdmf: Path, png: Path, amplification: float = 0.05) -> Path | None:
-    """Render the frame of largest displacement of ``xdmf`` to ``png``.
+def _dynamic_frames(xdmf: Path) -> tuple[np.ndarray, dict, np.ndarray]:
+    """Points, cells and the displacement frames of ``xdmf`` minus their mean over the period."""
+    import meshio
 
-    The displacement is scaled so that its maximum is ``amplification`` times the
-    model's bounding-box diagonal; colours show |u| in µm (true scale).
+    with meshio.xdmf.TimeSeriesReader(str(xdmf)) as rd:
+        points, cells = rd.read_points_cells()
+        frames = np.array([next(iter(rd.read_data(k)[1].values())) for k in range(rd.num_steps)])
+    return points, cells, frames - frames.mean(axis=0)
+
+
+def render_housing(xdmf: Path, png: Path, amplification: float = 0.05) -> Path | None:
+    """Render the housing's vibration from ``xdmf`` to ``png``.
+
+    Only the housing is drawn: the parts are meshed non-conformally, so the
+    housing is the largest connected region of the mesh. The static (mean)
+    deflection is removed; the housing is warped by the frame of largest dynamic
+    displacement, scaled so that its maximum is ``amplification`` times the
+    housing's bounding-box diagonal, and coloured by the dynamic amplitude
+    max_t |u(t) - u_mean| in µm (true scale).
     """
     try:
         import meshio
@@ -49,27 +63,22 @@ def render_housing(xdmf: Path, png: Path, amplification: float = 0.05) -> Path |
         logger.warning("housing rendering skipped: %s (install the 'viz' extra)", exc)
         return None
     try:
-        with meshio.xdmf.TimeSeriesReader(str(xdmf)) as rd:
-            points, cells = rd.read_points_cells()
-            best, frame = -1.0, None
-            for k in range(rd.num_steps):
-                _, pdata, _ = rd.read_data(k)
-                u = next(iter(pdata.values()))
-                m = float(np.max(np.linalg.norm(u, axis=1)))
-                if m > best:
-                    best, frame = m, u
+        points, cells, dyn = _dynamic_frames(xdmf)
+        norms = np.linalg.norm(dyn, axis=2)                    # (frames, nodes)
         grid = pv.from_meshio(meshio.Mesh(points, cells))
-        mag = np.linalg.norm(frame, axis=1)
-        diag = float(np.linalg.norm(np.ptp(points, axis=0)))
+        grid.point_data["amplitude (um)"] = norms.max(axis=0) * 1e6
+        grid.point_data["u"] = dyn[int(np.argmax(norms.max(axis=1)))]
+        housing = grid.connectivity("largest")
+        best = float(np.max(housing.point_data["amplitude (um)"])) * 1e-6
+        diag = float(np.linalg.norm(np.ptp(housing.points, axis=0)))
         scale = amplification * diag / max(best, 1e-300)
-        grid.point_data["|u| (um)"] = mag * 1e6
-        grid.point_data["u"] = frame
-        warped = grid.warp_by_vector("u", factor=scale)
+        warped = housing.warp_by_vector("u", factor=scale)
         pv.OFF_SCREEN = True
         p = pv.Plotter(off_screen=True, window_size=(1200, 800))
-        p.add_mesh(warped.extract_surface(), scalars="|u| (um)", cmap="viridis",
+        p.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="amplitude (um)", cmap="viridis",
                    show_edges=False)
-        p.add_text(f"{Path(xdmf).stem}: displacement x{scale:.3g}", font_size=10)
+        p.add_text(f"{Path(xdmf).stem}: housing, dynamic displacement x{scale:.3g}",
+                   font_size=10)
         p.view_isometric()
         png = Path(png)
         p.screenshot(str(png))

@@ -193,6 +193,26 @@ class Pipeline:
         self._log_stage("mesh", "ran", time.perf_counter() - t)
         return d
 
+    def publish_mesh(self, mesh_dir: Path) -> Path:
+        """Copy the cached ``pump.msh`` to ``<out>/mesh.msh`` (atomically) and log its size
+        and quality (``geardyn mesh``)."""
+        import json
+        import os
+        import shutil
+        import tempfile
+
+        target = self.out / "mesh.msh"
+        fd, tmp = tempfile.mkstemp(dir=self.out, prefix=".mesh.", suffix=".msh.tmp")
+        os.close(fd)
+        shutil.copyfile(Path(mesh_dir) / "pump.msh", tmp)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, target)
+        q = json.loads((Path(mesh_dir) / "mesh.json").read_text())["quality"]
+        logger.info("mesh: %s — %d tets (10 nodes), %d nodes, %d P2 DOF; min SICN %.3g, "
+                    "%d elements below SICN %.3g", target, q["n_elements"], q["n_nodes"],
+                    q["n_dofs"], q["min_sicn"], q["n_poor"], q["poor_threshold"])
+        return target
+
     def run_rom(self) -> Path:
         """fe + rom stages (FE scenes): the FE model is built only when the ROM misses."""
         from study import fe_stages
@@ -311,7 +331,7 @@ class Pipeline:
             for st in ("mesh", "fe", "rom"):
                 self._log_stage(st, "skipped (lumped scene)")
         elif until == "mesh":
-            self.run_mesh()
+            self.publish_mesh(self.run_mesh())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
                              self.keys, seconds=time.perf_counter() - t0)
         elif until == "rom":

@@ -8,7 +8,8 @@
     geardyn export SCENE --out DIR      # all stages (cached ones reused), results.h5 and
                                         # housing fields, no plots
     geardyn report SCENE --out DIR      # plots + report.md from DIR/results.h5
-    geardyn convergence SCENE --out DIR [--set hbm.mesh_harmonics=4,8,16]
+    geardyn convergence SCENE --out DIR [--knob harmonics=4,8,16] [--only n_cm]
+                                        [--tol 1e-2]   # error against run time per knob
 
 Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
 the field); 3 solver failure (continuation stopped early; the points computed so
@@ -60,6 +61,14 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     g.add_argument("-v", "--verbose", action="store_true", help="debug messages")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    c = p.add_argument_group("convergence")
+    c.add_argument("--knob", action="append", default=[], metavar="NAME=V1,V2,...",
+                   help="values of one knob (mesh size factors, n_cm, harmonics, sidebands, "
+                        "aft, step [rpm]); repeatable")
+    c.add_argument("--only", action="append", default=[], metavar="NAME",
+                   help="sweep only this knob (repeatable; default: all that apply)")
+    c.add_argument("--tol", type=float, default=1e-2,
+                   help="relative error tolerance of the recommendation (default 1e-2)")
     return p
 
 
@@ -165,6 +174,42 @@ def _report(args, scene_path: Path, overrides: dict) -> int:
     return EXIT_OK
 
 
+def _convergence(args, scene_path: Path) -> int:
+    """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
+    from study.convergence import KNOB_KEYS, run_convergence
+    from study.scene import parse_set_values
+
+    knobs: dict[str, list] = {}
+    for item in args.knob:
+        name, sep, val = item.partition("=")
+        vals = parse_set_values(val) if sep and val.strip() else []
+        if not vals or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                for v in vals):
+            raise SceneError(f"--knob {item!r}: must be NAME=V1,V2,... with numbers")
+        knobs[name.strip()] = vals
+    only = list(args.only)
+    base: dict = {}
+    # --set KNOB_KEY=v1,v2 is the same as --knob NAME=v1,v2 --only NAME (not for the mesh,
+    # whose knob values are size factors, not sizes)
+    by_key = {v: k for k, v in KNOB_KEYS.items() if k != "mesh"}
+    for item in args.set:
+        key, _, val = item.partition("=")
+        vals = parse_set_values(val)
+        if len(vals) > 1 and key.strip() in by_key:
+            knobs[by_key[key.strip()]] = vals
+            only.append(by_key[key.strip()])
+        elif len(vals) == 1:
+            base.update(parse_sets([item])[0])
+        else:
+            raise SceneError(f"--set {item!r}: convergence takes one value per key "
+                             "(use --knob NAME=V1,V2 for the swept values)")
+    cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
+    run_convergence(scene_path, args.out, knobs=knobs, only=only or None, tol=args.tol,
+                    overrides=base, cache_dir=cache, refresh=args.no_cache,
+                    progress=not args.no_progress)
+    return EXIT_OK
+
+
 def _dispatch(args) -> int:
     scene_path = Path(args.scene)
     variants = parse_sets(args.set)
@@ -174,13 +219,7 @@ def _dispatch(args) -> int:
             raise SceneError("report: --set takes a single value per key")
         return _report(args, scene_path, variants[0])
     if cmd == "convergence":
-        if variants == [{}]:
-            import study
-            sc = study.load_scene(scene_path)
-            n = sc.hbm.mesh_harmonics
-            vals = sorted({max(1, round(n * f)) for f in (0.25, 0.5, 0.75, 1.0)})
-            variants = [{"hbm.mesh_harmonics": v} for v in vals]
-        return _run_variants(args, scene_path, variants, "export")
+        return _convergence(args, scene_path)
     until = {"run": "export", "mesh": "mesh", "reduce": "rom", "export": "hbm"}[cmd]
     return _run_variants(args, scene_path, variants, until)
 

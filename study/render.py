@@ -75,8 +75,8 @@ def render_housing(xdmf: Path, png: Path, amplification: float = 0.05) -> Path |
         warped = housing.warp_by_vector("u", factor=scale)
         pv.OFF_SCREEN = True
         p = pv.Plotter(off_screen=True, window_size=(1200, 800))
-        p.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="amplitude (um)", cmap="viridis",
-                   show_edges=False)
+        surface = warped.extract_surface(algorithm="dataset_surface")
+        p.add_mesh(surface, scalars="amplitude (um)", cmap="viridis", show_edges=False)
         p.add_text(f"{Path(xdmf).stem}: housing, dynamic displacement x{scale:.3g}",
                    font_size=10)
         p.view_isometric()

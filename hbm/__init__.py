@@ -12,9 +12,13 @@ from .model import Excitation, GearMesh, LinearSystem
 from .postprocess import PointStats, TimeSeries, ipp_sequence, point_stats, spectrum, time_series
 from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, Point
 from .stability import floquet_exponents
+from .verify import ShootingCheck, full_residual, quasi_static_delta, shooting_error
 
 __all__ = [
     "Branch", "ConvergenceError", "Excitation", "GearMesh", "GrazingPoint", "HBMProblem",
-    "HarmonicSet", "LinearSystem", "Point", "PointStats", "RPM_TO_RAD_S", "TimeSeries",
-    "floquet_exponents", "ipp_sequence", "point_stats", "spectrum", "time_series", "trace",
+    "HarmonicSet", "LinearSystem", "Point", "PointStats", "RPM_TO_RAD_S", "ShootingCheck",
+    "TimeSeries",
+    "floquet_exponents", "full_residual", "ipp_sequence", "point_stats", "quasi_static_delta",
+    "shooting_error",
+    "spectrum", "time_series", "trace",
 ]

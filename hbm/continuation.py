@@ -5,9 +5,11 @@ eq_scale``, see problem.py) and the speed by the speed range,
 ``w_hat = Omega / |Omega_end - Omega_start|``, so the arc length ``s`` is
 dimensionless: a step of 0.01 moves the speed by at most 1 % of the range.
 Predictor: unit tangent of the branch (null vector of ``[J_x, J_w]``); on a
-failed step the step is halved and, from the second failure on, a secant
-predictor through the last two points is tried. Corrector: Newton on the
-augmented system ``R_hat = 0, t . (y - y_pred) = 0`` (pseudo-arc-length).
+failed step the step is halved and the retries cycle through a corner step
+(spherical corrector past a kink of the piecewise-linear branch), the secant
+through the last two points and a patient corrector (docs/hbm.md). Corrector:
+Newton on the augmented system ``R_hat = 0, t . (y - y_pred) = 0``
+(pseudo-arc-length).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .postprocess import point_stats
-from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton
+from .problem import COND_WARN, RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton, solve_checked
 from .stability import floquet_exponents
 
 logger = logging.getLogger(__name__)
@@ -41,6 +43,9 @@ class GrazingPoint:
     side: str
 
 
+REFINE_BOUND = 1e-7     # refine a converged point when cond * residual exceeds this
+CORNER_STEP = 1e-4      # steps below this may turn sharply (corners of the branch)
+CORNER_RADIUS = 1e-3    # largest sphere of a corner step (no room for another branch)
 FOLD_MERGE_POINTS = 3   # sign changes of dOmega/ds closer than this (points) cancel
 
 _ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
@@ -80,6 +85,13 @@ class Branch:
         Located grazing points and fold speeds (rpm).
     fold_index
         For each fold, the index of the point where the speed turns back.
+    step_cuts, secant_retries, corner_steps
+        Failed continuation steps (each halved the step); among the retries,
+        those made with the secant predictor, and the points accepted by the
+        spherical corrector past a corner of the branch.
+    max_condition
+        Largest 1-norm condition estimate of a corrector matrix (scaled); a
+        warning is logged once when it exceeds ``hbm.problem.COND_WARN``.
     status, message
         ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
         through rpm_start), ``"max_points"``, ``"step_failed"``,
@@ -114,6 +126,10 @@ class Branch:
     status: str = "running"
     message: str = ""
     next_step: float = 0.0
+    step_cuts: int = 0
+    secant_retries: int = 0
+    corner_steps: int = 0
+    max_condition: float = float("nan")
 
     def __len__(self) -> int:
         return int(self.rpm.size)
@@ -132,7 +148,14 @@ class _Recorder:
         self.grazing: list[GrazingPoint] = []
         self.folds: list[float] = []
         self.fold_index: list[int] = []
+        self.counters = {"step_cuts": 0, "secant_retries": 0, "corner_steps": 0,
+                         "max_condition": 0.0}
+        self.warned = False
         if resume is not None:
+            self.counters = {"step_cuts": int(resume.step_cuts),
+                             "secant_retries": int(resume.secant_retries),
+                             "corner_steps": int(resume.corner_steps),
+                             "max_condition": float(np.nan_to_num(resume.max_condition))}
             for k in _ARRAYS:
                 self.lists[k] = list(getattr(resume, k))
             self.grazing = list(resume.grazing)
@@ -158,6 +181,10 @@ class _Recorder:
             arrays[k] = np.array(v) if v else np.zeros((0,))
         return Branch(**self.meta, **arrays, grazing=list(self.grazing), folds=list(self.folds),
                       fold_index=list(self.fold_index),
+                      step_cuts=self.counters["step_cuts"],
+                      secant_retries=self.counters["secant_retries"],
+                      corner_steps=self.counters["corner_steps"],
+                      max_condition=self.counters["max_condition"] or float("nan"),
                       status=status, message=message, next_step=float(next_step))
 
 
@@ -177,26 +204,43 @@ def _augmented(problem: HBMProblem, omega_scale: float):
     return evaluate
 
 
-def _correct(evaluate, y_pred, direction, tol, max_iter):
-    """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0."""
+def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None):
+    """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0.
+
+    ``conds``, if given, collects the condition estimates of the Newton matrices.
+    ``sphere = (centre, radius)`` replaces the plane by ``|y - centre| = radius``
+    (spherical arc length: it meets any branch leaving the centre, even one that
+    turns by more than 90 degrees at a corner).
+    """
     y = y_pred.copy()
     res0 = None
+    cond = np.nan
     for it in range(max_iter + 1):
         r, jx, jw = evaluate(y)
         res = float(np.linalg.norm(r) / max(np.linalg.norm(y[:-1]), 1.0))
         if not np.isfinite(res):
             raise ConvergenceError("non-finite residual", res)
         res0 = res if res0 is None else res0
+        if res < tol and (it == 0 or cond * res > REFINE_BOUND):
+            # within tol already at the predictor (tiny step), or an error bound
+            # cond * res that a poorly conditioned Jacobian makes loose: one Newton step
+            # more, so that the point does not carry a tol-sized error along the branch
+            refined = _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it)
+            return refined if refined is not None else (y, it, res, jx, jw)
         if res < tol:
             return y, it, res, jx, jw
         if it == max_iter or (it > 2 and res > 1e3 * res0):
             break
-        j = np.vstack([np.hstack([jx, jw[:, None]]), direction[None, :]])
-        rhs = -np.concatenate([r, [direction @ (y - y_pred)]])
+        row, con = _constraint(y, y_pred, direction, sphere)
+        j = np.vstack([np.hstack([jx, jw[:, None]]), row[None, :]])
+        rhs = -np.concatenate([r, [con]])
         try:
-            dy = np.linalg.solve(j, rhs)
-        except np.linalg.LinAlgError as exc:
-            raise ConvergenceError("singular augmented Jacobian", res) from exc
+            dy, cond = solve_checked(j, rhs, "continuation corrector", warn=False)
+        except ConvergenceError as exc:
+            raise ConvergenceError(f"{exc} (relative residual {res:.3g})", res,
+                                   exc.condition) from exc
+        if conds is not None:
+            conds.append(cond)
         if it >= 2:
             # Newton may cycle on the piecewise-linear force: backtrack on ||R||
             # (the constraint is linear, so every partial step keeps it)
@@ -214,14 +258,37 @@ def _correct(evaluate, y_pred, direction, tol, max_iter):
                 alpha *= 0.5
             dy = alpha * dy
         y = y + dy
-    raise ConvergenceError(f"corrector: residual {res:.3g} after {it} iterations", res)
+    raise ConvergenceError(f"corrector: relative residual {res:.3g} > tol {tol:.1g} after {it} "
+                           f"iterations (condition estimate {cond:.2g})", res, cond)
+
+
+def _constraint(y, y_pred, direction, sphere):
+    if sphere is None:
+        return direction, direction @ (y - y_pred)
+    v = y - sphere[0]
+    return v / sphere[1], 0.5 * (v @ v / sphere[1] - sphere[1])
+
+
+def _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it0=0):
+    """One Newton step from a point already within tol; kept if it lowers the residual."""
+    row, con = _constraint(y, y_pred, direction, sphere)
+    j = np.vstack([np.hstack([jx, jw[:, None]]), row[None, :]])
+    try:
+        dy = solve_checked(j, -np.concatenate([r, [con]]), "continuation corrector",
+                           warn=False)[0]
+        yn = y + dy
+        rn, jxn, jwn = evaluate(yn)
+    except (ConvergenceError, np.linalg.LinAlgError):
+        return None
+    resn = float(np.linalg.norm(rn) / max(np.linalg.norm(yn[:-1]), 1.0))
+    return (yn, 1 + it0, resn, jxn, jwn) if resn < res else None
 
 
 def _tangent(jx, jw, previous):
     j = np.vstack([np.hstack([jx, jw[:, None]]), previous[None, :]])
     rhs = np.zeros(j.shape[0])
     rhs[-1] = 1.0
-    t = np.linalg.solve(j, rhs)
+    t = solve_checked(j, rhs, "continuation tangent", warn=False)[0]
     t /= np.linalg.norm(t)
     return t if t @ previous >= 0 else -t
 
@@ -231,7 +298,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
           max_points: int = 2000, max_iter: int = 12,
           on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
           stability: bool = True, hill_max_size: int = 600, overshoot: float = 0.25,
-          grazing_tol_rpm: float | None = None) -> Branch:
+          grazing_tol_rpm: float | None = None, start_fallback: bool = True) -> Branch:
     """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
 
     Parameters
@@ -259,6 +326,11 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         mesh participation are kept (approximation, logged once).
     grazing_tol_rpm
         Tolerance on located grazing speeds (default 1e-9 of rpm_end).
+    start_fallback
+        If Newton (with its homotopy and damped fallbacks) fails at
+        ``rpm_start``, approach ``rpm_start`` by a continuation from
+        ``rpm_start / 4`` (closer to the quasi-static limit, where Newton
+        converges) and start from its point at ``rpm_start``.
     overshoot
         A branch that folds back may go past ``rpm_start`` by this fraction of
         the range (never below half of rpm_start when sweeping up) before the
@@ -339,12 +411,21 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         try:
             p0 = problem.solve(rpm_start, tol=tol)
         except ConvergenceError as exc:
-            msg = f"no converged solution at rpm_start = {rpm_start}: {exc}"
-            logger.error(msg)
-            return rec.branch("start_failed", msg, step)
+            p0 = _approach_start(problem, rpm_start, tol, max_iter, max_points) if (
+                start_fallback) else None
+            if p0 is None:
+                msg = f"no converged solution at rpm_start = {rpm_start}: {exc}" + (
+                    "; nor by continuation from rpm_start / 4" if start_fallback else "")
+                logger.error(msg)
+                return rec.branch("start_failed", msg, step)
         y0 = np.concatenate([p0.unknowns / xs, [p0.omega / wscale]])
         _, jx, jw = evaluate(y0)
-        tx = -np.linalg.solve(jx, jw)
+        try:
+            tx = -solve_checked(jx, jw, "initial tangent")[0]
+        except ConvergenceError as exc:
+            msg = f"singular Jacobian at the first point rpm_start = {rpm_start}: {exc}"
+            logger.error(msg)
+            return rec.branch("start_failed", msg, step)
         t0 = np.concatenate([tx, [1.0]]) * dirn
         t0 /= np.linalg.norm(t0)
         record(rec, y0, p0.iterations, p0.residual, t0)
@@ -365,31 +446,64 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         fails = 0
         accepted = None
         while accepted is None:
+            # retries cycle through: tangent, spherical corrector past a corner,
+            # secant, tangent with a patient corrector
             d = t
-            if fails >= 2 and len(rec) >= 2 and fails % 2 == 0:
+            predictor = "tangent"
+            iters = max_iter
+            sphere = None
+            mode = fails % 4
+            if mode == 1:
+                predictor, sphere = "corner (spherical corrector)", (y, ds)
+            elif mode == 2 and len(rec) >= 2:
                 sec = y - state(-2)
                 if np.linalg.norm(sec) > 0:
                     d = sec / np.linalg.norm(sec)
+                    predictor = "secant"
+                    rec.counters["secant_retries"] += 1
+            elif mode == 3:
+                predictor, iters = "tangent (patient corrector)", 4 * max_iter
             y_pred = y + ds * d
+            conds: list[float] = []
             try:
-                yn, it, res, jx, jw = _correct(evaluate, y_pred, d, tol, max_iter)
+                if sphere is not None:
+                    travel = y - state(-2) if len(rec) >= 2 else t
+                    yn, it, res, jx, jw = _corner_step(evaluate, y, t, travel,
+                                                       min(ds, CORNER_RADIUS), tol, iters,
+                                                       conds)
+                    _note_condition(rec, conds)
+                    chord = (yn - y) / np.linalg.norm(yn - y)
+                    tn = _tangent(jx, jw, chord)
+                    rec.counters["corner_steps"] += 1
+                    accepted = (yn, it, res, tn)
+                    continue
+                yn, it, res, jx, jw = _correct(evaluate, y_pred, d, tol, iters, conds)
+                _note_condition(rec, conds)
                 tn = _tangent(jx, jw, t)
                 jump = np.linalg.norm(yn - y_pred)
                 if jump > 0.5 * ds and ds > 4 * min_step:
                     # a long way from the predictor: likely a jump onto another branch
                     raise _StepRejected(f"corrector moved {jump / ds:.2f} steps off the predictor")
-                if tn @ t < 0.7 and ds > 4 * min_step:
+                if tn @ t < 0.7 and ds > max(4 * min_step, CORNER_STEP):
+                    # (below CORNER_STEP a sharp turn is a corner of the piecewise-smooth
+                    # branch, an AFT sample entering contact, not a jump to another branch)
                     angle = np.degrees(np.arccos(np.clip(tn @ t, -1, 1)))
                     raise _StepRejected(f"tangent turned by {angle:.0f} deg")
                 accepted = (yn, it, res, tn)
             except (ConvergenceError, _StepRejected, np.linalg.LinAlgError) as exc:
+                _note_condition(rec, conds)
                 fails += 1
+                rec.counters["step_cuts"] += 1
                 ds *= 0.5
-                logger.debug("step cut to %.3g at rpm %.6g: %s", ds, rec.last("rpm"), exc)
-                if ds < min_step:
+                logger.debug("%s step failed at rpm %.6g (%s); step cut to %.3g", predictor,
+                             rec.last("rpm"), exc, ds)
+                if ds < min_step and fails < 4:
+                    ds = min_step        # every predictor gets a try at the smallest step
+                elif ds < min_step:
                     status = "step_failed"
-                    message = (f"step fell below min_step = {min_step} after {fails} failures "
-                               f"near rpm {rec.last('rpm'):.6g}: {exc}")
+                    message = (f"step fell below min_step = {min_step} after {fails} failed "
+                               f"steps (tangent, corner, secant and patient retries) from the "
+                               f"last converged point at rpm {rec.last('rpm'):.6g}: {exc}")
                     break
         if accepted is None:
             break
@@ -409,14 +523,16 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                 tb = _tangent(jx, jw, tn)
                 _check_events(problem, rec, evaluate, yb, tb, itb, resb, wscale, tol, max_iter,
                               gtol, record)
+                landed = ""
             except (ConvergenceError, np.linalg.LinAlgError) as exc:
+                landed = f" (no converged point exactly on the bound: {exc})"
                 logger.warning("could not land on the bound %.6g rpm: %s", wb / RPM_TO_RAD_S, exc)
             if beyond_end:
-                status, message = "completed", f"reached rpm_end = {rpm_end}"
+                status, message = "completed", f"reached rpm_end = {rpm_end}{landed}"
             else:
                 status, message = "left_range", (
                     f"the branch turned back and left the range through rpm_start = {rpm_start} "
-                    f"(by more than overshoot = {overshoot} of the range)")
+                    f"(by more than overshoot = {overshoot} of the range){landed}")
             break
         _check_events(problem, rec, evaluate, yn, tn, it, res, wscale, tol, max_iter, gtol, record)
         if it <= 3:
@@ -433,6 +549,68 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     if on_point:
         on_point(branch)
     return branch
+
+
+def _approach_start(problem, rpm_start, tol, max_iter, max_points):
+    """Point at ``rpm_start`` reached by continuation from ``rpm_start / 4``, or None."""
+    logger.warning("Newton failed at rpm_start = %.6g; approaching it by continuation from "
+                   "%.6g rpm", rpm_start, rpm_start / 4)
+    sub = trace(problem, rpm_start / 4, rpm_start, tol=tol, max_iter=max_iter,
+                max_points=max_points, stability=False, start_fallback=False)
+    if sub.status != "completed" or abs(sub.rpm[-1] - rpm_start) > 1e-12 * rpm_start:
+        logger.warning("approach to rpm_start failed: %s", sub.message)
+        return None
+    return problem.point(sub.unknowns[-1], sub.omega[-1], int(sub.newton_iterations[-1]),
+                         float(sub.residual[-1]))
+
+
+def _corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
+    """Step past a corner of the piecewise-linear branch (an AFT sample switching
+    contact, possibly a fold of the branch there).
+
+    Predictors ``y +- ds t_B`` along the tangent ``t_B`` of the piece beyond the
+    corner (null vector of the Jacobian at ``y + ds t``), then ``y + ds t``;
+    corrector on the sphere ``|y' - y| = ds``, which meets every branch leaving
+    ``y``. A point going back along the branch (chord against the direction of
+    ``travel``, the last chord) is refused.
+    """
+    dirs = []
+    try:
+        _, jx, jw = evaluate(y + ds * t)
+        tb = _tangent(jx, jw, t)
+        dirs += [tb, -tb]
+    except (ConvergenceError, np.linalg.LinAlgError):
+        pass
+    dirs.append(t)
+    last: Exception = ConvergenceError("corner step: no predictor")
+    nb = np.linalg.norm(travel)
+    for d in dirs:
+        try:
+            yn, it, res, jx, jw = _correct(evaluate, y + ds * d, d, tol, max_iter, conds,
+                                           sphere=(y, ds))
+        except (ConvergenceError, np.linalg.LinAlgError) as exc:
+            last = exc
+            continue
+        chord = yn - y
+        if nb > 0 and chord @ travel < -0.9 * np.linalg.norm(chord) * nb:
+            last = _StepRejected("spherical corrector went back along the branch")
+            continue
+        return yn, it, res, jx, jw
+    raise last
+
+
+def _note_condition(rec, conds) -> None:
+    """Track the largest corrector condition estimate; warn once per trace."""
+    finite = [c for c in conds if np.isfinite(c)]
+    if not finite:
+        return
+    c = max(finite)
+    rec.counters["max_condition"] = max(rec.counters["max_condition"], c)
+    if c > COND_WARN and not rec.warned:
+        rec.warned = True
+        logger.warning("continuation near rpm %.6g: ill-conditioned corrector, condition "
+                       "estimate %.2g of the scaled Jacobian (up to %d digits lost); further "
+                       "estimates in branch.max_condition", rec.last("rpm"), c, int(np.log10(c)))
 
 
 def _check_events(problem, rec, evaluate, yn, tn, it, res, wscale, tol, max_iter, gtol, record):

@@ -23,6 +23,7 @@ reads ``Z'_k q_k + G f'_k = F_k`` for every retained index k.  Condensations:
 from __future__ import annotations
 
 import logging
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,17 +33,68 @@ from .model import Excitation, GearMesh, LinearSystem
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S"]
+__all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S", "COND_WARN", "solve_checked"]
 
 RPM_TO_RAD_S = 2.0 * np.pi / 60.0
 
 
-class ConvergenceError(RuntimeError):
-    """Newton did not reach the tolerance; carries the last relative residual."""
+COND_WARN = 1e10   # 1-norm condition estimate of a Newton matrix above which we warn
 
-    def __init__(self, message: str, residual: float = np.inf) -> None:
+
+class ConvergenceError(RuntimeError):
+    """Newton did not reach the tolerance; carries the last relative residual
+    and the condition estimate of the last Newton matrix (inf if singular)."""
+
+    def __init__(self, message: str, residual: float = np.inf,
+                 condition: float = np.nan) -> None:
         super().__init__(message)
         self.residual = residual
+        self.condition = condition
+
+
+def solve_checked(j: np.ndarray, rhs: np.ndarray, where: str = "Newton",
+                  warn: bool = True) -> tuple[np.ndarray, float]:
+    """Solve ``j x = rhs`` by LU and estimate the 1-norm condition number of ``j``.
+
+    The estimate is LAPACK's ``gecon`` on the LU factors (O(n^2) on top of the
+    factorisation).  Above :data:`COND_WARN` a warning naming ``where`` and the
+    estimate is logged (when ``warn``).
+
+    Returns
+    -------
+    x, condition
+        The solution and the condition estimate.
+
+    Raises
+    ------
+    ConvergenceError
+        If the matrix is singular to working precision (zero pivot or
+        condition estimate above 1/eps) or not finite.
+    """
+    import scipy.linalg as sla
+
+    j = np.asarray(j, dtype=float)
+    if not np.all(np.isfinite(j)):
+        raise ConvergenceError(f"{where}: the Jacobian contains NaN or inf", np.inf, np.inf)
+    anorm = float(np.max(np.sum(np.abs(j), axis=0))) if j.size else 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)     # singularity is handled below
+        lu, piv = sla.lu_factor(j, check_finite=False)
+    diag = np.abs(np.diag(lu))
+    if anorm == 0.0 or np.min(diag) == 0.0:
+        raise ConvergenceError(f"{where}: singular Jacobian (zero pivot in its LU factors)",
+                               np.inf, np.inf)
+    gecon = sla.get_lapack_funcs("gecon", (lu,))
+    rcond, _ = gecon(lu, anorm, norm="1")
+    cond = float(np.inf if rcond <= 0 else 1.0 / rcond)
+    if cond * np.finfo(float).eps > 1.0:
+        raise ConvergenceError(f"{where}: singular Jacobian (condition estimate {cond:.2g} > "
+                               f"1/eps)", np.inf, cond)
+    if warn and cond > COND_WARN:
+        logger.warning("%s: ill-conditioned Jacobian, condition estimate %.2g (n = %d); "
+                       "the solution may lose up to %d digits", where, cond, j.shape[0],
+                       int(np.log10(cond)))
+    return sla.lu_solve((lu, piv), rhs, check_finite=False), cond
 
 
 @dataclass
@@ -153,6 +205,9 @@ class HBMProblem:
         g = system.G
         self.G = g
         self.Kp = system.K + self.kbar * np.outer(g, g)                 # eq. (17) operator
+        # equilibration D = diag(M)^-1/2: D Z D is in 1/s^2 whatever the units of each
+        # coordinate, so every dense factorisation below is done on it
+        self.dof_eq = 1.0 / np.sqrt(np.diag(system.M))
         self._setup_modes()
         self._setup_scales()
         self._fine_cache: dict[int, tuple] = {}
@@ -163,7 +218,10 @@ class HBMProblem:
         import scipy.linalg as sla
 
         s = self.system
-        w2, phi = sla.eigh(0.5 * (self.Kp + self.Kp.T), s.M)
+        d = self.dof_eq
+        dd = np.outer(d, d)
+        w2, phi = sla.eigh(0.5 * (self.Kp + self.Kp.T) * dd, s.M * dd)
+        phi = d[:, None] * phi                                    # mass-normalised modes
         top = max(np.max(np.abs(w2)), 1e-300)
         if np.min(w2) < -1e-9 * top:
             raise ValueError(
@@ -175,7 +233,8 @@ class HBMProblem:
         off = cm - np.diag(diag)
         cscale = max(np.max(np.abs(diag)), np.sqrt(top) * 1e-300, 1e-300)
         self.modal = bool(np.max(np.abs(off), initial=0.0) <= 1e-9 * cscale)
-        self.kp_symmetric = bool(np.allclose(self.Kp, self.Kp.T, rtol=0, atol=1e-12 * top))
+        self.kp_symmetric = bool(np.allclose(self.Kp * dd, (self.Kp * dd).T, rtol=0,
+                                             atol=1e-12 * top))
         if not self.kp_symmetric:
             self.modal = False
         self.w2, self.phi, self.cj = w2, phi, diag
@@ -203,7 +262,7 @@ class HBMProblem:
             self.nl = nl
             self.ln = np.setdiff1d(np.arange(self.n_dof), nl)
             if self.ln.size:
-                kll = self.Kp[np.ix_(self.ln, self.ln)]
+                kll = (self.Kp * dd)[np.ix_(self.ln, self.ln)]
                 if np.linalg.cond(kll) > 1e13:
                     raise ValueError(
                         "problem.condensation = 'gear': the stiffness of the DOF off the mesh "
@@ -219,6 +278,12 @@ class HBMProblem:
         static = 0.0
         if self.modal and np.any(keep):
             static = abs(float(np.sum(self.gj[keep] * self.pfc[keep, 0].real / self.w2[keep])))
+        elif np.any(self.Fc[0] != 0):
+            # static mesh deflection under the mean load, whatever the damping
+            d = self.dof_eq
+            x = d * np.linalg.lstsq(self.Kp * np.outer(d, d), d * self.Fc[0].real,
+                                    rcond=None)[0]
+            static = abs(float(self.G @ x))
         L = max(b, te_amp, abs(self.mesh.static_load) / self.kbar, static)
         self.length_scale = float(L)
         if self.condensation == "loa":
@@ -227,11 +292,12 @@ class HBMProblem:
             self.n_unknowns = self.nr
             return
         if self.condensation == "none":
-            kr = self.Kp
+            kr, dr = self.Kp, self.dof_eq
         else:
-            kr = self._static_schur()
+            kr, dr = self._static_schur(), self.dof_eq[self.nl]
         m = kr.shape[0]
-        comp = np.abs(np.diag(np.linalg.pinv(kr)))
+        # diagonal static compliance, from the equilibrated matrix (unit-independent)
+        comp = dr ** 2 * np.abs(np.diag(np.linalg.pinv(kr * np.outer(dr, dr))))
         sd = L * np.sqrt(self.kbar * comp)
         sd = np.maximum(sd, 1e-12 * np.max(sd))
         ed = np.abs(np.diag(kr)) * sd
@@ -241,11 +307,22 @@ class HBMProblem:
         self.n_unknowns = m * self.nr
 
     def _static_schur(self) -> np.ndarray:
-        kp, nl, ln = self.Kp, self.nl, self.ln
+        kp, nl, ln, d = self.Kp, self.nl, self.ln, self.dof_eq
         if ln.size == 0:
             return kp[np.ix_(nl, nl)]
-        x = np.linalg.lstsq(kp[np.ix_(ln, ln)], kp[np.ix_(ln, nl)], rcond=None)[0]
-        return kp[np.ix_(nl, nl)] - kp[np.ix_(nl, ln)] @ x
+        kt = kp * np.outer(d, d)
+        x = np.linalg.lstsq(kt[np.ix_(ln, ln)], kt[np.ix_(ln, nl)], rcond=None)[0]
+        st = kt[np.ix_(nl, nl)] - kt[np.ix_(nl, ln)] @ x
+        return st / np.outer(d[nl], d[nl])
+
+    def _esolve(self, z: np.ndarray, rhs: np.ndarray, idx=None) -> np.ndarray:
+        """Batched ``z^-1 rhs`` for z (nS, m, m), rhs (nS, m, p), equilibrated by D.
+
+        ``idx`` selects the coordinates of z (default all).
+        """
+        d = self.dof_eq if idx is None else self.dof_eq[idx]
+        zt = z * d[None, :, None] * d[None, None, :]
+        return d[None, :, None] * np.linalg.solve(zt, d[None, :, None] * rhs)
 
     # ------------------------------------------------------------------ linear parts
     def _w(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
@@ -300,9 +377,9 @@ class HBMProblem:
         f, df = self._forcing(omega)
         g = self.G.astype(complex)
         rhs = np.stack([np.broadcast_to(g, f.shape), f, df], axis=-1)      # (nS, n, 3)
-        x = np.linalg.solve(z, rhs)
+        x = self._esolve(z, rhs)
         gg = np.broadcast_to(g, f.shape)[..., None]
-        y = np.linalg.solve(np.transpose(z, (0, 2, 1)), gg)[..., 0]
+        y = self._esolve(np.transpose(z, (0, 2, 1)), gg)[..., 0]
         h = x[:, :, 0] @ g
         d = x[:, :, 1] @ g
         dh = -np.einsum("ki,kij,kj->k", y, dz, x[:, :, 0])
@@ -327,10 +404,10 @@ class HBMProblem:
         zll = z[:, ln][:, :, ln]
         zln = z[:, ln][:, :, nl]
         znl = z[:, nl][:, :, ln]
-        sol = np.linalg.solve(zll, np.concatenate([zln, f[:, ln, None]], axis=2))
+        sol = self._esolve(zll, np.concatenate([zln, f[:, ln, None]], axis=2), ln)
         x, xf = sol[:, :, :-1], sol[:, :, -1]
-        y = np.transpose(np.linalg.solve(np.transpose(zll, (0, 2, 1)),
-                                         np.transpose(znl, (0, 2, 1))), (0, 2, 1))
+        y = np.transpose(self._esolve(np.transpose(zll, (0, 2, 1)),
+                                      np.transpose(znl, (0, 2, 1)), ln), (0, 2, 1))
         dzll = dz[:, ln][:, :, ln]
         dzln = dz[:, ln][:, :, nl]
         dznl = dz[:, nl][:, :, ln]
@@ -471,7 +548,9 @@ class HBMProblem:
         """Linear response in permanent contact on the active flank (one Newton step)."""
         u0 = np.zeros(self.n_unknowns)
         r, ju, _ = self.evaluate(u0, omega, law=0.0)
-        return u0 - np.linalg.solve(ju, r)
+        dx = solve_checked(ju * self.x_scale[None, :] / self.eq_scale[:, None],
+                           r / self.eq_scale, "initial guess (linear contact)")[0]
+        return u0 - dx * self.x_scale
 
     def point(self, u: np.ndarray, omega: float, iterations: int = 0,
               residual: float | None = None) -> Point:
@@ -580,7 +659,7 @@ class HBMProblem:
                 zll = z[:, self.ln][:, :, self.ln]
                 zln = z[:, self.ln][:, :, self.nl]
                 rhs = f[:, self.ln] - np.einsum("kij,jk->ki", zln, qn)
-                q[self.ln] = np.linalg.solve(zll, rhs[..., None])[..., 0].T
+                q[self.ln] = self._esolve(zll, rhs[..., None], self.ln)[..., 0].T
             return q
         rhs = f - fc[:, None] * self.G[None, :]                    # (nS, n)
         if self.modal:
@@ -588,7 +667,7 @@ class HBMProblem:
             eta = inv * (self.phi.T @ rhs.T)
             return self.phi @ eta
         z, _ = self._dyn(omega)
-        return np.linalg.solve(z, rhs[..., None])[..., 0].T
+        return self._esolve(z, rhs[..., None])[..., 0].T
 
     def fine_grid(self, n_time: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Synthesis matrix, k_m and e on a grid of ``n_time`` samples (cached)."""
@@ -609,23 +688,36 @@ def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
     """
     res = np.inf
     r0 = None
-    j = None
+    cond = np.nan
+    warned = False
     for it in range(max_iter + 1):
         r = fun(x, False)
         res = float(np.linalg.norm(r) / max(np.linalg.norm(x), 1.0))
         if not np.isfinite(res):
-            raise ConvergenceError("non-finite residual", res)
+            raise ConvergenceError(f"non-finite residual at iteration {it}", res, cond)
         if r0 is None:
             r0 = res
+        if res < tol and (it == 0 or cond * res > 1e-7):
+            # converged at the guess, or with a loose error bound cond * res: one
+            # Newton step more (kept if it lowers the residual)
+            try:
+                rr, jj = fun(x)[:2]
+                xn = x + solve_checked(jj, -rr, "Newton refinement", warn=False)[0]
+                resn = float(np.linalg.norm(fun(xn, False)) / max(np.linalg.norm(xn), 1.0))
+            except ConvergenceError:
+                resn = np.inf
+            return (xn, it + 1, resn) if resn < res else (x, it, res)
         if res < tol:
             return x, it, res
         if it == max_iter or res > diverge * max(r0, tol):
             break
         r, j = fun(x)[:2]
         try:
-            dx = np.linalg.solve(j, -r)
-        except np.linalg.LinAlgError as exc:
-            raise ConvergenceError(f"singular Jacobian at iteration {it}", res) from exc
+            dx, cond = solve_checked(j, -r, f"Newton iteration {it}", warn=not warned)
+        except ConvergenceError as exc:
+            raise ConvergenceError(f"{exc} (relative residual {res:.3g})", res,
+                                   exc.condition) from exc
+        warned = warned or cond > COND_WARN
         # backtracking on the residual norm (the force is only piecewise smooth)
         alpha = 1.0
         for _ in range(8):
@@ -638,10 +730,6 @@ def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
                 break
             alpha *= 0.5
         x = x + alpha * dx
-    try:
-        cond = f"{np.linalg.cond(j):.2g}" if j is not None else "n/a"
-    except np.linalg.LinAlgError:
-        cond = "inf"
-    raise ConvergenceError(f"Newton: relative residual {res:.3g} > tol {tol:.1g} after "
-                           f"{it} iterations (condition estimate of the scaled Jacobian "
-                           f"{cond})", res)
+    why = "diverged: relative residual" if res > diverge * max(r0, tol) else "relative residual"
+    raise ConvergenceError(f"Newton {why} {res:.3g} > tol {tol:.1g} after {it} iterations "
+                           f"(condition estimate of the scaled Jacobian {cond:.2g})", res, cond)

@@ -55,5 +55,6 @@ def write_json(name: str, payload: dict[str, Any]) -> Path:
     with os.fdopen(fd, "w") as fh:
         json.dump(payload, fh, indent=2, default=float)
         fh.write("\n")
+    os.chmod(tmp, 0o644)  # mkstemp makes 0600
     os.replace(tmp, path)
     return path

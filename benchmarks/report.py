@@ -98,6 +98,7 @@ def main() -> None:
     fd, tmp = tempfile.mkstemp(dir=TARGET.parent, prefix=".BENCHMARKS.", suffix=".tmp")
     with os.fdopen(fd, "w") as fh:
         fh.write(text)
+    os.chmod(tmp, 0o644)  # mkstemp makes 0600
     os.replace(tmp, TARGET)
     LOG.info("wrote %s", TARGET)
 

@@ -1,121 +1,174 @@
-"""HBM benchmark: time per Newton solve, per continuation point and per curve
-against the number of harmonics and DOF, and the speed-up over time integration.
+"""HBM benchmark: time per point and per curve against the number of harmonics and
+the number of DOF, with the speed-up over time integration measured side by side.
+
+Models: the SDOF scene (scenes/gear-pair-sdof.toml, 1 DOF) with 5-60 mesh
+harmonics, and the coarse pump ROM (scenes/pump.toml) with n_CM = 50/100/200
+fixed-interface modes (62-212 DOF, ROMs from the pipeline's stage cache; built
+on first use) with 3 and 6 mesh harmonics plus the scene's sidebands.
+
+* per point: Newton solve at one speed started from the solution at 0.99 x the
+  speed (what a continuation step costs), median of repeats;
+* per curve: ``hbm.trace`` over the scene's speed range with the scene's
+  continuation settings (the pipeline's call), without and with Hill stability;
+* time integration: ``solve_ivp`` DOP853 (rtol 1e-7, all coupled modes, see
+  benchmarks/bench_verify.py) from the orbit at 0.99 x the speed until the
+  period-to-period change of the state is < 1e-5 — what one point of a time-integration sweep
+  costs; the equal-accuracy comparison is in verify.json.
 
 Run: ``.venv/bin/python -m benchmarks.bench_hbm [--quick]``.
 Writes ``benchmarks/results/hbm.json`` (atomically). Serial, pure NumPy/SciPy.
 """
-
 from __future__ import annotations
 
 import argparse
 import logging
 import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
-from scipy.integrate import solve_ivp
 
-import hbm
-from benchmarks.common import median_time, write_json
+from benchmarks import bench_verify as bv
+from benchmarks.common import median_time, peak_rss_mb, write_json
 
 log = logging.getLogger("bench_hbm")
-RPM = hbm.RPM_TO_RAD_S
 
 
-def sdof(harmonics: int, fa: float = 0.05, b: float = 1.0) -> hbm.HBMProblem:
-    """Kahraman-Singh pair x'' + 0.1 x' + (1 + 0.2 cos w t) f(x) = 0.1 + fa cos w t."""
-    system = hbm.LinearSystem([[1.0]], [[0.1]], [[0.0]], [1.0])
-    mesh = hbm.GearMesh(1, {0: 1.0, 1: 0.2}, backlash=b)
-    exc = hbm.Excitation(1, constant={0: [0.1], 1: [fa]})
-    return hbm.HBMProblem(system, mesh, exc, hbm.HarmonicSet.build(1, harmonics))
+def sdof_problem(h: int):
+    """HBM problem of the SDOF scene with ``h`` mesh harmonics."""
+    import study
+    from study.model import lumped_problem
+
+    return lumped_problem(study.load_scene(bv.SDOF_SCENE, {"hbm.mesh_harmonics": h})), \
+        study.load_scene(bv.SDOF_SCENE)
 
 
-def multi_dof(n: int, harmonics: int, condensation: str) -> hbm.HBMProblem:
-    """Random n-DOF model with the modal damping of eq. (17)-(19), one mesh."""
-    rng = np.random.default_rng(0)
-    a = rng.standard_normal((n, n))
-    m = a @ a.T / n + np.eye(n)
-    bb = rng.standard_normal((n, n))
-    k = 1e3 * (bb @ bb.T / n + 0.1 * np.eye(n))
-    g = np.zeros(n)
-    g[: min(12, n)] = rng.standard_normal(min(12, n))
-    g /= np.linalg.norm(g)
-    w2, phi = sla.eigh(k + 2e3 * np.outer(g, g), m)
-    c = m @ phi @ np.diag(0.1 * np.sqrt(w2)) @ phi.T @ m
-    mesh = hbm.GearMesh(5, {0: 2e3, 1: 300}, te={1: 1e-2j}, backlash=5e-3)
-    exc = hbm.Excitation(n, constant={0: 10 * g})
-    return hbm.HBMProblem(hbm.LinearSystem(m, c, k, g), mesh, exc,
-                          hbm.HarmonicSet.build(5, harmonics), condensation)
+def pump_problem(n_cm: int, h: int, cache: Path, work: Path):
+    """HBM problem of the coarse pump with ``n_cm`` modes and ``h`` mesh harmonics."""
+    import study
+    from study.pipeline import Pipeline
+
+    scene = study.load_scene(bv.PUMP_SCENE, {"rom.n_cm": n_cm, "hbm.mesh_harmonics": h})
+    pb, _ = Pipeline(scene, work / f"pump{n_cm}", cache_dir=cache, progress=False).problem()
+    return pb, scene
 
 
-def newton_solve_time(pb: hbm.HBMProblem, rpm: float) -> dict:
-    near = pb.solve(rpm * 0.99)
-    t, pt = median_time(lambda: pb.solve(rpm, x0=near.unknowns), repeats=20)
-    return {"seconds": t, "iterations": pt.iterations, "unknowns": pb.n_unknowns}
+def point_time(pb, rpm: float, repeats: int) -> dict[str, Any]:
+    """Median Newton time at ``rpm`` from the solution at 0.99 rpm."""
+    prev = pb.solve(0.99 * rpm, tol=1e-8)
+    prev = pb.solve(0.99 * rpm, x0=prev.unknowns, tol=1e-8)
+    t, pt = median_time(lambda: pb.solve(rpm, x0=prev.unknowns, tol=1e-8), repeats=repeats)
+    return {"seconds": t, "iterations": pt.iterations, "point": pt, "prev": prev}
 
 
-def curve_time(pb: hbm.HBMProblem, lo: float, hi: float, stability: bool) -> dict:
+def curve_time(pb, scene, stability: bool) -> dict[str, Any]:
+    """One ``hbm.trace`` over the scene's range with its continuation settings."""
+    import hbm
+
+    c = scene.continuation
+    lo, hi = c.speed
+    span = hi - lo
     t0 = time.perf_counter()
-    br = hbm.trace(pb, lo, hi, stability=stability)
+    br = hbm.trace(pb, lo, hi, step=c.step / span, min_step=c.min_step / span,
+                   max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
+                   stability=stability, hill_max_size=scene.hbm.hill_max_size)
     dt = time.perf_counter() - t0
     return {"seconds": dt, "points": len(br), "per_point": dt / max(len(br), 1),
             "status": br.status}
 
 
-def time_integration(pb: hbm.HBMProblem, omega: float, rtol: float) -> dict:
-    """DOP853 from rest to steady state (|period-to-period change| < 1e-6)."""
-    T = 2 * np.pi / omega
+def ti_point_time(pb, rpm: float, prev, repeats: int) -> dict[str, Any]:
+    """Time integration from the orbit at 0.99 rpm to steady state at ``rpm``."""
+    mm = bv.modal_model(pb, rpm)
+    y0 = bv.initial_state(pb, prev, bv.modal_model(pb, prev.rpm))
+    t, ss = median_time(lambda: bv.steady_state(mm, y0, rtol=1e-7, tol_periodic=1e-5,
+                                                tol_state=1e-5, samples=256 * pb.mesh_step),
+                        repeats=repeats, warmup=0)
+    return {"seconds": t, "periods": ss.periods, "n_rhs": ss.n_rhs, "modes": mm.n_modes,
+            "top_mode_hz": float(np.sqrt(mm.w2[-1]) / (2 * np.pi))}
 
-    def rhs(t, y):
-        x, v = y
-        k = 1 + 0.2 * np.cos(omega * t)
-        f = k * ((x - 1) if x > 1 else (x + 1) if x < -1 else 0.0)
-        return [v, 0.1 + 0.05 * np.cos(omega * t) - 0.1 * v - f]
 
+def bench_model(label: str, pb, scene, rpm: float, repeats: int, curves: bool,
+                hill: bool, ti: bool) -> dict[str, Any]:
+    pt = point_time(pb, rpm, repeats)
+    rec: dict[str, Any] = {"model": label, "dof": pb.system.n_dof,
+                           "harmonic_indices": pb.harmonics.n_harmonics,
+                           "max_index": pb.harmonics.max_index,
+                           "n_time": pb.harmonics.n_time, "unknowns": pb.n_unknowns,
+                           "rpm": rpm, "point_s": pt["seconds"],
+                           "newton_iterations": pt["iterations"]}
+    if curves:
+        cv = curve_time(pb, scene, False)
+        rec.update(curve_s=cv["seconds"], curve_points=cv["points"],
+                   curve_per_point_s=cv["per_point"], curve_status=cv["status"])
+        if hill:
+            ch = curve_time(pb, scene, True)
+            rec.update(curve_hill_s=ch["seconds"], curve_hill_per_point_s=ch["per_point"])
+    if ti:
+        tr = ti_point_time(pb, rpm, pt["prev"], 1 if pb.system.n_dof > 1 else repeats)
+        rec.update(ti_point_s=tr["seconds"], ti_periods=tr["periods"], ti_n_rhs=tr["n_rhs"],
+                   top_mode_hz=tr["top_mode_hz"], speedup_point=tr["seconds"] / pt["seconds"])
+    log.info("%s: %s", label, {k: v for k, v in rec.items() if k != "model"})
+    return rec
+
+
+def tables(recs: list[dict]) -> list[dict]:
+    cols = ["model", "dof", "harmonic_indices", "unknowns", "n_time", "rpm", "point_s",
+            "newton_iterations", "curve_points", "curve_s", "curve_per_point_s",
+            "curve_hill_per_point_s", "ti_point_s", "ti_periods", "speedup_point"]
+    sd = [r for r in recs if r["dof"] == 1]
+    pu = [r for r in recs if r["dof"] > 1]
+
+    def rows(rs):
+        return [[r.get(c, "-") for c in cols] for r in rs]
+    return [{"title": "SDOF scene: time per point and per curve against the harmonic count",
+             "columns": cols, "rows": rows(sd)},
+            {"title": "coarse pump ROM: time per point and per curve against DOF (n_CM) and "
+                      "harmonics", "columns": cols, "rows": rows(pu)}]
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true",
+                    help="SDOF 5-20 harmonics, pump n_CM 50/100 with 3 harmonics")
+    ap.add_argument("--no-pump", action="store_true")
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--cache", type=Path, default=bv.DEFAULT_CACHE)
+    ap.add_argument("--work", type=Path, default=Path("/tmp/geardyn-bench-hbm"))
+    args = ap.parse_args(argv)
+    if args.repeats < 1:
+        raise ValueError(f"--repeats = {args.repeats}: must be >= 1")
+    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     t0 = time.perf_counter()
-    y = np.array([1.1, 0.0])
-    periods = 0
-    while periods < 2000:
-        y1 = solve_ivp(rhs, (0, 10 * T), y, method="DOP853", rtol=rtol, atol=1e-12).y[:, -1]
-        periods += 10
-        done = np.max(np.abs(y1 - y)) < 1e-6
-        y = y1
-        if done:
-            break
-    return {"seconds": time.perf_counter() - t0, "periods": periods}
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--quick", action="store_true")
-    args = ap.parse_args()
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    harmonics = [10, 20] if args.quick else [10, 20, 40, 80]
-    out: dict = {"sdof_newton": {}, "sdof_curve": {}, "multi_dof": {}}
-    for h in harmonics:
-        pb = sdof(h)
-        out["sdof_newton"][h] = newton_solve_time(pb, 0.9 / RPM)
-        out["sdof_curve"][h] = {
-            "no_stability": curve_time(pb, 0.3 / RPM, 1.6 / RPM, False),
-            "hill": curve_time(pb, 0.3 / RPM, 1.6 / RPM, True)}
-        log.info("SDOF H=%d: Newton %.3g ms, curve %s", h,
-                 1e3 * out["sdof_newton"][h]["seconds"], out["sdof_curve"][h])
-    for n in ([6, 20] if args.quick else [6, 20, 60]):
-        out["multi_dof"][n] = {}
-        for cond in ("loa", "gear", "none"):
-            if cond == "none" and n > 20:
-                continue
-            pb = multi_dof(n, 8, cond)
-            out["multi_dof"][n][cond] = newton_solve_time(pb, 60.0)
-            log.info("n=%d %s: %.3g ms", n, cond, 1e3 * out["multi_dof"][n][cond]["seconds"])
-    pb = sdof(20)
-    hb = out["sdof_newton"][20]["seconds"] if 20 in out["sdof_newton"] else None
-    ti = time_integration(pb, 0.9, 1e-8)
-    out["time_integration"] = ti
-    if hb:
-        out["speedup_newton_vs_time_integration"] = ti["seconds"] / hb
-    log.info("time integration to steady state: %s", ti)
-    print(write_json("hbm", out))
+    recs = []
+    for h in ([5, 10, 20] if args.quick else [5, 10, 20, 40, 60]):
+        pb, scene = sdof_problem(h)
+        recs.append(bench_model(f"SDOF H={h}", pb, scene, 1650.0, args.repeats, True, True,
+                                True))
+    if not args.no_pump:
+        n_cms = [50, 100] if args.quick else [50, 100, 200]
+        hs = [3] if args.quick else [3, 6]
+        for n_cm in n_cms:
+            for h in hs:
+                pb, scene = pump_problem(n_cm, h, args.cache, args.work)
+                recs.append(bench_model(f"pump n_CM={n_cm} H={h}", pb, scene, 1200.0,
+                                        args.repeats, True, h == 3 and n_cm == 100,
+                                        h == hs[0]))
+    sp = [r["speedup_point"] for r in recs if "speedup_point" in r]
+    cmd = ".venv/bin/python -m benchmarks.bench_hbm" + (" --quick" if args.quick else "")
+    summary = ("HBM (condensation 'loa') time per Newton point (from the 0.99 x speed "
+               "solution, median) and per continuation curve (scene settings; without Hill "
+               "stability, and with it where a column is filled) against harmonics and DOF; "
+               "time integration of the same point from the 0.99 x speed orbit (DOP853 rtol 1e-7 "
+               "to a period-to-period state change < 1e-5, all coupled modes) measured in the "
+               "same run. Timings on a shared 2-core machine under load: compare ratios.")
+    if sp:
+        summary += f" Speed-up per point: {min(sp):.0f}x to {max(sp):.0f}x."
+    payload = {"command": cmd, "summary": summary, "tables": tables(recs), "records": recs,
+               "seconds": time.perf_counter() - t0, "peak_rss_mb": peak_rss_mb()}
+    path = write_json("hbm", payload)
+    log.info("wrote %s", path)
+    return payload
 
 
 if __name__ == "__main__":

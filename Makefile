@@ -18,6 +18,9 @@ setup:
 demo: setup
 	$(GEARDYN) run $(SCENE) --out $(OUT)/pump
 	$(GEARDYN) run scenes/gear-pair-sdof.toml --out $(OUT)/gear-pair-sdof
+	@echo "demo outputs:"; for d in $(OUT)/pump $(OUT)/gear-pair-sdof; do \
+	  echo "  $$d/report.md  (results.h5, PNG plots$$(ls $$d/*.xdmf >/dev/null 2>&1 && echo ', housing XDMF for ParaView'))"; \
+	  ls $$d | sed 's/^/      /'; done
 
 test: setup
 	$(PY) -m pytest -q tests

@@ -11,6 +11,35 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 
+def shift_invert_eps(K: Any, M: Any, sigma: float, tol: float, max_it: int = 500) -> Any:
+    """A SLEPc generalized eigensolver for K x = w^2 M x, configured, not solved.
+
+    Krylov-Schur, eigenvalues nearest ``sigma`` (rad^2/s^2), shift-and-invert with
+    a direct MUMPS LU of ``K - sigma M`` (the factor is reachable through
+    ``eps.getST().getKSP().getPC().getFactorMatrix()`` once solved). Callers set
+    the number of pairs (``setDimensions``) and an options prefix as they need.
+    """
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    eps = SLEPc.EPS().create(K.getComm())
+    eps.setOperators(K, M)
+    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps.setTarget(sigma)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+    eps.setTolerances(tol, max_it)
+    st = eps.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    st.setShift(sigma)
+    ksp = st.getKSP()
+    ksp.setType(PETSc.KSP.Type.PREONLY)
+    pc = ksp.getPC()
+    pc.setType(PETSc.PC.Type.LU)
+    pc.setFactorSolverType("mumps")
+    return eps
+
+
 def eigenfrequencies(
     K: Any,
     M: Any,
@@ -44,28 +73,13 @@ def eigenfrequencies(
         negative w^2 (rigid-body mode) gives a slightly negative f.
     """
     from petsc4py import PETSc
-    from slepc4py import SLEPc
 
     if int(n) < 1:
         raise ValueError(f"n = {n}: must be >= 1")
     if not math.isfinite(sigma):
         raise ValueError(f"sigma = {sigma}: must be finite")
-    eps = SLEPc.EPS().create(K.getComm())
-    eps.setOperators(K, M)
-    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps = shift_invert_eps(K, M, sigma, tol, max_it)
     eps.setDimensions(int(n), PETSc.DECIDE)
-    eps.setTarget(sigma)
-    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-    eps.setTolerances(tol, max_it)
-    st = eps.getST()
-    st.setType(SLEPc.ST.Type.SINVERT)
-    st.setShift(sigma)
-    ksp = st.getKSP()
-    ksp.setType(PETSc.KSP.Type.PREONLY)
-    pc = ksp.getPC()
-    pc.setType(PETSc.PC.Type.LU)
-    pc.setFactorSolverType("mumps")
     eps.solve()
     nconv = eps.getConverged()
     if nconv < n:

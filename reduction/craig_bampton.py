@@ -23,6 +23,8 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+from fem.eigen import shift_invert_eps
+
 log = logging.getLogger(__name__)
 
 #: Relative residual above which the static-mode solve is declared failed.
@@ -134,22 +136,8 @@ def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
 
 def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float) -> SLEPc.EPS:
     """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU on K_ii."""
-    eps = SLEPc.EPS().create(K_ii.getComm())
+    eps = shift_invert_eps(K_ii, M_ii, 0.0, tol, 500)
     eps.setOptionsPrefix("cb_")
-    eps.setOperators(K_ii, M_ii)
-    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
-    eps.setTarget(0.0)
-    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-    eps.setTolerances(tol, 500)
-    st = eps.getST()
-    st.setType(SLEPc.ST.Type.SINVERT)
-    st.setShift(0.0)
-    ksp = st.getKSP()
-    ksp.setType(PETSc.KSP.Type.PREONLY)
-    pc = ksp.getPC()
-    pc.setType(PETSc.PC.Type.LU)
-    pc.setFactorSolverType("mumps")
     eps.setFromOptions()
     return eps
 

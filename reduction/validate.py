@@ -8,7 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from petsc4py import PETSc
-from slepc4py import SLEPc
+
+from fem.eigen import shift_invert_eps
 
 log = logging.getLogger(__name__)
 
@@ -61,20 +62,8 @@ def full_coupled_frequencies(
     M: PETSc.Mat, Kc: PETSc.Mat, n: int, shift: float, tol: float = 1e-10
 ) -> np.ndarray:
     """Lowest ``n`` frequencies [Hz] of ``(Kc, M)`` by SLEPc shift-invert at ``shift``."""
-    eps = SLEPc.EPS().create(Kc.getComm())
+    eps = shift_invert_eps(Kc, M, shift, tol, 500)
     eps.setOptionsPrefix("validate_")
-    eps.setOperators(Kc, M)
-    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
-    eps.setTarget(shift)
-    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-    eps.setTolerances(tol, 500)
-    st = eps.getST()
-    st.setType(SLEPc.ST.Type.SINVERT)
-    ksp = st.getKSP()
-    ksp.setType(PETSc.KSP.Type.PREONLY)
-    ksp.getPC().setType(PETSc.PC.Type.LU)
-    ksp.getPC().setFactorSolverType("mumps")
     # Slack beyond n: a Krylov space from one start vector can miss a copy of
     # an exactly repeated eigenvalue (rigid modes); extra wanted pairs prevent it.
     n_full = Kc.getSize()[0]

@@ -8,7 +8,7 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["write_partial", "export", "time_series_speeds"]
+__all__ = ["write_partial", "export", "time_series_speeds", "nearest_point", "point_at"]
 
 
 def _settings(result) -> dict:
@@ -17,10 +17,18 @@ def _settings(result) -> dict:
 
 
 def _extra(result):
-    if result.rom is None:
+    nvh = getattr(result, "nvh", None)
+    if result.rom is None and nvh is None:
         return None
-    from study import fe_stages
-    return lambda f: fe_stages.write_rom_group(f, result)
+
+    def extra(f) -> None:
+        if result.rom is not None:
+            from study import fe_stages
+            fe_stages.write_rom_group(f, result)
+        if nvh is not None:
+            from study.nvh import write_nvh_group
+            write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+    return extra
 
 
 def write_partial(result, branch) -> None:
@@ -46,6 +54,16 @@ def time_series_speeds(result) -> list[float]:
     return out
 
 
+def point_at(result, i: int):
+    """Point ``i`` of the branch as an :class:`hbm.Point`."""
+    from hbm import Point
+
+    br = result.branch
+    return Point(rpm=float(br.rpm[i]), omega=float(br.omega[i]), unknowns=br.unknowns[i],
+                 coefficients=br.coefficients[i], residual=float(br.residual[i]),
+                 iterations=int(br.newton_iterations[i]))
+
+
 def nearest_point(result, rpm: float):
     """The stored point closest in speed (stable ones preferred) as an :class:`hbm.Point`."""
     from hbm import Point
@@ -59,9 +77,14 @@ def nearest_point(result, rpm: float):
 
 
 def export(result, figures: bool = True) -> None:
-    """Write the final results.h5, then the plots and report.md the scene asks for."""
+    """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
+    fields, plots and report.md the scene asks for."""
+    from study.nvh import compute_nvh, write_curves_csv
+
+    result.nvh = compute_nvh(result)
     write_partial(result, result.branch)
     logger.info("wrote %s", result.results)
+    write_curves_csv(Path(result.out) / "curves.csv", result.branch, result.nvh)
     if result.rom is not None and result.scene.outputs.housing_field:
         from study import fe_stages
         fields = fe_stages.housing_fields(result)

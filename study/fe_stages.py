@@ -217,6 +217,7 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
                                       min(r.n_check, rom.n_r))
     save_rom(folder / "rom.h5", rom)
+    _radiation(model, folder)
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
     rows = sorted({i for v in nodes.values() for i in v if i >= 0})
     with h5py.File(folder / "rom.h5", "r") as f:
@@ -226,6 +227,20 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
         f["basis_rows"] = basis_rows
         f.attrs["nodes"] = json.dumps(nodes)
         f.attrs["n_fe"] = int(model.K.getSize()[0])
+
+
+def _radiation(model, folder: Path) -> None:
+    """Radiation data of the housing's outer surface (ERP, study.acoustics), serial only."""
+    import h5py
+
+    from study import acoustics
+
+    if model.comm.size != 1:
+        logger.warning("ERP: the radiation matrix is built on one process only; skipped")
+        return
+    with h5py.File(folder / "rom.h5", "r") as f:
+        T = f["rom/basis"][()]
+    acoustics.radiation_data(model, T, folder / acoustics.RADIATION_FILE)
 
 
 @dataclass
@@ -243,6 +258,7 @@ class RomData:
     n_cm: int
     validation: Any
     node_rows: dict[str, np.ndarray]
+    radiation: dict | None = None
 
 
 def _node_rows(folder: Path) -> dict[str, np.ndarray]:
@@ -300,7 +316,23 @@ def load_rom_data(scene, rom_dir: Path) -> RomData:
     modes = coupled_modes(rom.M, rom.K, rom.G, km)                   # eq. (17)
     rho = mesh_energy(rom.M, rom.K, rom.G, km)                       # eq. (31)
     return RomData(Path(rom_dir), rom.M, rom.K, C, rom.G, modes.frequencies_hz, rho, km,
-                   rom.n_cm, rom.validation, _node_rows(Path(rom_dir)))
+                   rom.n_cm, rom.validation, _node_rows(Path(rom_dir)),
+                   _load_radiation(Path(rom_dir)))
+
+
+def _load_radiation(folder: Path) -> dict | None:
+    """Datasets and attributes of the cached ``radiation.h5`` (None when absent)."""
+    import h5py
+
+    from study.acoustics import RADIATION_FILE
+
+    p = folder / RADIATION_FILE
+    if not p.exists():
+        return None
+    with h5py.File(p, "r") as f:
+        out = {k: f[k][()] for k in f}
+        out.update({k: f.attrs[k] for k in f.attrs})
+    return out
 
 
 def rom_problem(scene, rom_dir: Path):

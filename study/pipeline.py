@@ -86,6 +86,7 @@ class RunResult:
     seconds: float = 0.0
     rom: Any = None
     mesh_dir: Path | None = None
+    nvh: Any = None
 
 
 def _require(*modules: str) -> None:
@@ -175,7 +176,7 @@ class Pipeline:
 
     def rom_key(self) -> str:
         return stage_key("rom", {"fe": self.fe_key(), "rom": _asdict(self.scene.rom)},
-                         source_hash("reduction", "study.fe_stages"))
+                         source_hash("reduction", "study.fe_stages", "study.acoustics"))
 
     def run_mesh(self) -> Path:
         """Mesh stage (FE scenes): cached gmsh model file."""

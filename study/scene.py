@@ -28,7 +28,8 @@ import numpy as np
 __all__ = [
     "SceneError", "Scene", "SceneInfo", "GearData", "MeshStiffness", "TransmissionError",
     "LoadData", "AeroLoad", "Unbalance", "ExternalData", "DampingData", "LumpedData",
-    "RomData", "HbmData", "ContinuationData", "OutputsData", "load_scene", "parse_scene",
+    "RomData", "HbmData", "ContinuationData", "OutputsData", "AcousticsData", "load_scene",
+    "parse_scene",
     "scene_from_dict", "apply_overrides", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES",
 ]
 
@@ -46,7 +47,7 @@ class StageUnavailable(RuntimeError):
 _UNIT = {  # suffix -> factor to SI
     "mm": 1e-3, "um": 1e-6, "deg": math.pi / 180.0, "rpm": 1.0, "Nm": 1.0, "N": 1.0,
     "GPa": 1e9, "MPa": 1e6, "N_per_um": 1e6, "N_per_m": 1.0, "kgm": 1.0, "kg": 1.0,
-    "kgm2": 1.0, "kg_per_m3": 1.0, "Hz": 1.0, "": 1.0,
+    "kgm2": 1.0, "kg_per_m3": 1.0, "Hz": 1.0, "m_per_s": 1.0, "": 1.0,
 }
 
 
@@ -196,6 +197,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "checkpoint_every": _f(20, "", 1, 1_000_000, kind="int",
                                doc="points between checkpoints in results.h5"),
     },
+    "acoustics": {
+        "air_density_kg_per_m3": _f(1.2, "kg_per_m3", 0, 100, lo_open=True,
+                                    doc="density ρ of the air the housing radiates into (ERP)"),
+        "sound_speed_m_per_s": _f(343.0, "m_per_s", 0, 1e4, lo_open=True,
+                                  doc="speed of sound c of that air (ERP = ½ ρ c Σ v_n² A)"),
+    },
     "outputs": {
         "plots": Spec("strs", list(PLOT_NAMES),
                       doc="plots to draw, among " + ", ".join(PLOT_NAMES)),
@@ -210,7 +217,8 @@ for _s in FE_SECTIONS:
     SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
 
 _TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
-              "damping", "lumped", "rom", "hbm", "continuation", "outputs", *FE_SECTIONS)
+              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
+              *FE_SECTIONS)
 
 
 def _attr(key: str) -> str:
@@ -409,6 +417,14 @@ class ContinuationData:
 
 
 @dataclass(frozen=True)
+class AcousticsData:
+    """``[acoustics]``: air density (kg/m³) and speed of sound (m/s) of the ERP."""
+
+    air_density: float = 1.2
+    sound_speed: float = 343.0
+
+
+@dataclass(frozen=True)
 class OutputsData:
     """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm)."""
 
@@ -437,6 +453,7 @@ class Scene:
     fe: dict = field(default_factory=dict)
     raw: dict = field(default_factory=dict, compare=False, repr=False)
     text: str = field(default="", compare=False, repr=False)
+    acoustics: AcousticsData = field(default_factory=AcousticsData)
 
     @property
     def static_load(self) -> float:
@@ -834,7 +851,7 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
 
     return Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
                  DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs, fe,
-                 copy.deepcopy(raw), text)
+                 copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

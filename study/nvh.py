@@ -1,0 +1,157 @@
+"""Noise and vibration views of a continuation branch: mesh load per order, its
+peak-to-peak value, the housing's equivalent radiated power (ERP) per order, and
+the CSV export of the curves.
+
+Computed once at export for every continuation point: the mesh load f_LoA(t)
+(eq. 13) on the fine AFT grid of :func:`hbm.time_series`, its Fourier amplitudes at
+the harmonic indices of the set, and (FE scenes) the ERP of every harmonic from
+the ROM coordinates q̃_k recovered from the point (:meth:`hbm.HBMProblem.recover`)
+and the cached radiation matrix W (:mod:`study.acoustics`).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from study.acoustics import P_REF, erp_harmonics, power_db
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["NVH", "compute_nvh", "write_nvh_group", "write_curves_csv", "CONTACT_NAMES"]
+
+CONTACT_NAMES = ("permanent contact", "single-sided impacts", "double-sided impacts")
+
+
+@dataclass
+class NVH:
+    """Per-point NVH quantities of a branch (n points, n_h harmonics).
+
+    Attributes
+    ----------
+    harmonics : (n_h,) int
+        Harmonic indices of the set.
+    orders : (n_h,) float
+        Shaft orders of those harmonics (index × divisor).
+    mesh_load_amplitude : (n, n_h) float
+        |f̃_k| of the mesh load at each harmonic [N].
+    mesh_load_ptp : (n,) float
+        Peak-to-peak mesh load over the period [N].
+    erp : (n, n_h) float or None
+        ERP of each harmonic [W] (FE scenes with radiation data).
+    erp_total : (n,) float or None
+        Σ_k ERP_k [W].
+    rho, c : float
+        Air density [kg/m³] and speed of sound [m/s] used.
+    """
+
+    harmonics: np.ndarray
+    orders: np.ndarray
+    mesh_load_amplitude: np.ndarray
+    mesh_load_ptp: np.ndarray
+    erp: np.ndarray | None
+    erp_total: np.ndarray | None
+    rho: float
+    c: float
+
+    @property
+    def erp_db(self) -> np.ndarray | None:
+        return None if self.erp is None else power_db(self.erp)
+
+    @property
+    def erp_total_db(self) -> np.ndarray | None:
+        return None if self.erp_total is None else power_db(self.erp_total)
+
+
+def compute_nvh(result) -> NVH:
+    """NVH quantities at every point of ``result.branch``."""
+    from hbm import time_series
+    from study.export import point_at
+
+    pb, br = result.problem, result.branch
+    hs = pb.harmonics
+    idx = np.asarray(hs.indices, dtype=int)
+    n = len(br)
+    amp = np.zeros((n, idx.size))
+    ptp = np.zeros(n)
+    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
+    ac = result.scene.acoustics
+    erp = np.zeros((n, idx.size)) if rad is not None else None
+    for i in range(n):
+        pt = point_at(result, i)
+        ts = time_series(pb, pt)
+        f = ts.mesh_load
+        c = np.fft.rfft(f) / f.size
+        c[1:] *= 2.0
+        amp[i] = np.abs(c[idx])
+        ptp[i] = float(np.ptp(f))
+        if erp is not None:
+            qk = pb.recover(pt)
+            w0 = hs.fundamental_rad_s(pt.omega)
+            erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+    total = None if erp is None else erp.sum(axis=1)
+    if erp is not None and n:
+        logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
+                    float(power_db(total).min()), float(power_db(total).max()))
+    return NVH(idx, idx * hs.divisor, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+
+
+def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
+    """Write ``/nvh`` of results.h5 (docs/results-format.md)."""
+    g = f.create_group("nvh")
+    g["harmonics"] = nvh.harmonics.astype(np.int64)
+    g["orders"] = nvh.orders.astype(np.int64)
+    g["mesh_load_amplitude"] = nvh.mesh_load_amplitude
+    g["mesh_load_amplitude"].attrs["unit"] = "N"
+    g["mesh_load_ptp"] = nvh.mesh_load_ptp
+    g["mesh_load_ptp"].attrs["unit"] = "N"
+    if nvh.erp is None:
+        return
+    g.attrs["air_density"] = nvh.rho
+    g.attrs["sound_speed"] = nvh.c
+    g.attrs["reference_power"] = P_REF
+    g.attrs["radiation_efficiency"] = 1.0
+    g["erp"] = nvh.erp
+    g["erp"].attrs["unit"] = "W"
+    g["erp_total"] = nvh.erp_total
+    g["erp_total"].attrs["unit"] = "W"
+    g["erp_db"] = nvh.erp_db
+    g["erp_total_db"] = nvh.erp_total_db
+    for k in ("erp_db", "erp_total_db"):
+        g[k].attrs["unit"] = "dB re 1e-12 W"
+    if radiation is not None:
+        r = g.create_group("radiation")
+        r["W"] = radiation["W"]
+        r["W"].attrs["unit"] = "m^2"
+        for k in ("area", "n_facets", "part", "quadrature_degree"):
+            r.attrs[k] = radiation[k]
+
+
+def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
+    """``curves.csv``: one row per continuation point (atomic write)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["point", "speed_rpm", "mesh_load_std_N", "mesh_load_max_N",
+                "mesh_load_peak_to_peak_N", "erp_dB_re_1pW", "contact_class", "contact",
+                "stable"])
+    db = nvh.erp_total_db
+    for i in range(len(branch)):
+        cls = int(branch.contact[i])
+        w.writerow([i, f"{branch.rpm[i]:.6f}", f"{branch.mesh_load_std[i]:.8g}",
+                    f"{branch.mesh_load_max[i]:.8g}", f"{nvh.mesh_load_ptp[i]:.8g}",
+                    "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
+                    int(bool(branch.stable[i]))])
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(buf.getvalue())
+    from study.results import replace_file
+    replace_file(tmp, path)
+    logger.info("wrote %s", path)
+    return path

@@ -374,7 +374,8 @@ def rom_plots(result, want: set) -> list[Path]:
     if "campbell" in want:
         paths.append(plots.campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
                                          sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
-                                         out / "campbell.png"))
+                                         out / "campbell.png",
+                                         external_orders=sc.external.orders))
     if "rom_error" in want and rd.validation is not None:
         paths.append(plots.rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
                                           out / "rom_error.png",

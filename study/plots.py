@@ -18,7 +18,8 @@ import numpy as np  # noqa: E402
 logger = logging.getLogger(__name__)
 
 __all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
-           "campbell_plot", "rom_error_plot", "draw_all", "contact_intervals", "grazing_values"]
+           "campbell_plot", "campbell_modes", "rom_error_plot", "draw_all", "contact_intervals",
+           "grazing_values", "order_label", "spectrum_lines", "order_map_plot", "erp_plot"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
 
@@ -207,52 +208,256 @@ def time_series_plot(problem, point, path: Path, title: str = "") -> Path:
     return _save(fig, path)
 
 
-def spectrum_plot(problem, point, path: Path, title: str = "") -> Path:
-    """Amplitude spectrum of the mesh load against the shaft order (Fig. 15c)."""
+def order_label(order: int, n_teeth: int) -> str:
+    """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
+    plain number for orders far below the mesh frequency (external orders)."""
+    order = int(order)
+    k = int(round(order / n_teeth))
+    e = order - k * n_teeth
+    if k == 0:
+        return str(order)
+    base = "Z" if k == 1 else f"{k}Z"
+    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
+
+
+def spectrum_lines(order: np.ndarray, amp: np.ndarray, max_order: float,
+                   dynamic_range_db: float = 60.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """Orders and amplitudes drawn by :func:`spectrum_plot`: 0 < order ≤ ``max_order``
+    and within ``dynamic_range_db`` of the largest line; returns them and the floor."""
+    order, amp = np.asarray(order), np.asarray(amp, dtype=float)
+    sel = (order > 0) & (order <= max_order)
+    top = max(float(np.max(amp[sel])) if np.any(sel) else 0.0, 1e-30)
+    floor = top * 10 ** (-dynamic_range_db / 20)
+    keep = sel & (amp >= floor)
+    return order[keep], amp[keep], floor
+
+
+def spectrum_plot(problem, point, path: Path, title: str = "", n_labels: int = 10) -> Path:
+    """Mesh-load spectrum (Fig. 15c) against the shaft order, with a frequency axis.
+
+    Only orders up to a little above the highest harmonic of the HBM set are drawn
+    (the AFT grid's upper orders hold no solved content), within 60 dB of the
+    largest line; the largest lines are labelled as mesh harmonics and sidebands
+    (``Z``, ``2Z``, ``Z±e``) or external orders.
+    """
     from hbm import spectrum
 
     sp = spectrum(problem, point)
-    order, amp = sp["shaft_order"], sp["amplitude"]
-    top = max(float(np.max(amp[1:])) if amp.size > 1 else 1.0, 1e-30)
-    keep = (order > 0) & (amp > 1e-6 * top)
-    fig, ax = plt.subplots(figsize=(8, 3.2))
-    ax.vlines(order[keep], 1e-6 * top, amp[keep], color="tab:blue", lw=1.2)
+    hs = problem.harmonics
+    z = problem.mesh.n_teeth
+    max_order = 1.1 * hs.max_index * hs.divisor + 1
+    order, amp, floor = spectrum_lines(sp["shaft_order"], sp["amplitude"], max_order)
+    fig, ax = plt.subplots(figsize=(9, 3.8))
+    ax.vlines(order, floor, amp, color="tab:blue", lw=1.4)
+    ax.plot(order, amp, "o", ms=2.5, color="tab:blue")
+    done: list[int] = []
+    for o, a in sorted(zip(order, amp, strict=True), key=lambda t: -t[1]):
+        if len(done) >= n_labels:
+            break
+        if all(abs(o - d) >= 3 for d in done) or o % z == 0:
+            done.append(int(o))
+            ax.annotate(order_label(o, z), (o, a), xytext=(0, 4), textcoords="offset points",
+                        ha="center", fontsize=7)
+    for k in range(1, int(max_order // z) + 1):
+        ax.axvline(k * z, color="grey", lw=0.6, ls=":", zorder=0)
     ax.set_yscale("log")
-    ax.set_ylim(1e-6 * top, 2 * top)
+    ax.set_ylim(floor, 3 * max(float(amp.max()) if amp.size else floor, floor))
+    ax.set_xlim(0, max_order)
     ax.set_xlabel("shaft order (harmonic of Ω)")
     ax.set_ylabel("mesh-load amplitude (N)")
+    f1 = point.rpm / 60.0
+    sec = ax.secondary_xaxis("top", functions=(lambda o: o * f1, lambda f: f / f1))
+    sec.set_xlabel("frequency (Hz)")
     ax.grid(alpha=0.3)
-    ax.set_title(title or f"mesh-load spectrum at {point.rpm:.0f} rpm")
+    ax.set_title(title or f"mesh-load spectrum at {point.rpm:.0f} rpm "
+                 f"(mesh frequency {z * f1:.0f} Hz)", fontsize=10)
     return _save(fig, path)
 
 
-def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range, n_teeth: int,
-                  mesh_harmonics: int, path: Path, threshold: float = 0.03) -> Path:
-    """Campbell diagram (Fig. 8): modes as horizontal lines coloured by mesh energy
-    (only those above ``threshold``), excitation orders kZ as black lines."""
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+def campbell_modes(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range,
+                   external_orders, threshold: float = 0.03) -> np.ndarray:
+    """Indices of the modes the Campbell plot highlights: mesh energy ≥ ``threshold``,
+    or crossed by an external order (1, 2, 4, …) inside the speed range, whatever
+    their mesh energy (a low-ρ drivetrain mode can still be excited by unbalance or
+    aerodynamic loads)."""
+    f = np.asarray(frequencies_hz, dtype=float)
+    rho = np.asarray(mesh_energy, dtype=float)
     lo, hi = rpm_range
-    rpm = np.linspace(0, hi * 1.05, 2)
-    fmax = 0.0
-    for k in range(1, mesh_harmonics + 1):
-        f = k * n_teeth * rpm / 60.0
-        ax.plot(rpm, f, "k", lw=1)
-        ax.text(rpm[-1], f[-1], f" H{k}Z" if k > 1 else " HZ", fontsize=7, va="center")
-        fmax = max(fmax, f[-1])
+    keep = (rho >= threshold) & (f > 0)
+    for o in external_orders:
+        rpm = 60.0 * f / o
+        keep |= (f > 0) & (rpm >= lo) & (rpm <= hi)
+    return np.flatnonzero(keep)
+
+
+def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range, n_teeth: int,
+                  mesh_harmonics: int, path: Path, threshold: float = 0.03,
+                  external_orders=()) -> Path:
+    """Campbell diagram (Fig. 8).
+
+    Every mode is drawn as a horizontal line coloured by its mesh energy on a log
+    scale (faint below 0.1 %); modes with ρ ≥ ``threshold`` or crossed by an
+    external order inside the speed range (:func:`campbell_modes`) are drawn thick
+    and labelled. Mesh orders kZ are solid black lines, the external shaft orders
+    dashed; their crossings with the highlighted modes inside the speed range are
+    circled. The right panel zooms on the low frequencies the external orders reach.
+    """
+    from matplotlib.colors import LogNorm
+
+    f = np.asarray(frequencies_hz, dtype=float)
+    e = np.clip(np.asarray(mesh_energy, dtype=float), 1e-6, 1.0)
+    lo, hi = rpm_range
+    ext = sorted({int(o) for o in external_orders})
+    strong = set(campbell_modes(f, e, rpm_range, ext, threshold).tolist())
+    norm = LogNorm(1e-4, 1.0)
     cmap = plt.get_cmap("viridis")
-    e = np.asarray(mesh_energy, dtype=float)
-    emax = max(float(np.max(e)) if e.size else 1.0, 1e-12)
-    for f, rho in zip(frequencies_hz, e, strict=True):
-        if rho >= threshold and f <= 1.1 * fmax:
-            ax.axhline(f, color=cmap(rho / emax), lw=1.5)
-    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, emax * 100))
-    fig.colorbar(sm, ax=ax, label="mesh energy ρ (%)")
-    ax.axvspan(lo, hi, color="grey", alpha=0.1, lw=0)
-    ax.set_xlim(0, hi * 1.05)
-    ax.set_ylim(0, fmax)
+    rpm = np.linspace(0, hi * 1.05, 2)
+    mesh_orders = [k * n_teeth for k in range(1, mesh_harmonics + 1)]
+    fmax_mesh = mesh_orders[-1] * rpm[-1] / 60.0
+    fmax_ext = 1.3 * max(ext) * rpm[-1] / 60.0 if ext else None
+    panels = [(fmax_mesh, mesh_orders + ext)] + ([(fmax_ext, ext + mesh_orders)] if ext else [])
+    fig, axes = plt.subplots(1, len(panels), figsize=(8 + 4 * (len(panels) - 1), 4.8),
+                             gridspec_kw={"width_ratios": [2, 1.2][:len(panels)]},
+                             squeeze=False)
+    for pi, (ax, (fmax, orders)) in enumerate(zip(axes[0], panels, strict=True)):
+        labelled: list[float] = []
+        for j, (fj, rho) in enumerate(zip(f, e, strict=True)):
+            if fj <= 0 or fj > fmax:
+                continue
+            thick = j in strong
+            ax.axhline(fj, color=cmap(norm(rho)), lw=1.8 if thick else 0.7,
+                       alpha=1.0 if thick else 0.35 if rho < 1e-3 else 0.7, zorder=1)
+            if thick and all(abs(fj - y) > 0.025 * fmax for y in labelled):
+                labelled.append(fj)
+                ax.text(rpm[-1], fj, f" {fj:.0f} Hz", fontsize=6, va="center",
+                        color=cmap(norm(rho)))
+        for o in orders:
+            is_mesh = o in mesh_orders
+            fo = o * rpm / 60.0
+            ax.plot(rpm, fo, "k", lw=1.0 if is_mesh else 0.9, ls="-" if is_mesh else "--",
+                    zorder=2)
+            # label where the line leaves the panel
+            if fo[-1] <= fmax:
+                ax.text(rpm[-1], fo[-1], " " + order_label(o, n_teeth), fontsize=7,
+                        va="center")
+            elif pi == 0 or not is_mesh:
+                r = 60.0 * fmax / o
+                ax.text(r, fmax, order_label(o, n_teeth), fontsize=7, ha="center",
+                        va="bottom")
+            for j in strong:
+                r = 60.0 * f[j] / o
+                if lo <= r <= hi and f[j] <= fmax:
+                    ax.plot(r, f[j], "o", ms=6, mfc="none", mec="crimson", mew=1.2, zorder=3)
+        ax.axvspan(lo, hi, color="grey", alpha=0.08, lw=0)
+        ax.set_xlim(0, hi * 1.05)
+        ax.set_ylim(0, fmax)
+        ax.set_xlabel("shaft speed Ω (rpm)")
+        ax.set_ylabel("frequency (Hz)")
+        ax.grid(alpha=0.2)
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=norm)
+    fig.colorbar(sm, ax=axes[0].tolist(), label="mesh energy ρ")
+    axes[0, 0].set_title("Campbell diagram: mesh orders (solid), external orders (dashed)",
+                         fontsize=9)
+    if len(panels) > 1:
+        axes[0, 1].set_title("zoom: external orders", fontsize=9)
+    return _save(fig, path)
+
+
+def _level_lines(ax, x, y, level, norm, cmap, lw=4.0):
+    """A line through (x, y) coloured by ``level`` point by point (branch order kept,
+    so folds are drawn as they are)."""
+    from matplotlib.collections import LineCollection
+
+    pts = np.column_stack([x, y])
+    if len(pts) < 2:
+        ax.scatter(x, y, c=level, cmap=cmap, norm=norm, s=lw ** 2, marker="s")
+        return
+    seg = np.stack([pts[:-1], pts[1:]], axis=1)
+    lc = LineCollection(seg, cmap=cmap, norm=norm, linewidths=lw, capstyle="butt")
+    lc.set_array(0.5 * (level[:-1] + level[1:]))
+    ax.add_collection(lc)
+
+
+def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_teeth: int,
+                   path: Path, quantity: str, title: str = "",
+                   modes_hz: np.ndarray | None = None, dynamic_range_db: float = 60.0) -> Path:
+    """Order/speed colour maps of a level in dB (one column per harmonic order).
+
+    Left: order map, one row per order of the harmonic set (labelled ``Z``, ``Z±e``,
+    ``2Z`` …, external orders by number), the level along the branch as colour.
+    Right: the same levels at their frequency order·Ω/2π (Campbell/waterfall style),
+    with the coupled mode frequencies as thin lines when given, so resonances show
+    where an order crosses a mode. Colours span ``dynamic_range_db`` below the maximum.
+    """
+    rpm = np.asarray(rpm, dtype=float)
+    orders = np.asarray(orders)
+    lv = np.asarray(level_db, dtype=float)
+    keep = orders > 0
+    orders, lv = orders[keep], lv[:, keep]
+    top = float(np.max(lv)) if lv.size else 0.0
+    norm = plt.Normalize(top - dynamic_range_db, top)
+    cmap = plt.get_cmap("magma")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5),
+                                 gridspec_kw={"width_ratios": [1, 1.2], "wspace": 0.25})
+    for r in np.argsort(np.max(lv, axis=0)) if lv.size else []:  # loudest drawn last
+        o = orders[r]
+        _level_lines(ax, rpm, np.full(rpm.size, r), np.maximum(lv[:, r], top - dynamic_range_db),
+                     norm, cmap, lw=max(1.0, min(8.0, 200.0 / max(len(orders), 1))))
+        _level_lines(bx, rpm, o * rpm / 60.0, np.maximum(lv[:, r], top - dynamic_range_db),
+                     norm, cmap, lw=2.0)
+    labels = [order_label(o, n_teeth) for o in orders]
+    step = max(1, len(orders) // 40)
+    ticks = [r for r, o in enumerate(orders)
+             if r % step == 0 or o % n_teeth == 0 or o < n_teeth // 2]
+    ax.set_yticks(ticks)
+    ax.set_yticklabels([labels[r] for r in ticks], fontsize=7)
+    ax.set_ylim(-0.7, len(orders) - 0.3)
+    lo, hi = (float(rpm.min()), float(rpm.max())) if rpm.size else (0.0, 1.0)
+    for a in (ax, bx):
+        a.set_xlim(lo, hi if hi > lo else lo + 1)
+        a.set_xlabel("shaft speed Ω (rpm)")
+    ax.set_ylabel("shaft order")
+    fmax = 1.05 * float(orders.max()) * hi / 60.0 if orders.size else 1.0
+    if modes_hz is not None:
+        for fm in np.asarray(modes_hz, dtype=float):
+            if 0 < fm <= fmax:
+                bx.axhline(fm, color="tab:cyan", lw=0.5, alpha=0.6, zorder=0)
+        bx.plot([], [], color="tab:cyan", lw=0.8, label="coupled modes")
+        bx.legend(loc="upper left", fontsize=7)
+    bx.set_ylim(0, fmax)
+    bx.set_ylabel("frequency (Hz)")
+    bx.set_facecolor("0.93")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=norm)
+    fig.colorbar(sm, ax=[ax, bx], label=f"{quantity} (dB)")
+    fig.suptitle(title or f"{quantity} per order against speed", fontsize=10)
+    return _save(fig, path)
+
+
+def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.ndarray,
+             n_teeth: int, path: Path, title: str = "", n_orders: int = 6) -> Path:
+    """Equivalent radiated power of the housing against speed: total (thick) and the
+    ``n_orders`` orders with the highest peak level; impact ranges shaded."""
+    rpm = branch.rpm
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    for c, iv in contact_intervals(rpm, branch.contact).items():
+        col, name = CLASS_COLOURS[c]
+        for j, (a, b) in enumerate(iv):
+            ax.axvspan(a, b, color=col, alpha=0.15, lw=0, label=name if j == 0 else None)
+    ax.plot(rpm, erp_total_db, "k", lw=1.8, label="total")
+    orders = np.asarray(orders)
+    cand = np.flatnonzero(orders > 0)
+    best = cand[np.argsort(-np.max(erp_db[:, cand], axis=0))][:n_orders]
+    for j in sorted(best, key=lambda j: orders[j]):
+        ax.plot(rpm, erp_db[:, j], lw=1.0, label=f"order {order_label(orders[j], n_teeth)}")
+    top = float(np.max(erp_total_db))
+    ax.set_ylim(max(float(np.min(erp_total_db)) - 30, top - 80), top + 5)
+    ax.set_xlim(branch.rpm_start, branch.rpm_end)
     ax.set_xlabel("shaft speed Ω (rpm)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.set_title(f"Campbell diagram (modes with ρ ≥ {threshold:.0%})")
+    ax.set_ylabel("ERP (dB re 1 pW)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best", ncol=2)
+    ax.set_title(title or "equivalent radiated power of the housing (radiation efficiency 1)",
+                 fontsize=10)
     return _save(fig, path)
 
 
@@ -296,6 +501,21 @@ def draw_all(result) -> list[Path]:
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))
         if "spectrum" in want:
             paths.append(spectrum_plot(pb, pt, out / f"spectrum_{tag}.png"))
+    nvh = getattr(result, "nvh", None)
+    z = result.scene.gear.teeth
+    if nvh is not None and "order_maps" in want and len(br) > 0:
+        ml = 20 * np.log10(np.maximum(nvh.mesh_load_amplitude, 1e-30) / 1.0)
+        modes = result.rom.frequencies_hz if result.rom is not None else None
+        paths.append(order_map_plot(br.rpm, nvh.orders, ml, z, out / "order_map_mesh_load.png",
+                                    "mesh-load amplitude, dB re 1 N",
+                                    f"{name}: mesh load per order", modes))
+        if nvh.erp is not None:
+            paths.append(order_map_plot(br.rpm, nvh.orders, nvh.erp_db, z,
+                                        out / "order_map_erp.png", "ERP, dB re 1 pW",
+                                        f"{name}: housing ERP per order", modes))
+    if nvh is not None and nvh.erp is not None and "erp" in want and len(br) > 0:
+        paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
+                              out / "erp.png", f"{name}: equivalent radiated power"))
     if result.rom is not None:
         from study import fe_stages
         paths += fe_stages.rom_plots(result, want)

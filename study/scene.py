@@ -91,7 +91,8 @@ def _c(default, choices, doc=""):
     return Spec("choice", default, "", None, None, False, False, tuple(choices), doc)
 
 
-PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing")
+PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
+              "order_maps", "erp")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive")
 
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables

@@ -325,3 +325,39 @@ def test_report_from_existing_results(sdof_run):
     for r in g:
         assert f"{r:.2f}" in text
     assert (out / "forced_response.png").exists()
+
+
+def test_nvh_group_and_curves_csv(sdof_run):
+    """/nvh mesh-load amplitudes and peak-to-peak against the file's own equations
+    (eq. 13 sampled 32x finer than the AFT grid); curves.csv has one row per point."""
+    import csv
+
+    out, _, _ = sdof_run
+    with h5py.File(out / "results.h5", "r") as f:
+        g = f["nvh"]
+        assert "erp" not in g  # lumped scene: no housing
+        h = f["continuation/harmonics"][()]
+        np.testing.assert_array_equal(g["harmonics"][()], h)
+        div = int(f["excitation/harmonics"].attrs["divisor"])
+        np.testing.assert_array_equal(g["orders"][()], h * div)
+        amp, ptp = g["mesh_load_amplitude"][()], g["mesh_load_ptp"][()]
+        n_aft = int(f["excitation/harmonics"].attrs["n_time"])
+        b = f["gear_mesh/backlash"][()]
+        n = f["continuation/rpm"].size
+        for i in np.linspace(0, n - 1, 8).astype(int):
+            m = 32 * n_aft
+            _, delta, km, e = _signals(f, i, m)
+            p = delta - e
+            fl = km * (np.where(p > b, p - b, 0) + np.where(p < -b, p + b, 0))
+            fk = np.abs(np.fft.rfft(fl)[h]) / m * np.where(h == 0, 1, 2)
+            np.testing.assert_allclose(amp[i], fk, atol=2e-3 * fk.max())
+            assert ptp[i] == pytest.approx(np.ptp(fl), rel=2e-2)
+        std = f["continuation/mesh_load_std"][()]
+        contact = f["continuation/contact"][()]
+    rows = list(csv.DictReader((out / "curves.csv").open()))
+    assert len(rows) == n
+    for i in (0, n // 2, n - 1):
+        assert float(rows[i]["mesh_load_std_N"]) == pytest.approx(std[i], rel=1e-6)
+        assert int(rows[i]["contact_class"]) == contact[i]
+        assert rows[i]["erp_dB_re_1pW"] == ""
+        assert float(rows[i]["mesh_load_peak_to_peak_N"]) == pytest.approx(ptp[i], rel=1e-6)

@@ -36,6 +36,7 @@ logger = logging.getLogger(__name__)
 __all__ = ["AIR_DENSITY", "SOUND_SPEED", "P_REF", "QUADRATURE_DEGREE", "outer_surface_facets",
            "normal_gram", "surface_area", "fe_basis", "reduced_radiation_matrix", "erp_harmonics",
            "power_db", "facet_normal_velocity_rows", "facet_geometry_nodes",
+           "facet_centroid_rows", "node_blocks", "sphere_erp",
            "radiation_data", "RADIATION_FILE"]
 
 #: Default air density [kg/m³] and speed of sound [m/s] (20 °C, sea level).
@@ -208,11 +209,11 @@ _TET_EDGES = ((2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1))
 
 
 def facet_geometry_nodes(mesh, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 6 geometry nodes of each exterior P2 facet (3 vertices, then the 3 edge nodes)
-    and the cell each facet belongs to.
+    """The 6 geometry nodes of each exterior P2 facet in VTK/XDMF ``triangle6`` order
+    (vertices a, b, c, then the edge nodes of ab, bc, ca) and the cell of each facet.
 
-    Facet ``i`` of a tetrahedron is opposite its vertex ``i``; its edge nodes are the
-    cell's edge nodes ``4 + e`` of the edges ``e`` not touching vertex ``i``.
+    Facet ``i`` of a tetrahedron is opposite its vertex ``i``; the edge node of the
+    cell's edge ``e`` (``_TET_EDGES``) is its geometry node ``4 + e``.
     """
     top = mesh.topology
     top.create_connectivity(2, 3)
@@ -220,31 +221,42 @@ def facet_geometry_nodes(mesh, facets: np.ndarray) -> tuple[np.ndarray, np.ndarr
     f2c, c2f = top.connectivity(2, 3), top.connectivity(3, 2)
     cg = mesh.geometry.dofmap
     cells = f2c.array[f2c.offsets[facets]]
+    edge_of = {frozenset(p): 4 + e for e, p in enumerate(_TET_EDGES)}
     out = np.empty((len(facets), 6), dtype=np.int64)
     for j, (f, c) in enumerate(zip(facets, cells, strict=True)):
         i = int(np.flatnonzero(c2f.links(c) == f)[0])
         nodes = cg.links(c)
-        verts = [v for v in range(4) if v != i]
-        edges = [4 + e for e, pair in enumerate(_TET_EDGES) if i not in pair]
-        out[j] = nodes[verts + edges]
+        a, b, d = (v for v in range(4) if v != i)
+        out[j] = nodes[[a, b, d, edge_of[frozenset((a, b))], edge_of[frozenset((b, d))],
+                        edge_of[frozenset((d, a))]]]
     return out, cells
 
 
-def facet_normal_velocity_rows(mesh, V, facets: np.ndarray):
-    """Sparse rows giving ``n·u`` at the centroid of each facet from the P2 DOF of V.
+def node_blocks(mesh, V, cells: np.ndarray) -> np.ndarray:
+    """Geometry node -> DOF block of the P2 vector space ``V`` (−1 off ``cells``).
 
-    Returns ``(R, area, centroid, normal)``: ``R`` (n_f × n_V) scipy CSR with
-    ``(R u)_f = n_f · u(centroid_f)`` (P2 triangle: vertex weights −1/9, edge
-    weights 4/9; flat-facet normal from the vertices, pointing out of the cell),
-    the flat facet areas [m²], centroids [m] and unit normals.
+    The P2 geometry and the P2 Lagrange space share the reference layout cell by
+    cell, so the node at local position j of a cell carries the cell's j-th block.
+    """
+    cg = mesh.geometry.dofmap
+    out = np.full(mesh.geometry.x.shape[0], -1, dtype=np.int64)
+    for c in np.unique(cells):
+        out[cg.links(c)] = V.dofmap.cell_dofs(c)
+    return out
+
+
+def facet_centroid_rows(mesh, V, facets: np.ndarray):
+    """Sparse rows giving u and ``n·u`` at the centroid of each facet from the P2 DOF of V.
+
+    Returns ``(Rc, Rn, area, centroid, normal)``: ``Rc`` a list of 3 scipy CSR
+    (n_f × n_V), ``(Rc[i] u)_f = u_i(centroid_f)`` (P2 triangle: vertex weights
+    −1/9, edge weights 4/9), ``Rn = Σ_i n_i Rc[i]`` (``n·u``); flat facet areas
+    [m²], centroids [m] and unit normals (flat facet, pointing out of the cell).
     """
     import scipy.sparse as sp
 
-    top = mesh.topology
-    top.create_connectivity(2, 3)
-    top.create_connectivity(3, 2)
     x = mesh.geometry.x
-    g, cells = facet_geometry_nodes(mesh, facets)                  # (n_f, 6): 3 vertices, 3 edges
+    g, cells = facet_geometry_nodes(mesh, facets)                  # (n_f, 6)
     p = x[g]
     nrm = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     area = 0.5 * np.linalg.norm(nrm, axis=1)
@@ -255,21 +267,22 @@ def facet_normal_velocity_rows(mesh, V, facets: np.ndarray):
     cell_cen = np.stack([x[cg.links(c)[:4]].mean(axis=0) for c in cells])
     flip = np.einsum("ij,ij->i", nrm, cen - cell_cen) < 0
     nrm[flip] *= -1
-    # geometry node -> V block (same P2 Lagrange layout cell by cell)
-    node2block = np.full(x.shape[0], -1, dtype=np.int64)
-    for c in np.unique(cells):
-        node2block[cg.links(c)] = V.dofmap.cell_dofs(c)
-    blocks = node2block[g]
+    blocks = node_blocks(mesh, V, cells)[g]
     if np.any(blocks < 0):
-        raise RuntimeError("facet_normal_velocity_rows: facet node without a DOF block")
+        raise RuntimeError("facet_centroid_rows: facet node without a DOF block")
     w = np.array([-1 / 9] * 3 + [4 / 9] * 3)
-    bs = 3
-    rows = np.repeat(np.arange(facets.size), 6 * bs)
-    cols = (bs * blocks[:, :, None] + np.arange(bs)[None, None, :]).reshape(facets.size, -1)
-    vals = (w[None, :, None] * nrm[:, None, :]).reshape(facets.size, -1)
-    n_v = bs * (V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts)
-    R = sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(facets.size, n_v))
-    return R, area, cen, nrm
+    n_v = 3 * (V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts)
+    rows = np.repeat(np.arange(facets.size), 6)
+    Rc = [sp.csr_matrix((np.tile(w, facets.size), (rows, (3 * blocks + i).ravel())),
+                        shape=(facets.size, n_v)) for i in range(3)]
+    Rn = sum(sp.diags(nrm[:, i]) @ Rc[i] for i in range(3)).tocsr()
+    return Rc, Rn, area, cen, nrm
+
+
+def facet_normal_velocity_rows(mesh, V, facets: np.ndarray):
+    """``(Rn, area, centroid, normal)`` of :func:`facet_centroid_rows` (``n·u`` rows)."""
+    _, Rn, area, cen, nrm = facet_centroid_rows(mesh, V, facets)
+    return Rn, area, cen, nrm
 
 
 def sphere_erp(radius: float, u0: float, omega: float, rho: float = AIR_DENSITY,
@@ -286,8 +299,9 @@ def radiation_data(model, T: np.ndarray, path, part: str = "housing") -> None:
     """Write the ROM's radiation data of ``part``'s outer surface to ``path`` (HDF5).
 
     Datasets: ``W`` (n_r × n_r, m²), ``facet_rows`` (n_f × n_r: n·u at each facet
-    centroid per unit ROM coordinate), ``facet_area`` (m², flat), ``facet_centroid``,
-    ``facet_normal`` (n_f × 3), ``facet_nodes`` (n_f × 6 indices into ``points``),
+    centroid per unit ROM coordinate), ``facet_u_rows`` (n_f × 3 × n_r: u there),
+    ``facet_area`` (m², flat), ``facet_centroid``, ``facet_normal`` (n_f × 3),
+    ``facet_nodes`` (n_f × 6 indices into ``points``, ``triangle6`` order),
     ``points`` (geometry nodes of those facets, m); attributes ``area`` (P2 area,
     m²), ``n_facets``, ``part``, ``quadrature_degree``.
     """
@@ -297,12 +311,14 @@ def radiation_data(model, T: np.ndarray, path, part: str = "housing") -> None:
     facets = outer_surface_facets(model.fe_mesh, part)
     PT = fe_basis(model, T)
     W = reduced_radiation_matrix(model, T, facets, PT)
-    R, fa, cen, nrm = facet_normal_velocity_rows(mesh, model.V, facets)
+    Rc, Rn, fa, cen, nrm = facet_centroid_rows(mesh, model.V, facets)
     g, _ = facet_geometry_nodes(mesh, facets)
     used, inv = np.unique(g, return_inverse=True)
+    n_fe = PT.shape[0]
     with h5py.File(path, "w") as f:
         f["W"] = W
-        f["facet_rows"] = R[:, :PT.shape[0]] @ PT
+        f["facet_rows"] = Rn[:, :n_fe] @ PT
+        f["facet_u_rows"] = np.stack([R[:, :n_fe] @ PT for R in Rc], axis=1)
         f["facet_area"] = fa
         f["facet_centroid"] = cen
         f["facet_normal"] = nrm

@@ -92,6 +92,8 @@ def export(result, figures: bool = True) -> None:
         if figures and "housing" in result.scene.outputs.plots:
             from study.render import render_housing_isolated
             for x in fields:
+                if x.name.startswith(("housing_orders_", "housing_surface_")):
+                    continue
                 png = render_housing_isolated(x, x.with_suffix(".png"))
                 if png is not None:
                     result.figures.append(png)

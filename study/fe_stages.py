@@ -18,8 +18,6 @@ import difflib
 import json
 import logging
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -383,43 +381,27 @@ def rom_plots(result, want: set) -> list[Path]:
     return paths
 
 
-def housing_fields(result, n_frames: int = 32) -> list[Path]:
-    """Displacement of housing and shafts over one fundamental period at the scene's
-    ``housing_field_rpm`` speeds, as XDMF + HDF5 time series (P2 field on the
-    second-order mesh, so ParaView sees every P2 node, ``Tetrahedron_10``)."""
-    from dolfinx.io import XDMFFile
-    from mpi4py import MPI
+def housing_fields(result) -> list[Path]:
+    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.fields):
+    time series of the dynamic displacement (no aliasing), complex amplitudes per order,
+    normal velocity and ERP density per order on the outer surface."""
+    import h5py
 
-    from reduction import load_basis, reconstruct
+    from study import acoustics, fields
     from study.export import nearest_point
 
     sc = result.scene
     rd = result.rom
     logger.info("rebuilding the FE model from the cached mesh for the housing fields")
     model = fe_stage(sc, result.mesh_dir)
-    T = load_basis(rd.folder / "rom.h5", row_range=model.K.getOwnershipRange())
+    with h5py.File(rd.folder / "rom.h5", "r") as f:
+        T = f["rom/basis"][()]
+    hm = fields.housing_mesh(model, acoustics.fe_basis(model, T))
+    del T
     paths = []
-    hs = result.problem.harmonics
     for rpm in sc.outputs.housing_field:
         _, pt = nearest_point(result, rpm)
         qk = result.problem.recover(pt)                      # (n_r, nS) complex
-        w0 = hs.fundamental_rad_s(pt.omega)
-        tau = 2 * np.pi * np.arange(n_frames) / n_frames
-        k = np.asarray(hs.indices, dtype=float)
-        path = Path(result.out) / f"housing_{pt.rpm:.0f}rpm.xdmf"
-        # written in a temporary folder under the final names (the .xdmf refers to
-        # the .h5 by name), then moved: the .h5 first, the .xdmf last
-        tmpdir = Path(tempfile.mkdtemp(prefix=".housing.", dir=result.out))
-        with XDMFFile(MPI.COMM_WORLD, str(tmpdir / path.name), "w") as xf:
-            xf.write_mesh(model.fe_mesh.mesh)
-            for t in tau:
-                q = (qk * np.exp(1j * k * t)[None, :]).real.sum(axis=1)
-                u = model.displacement(reconstruct(T, q))
-                xf.write_function(u, t / w0)
-        from study.results import replace_file
-        replace_file(tmpdir / path.with_suffix(".h5").name, path.with_suffix(".h5"))
-        replace_file(tmpdir / path.name, path)
-        shutil.rmtree(tmpdir, ignore_errors=True)
-        paths.append(path)
-        logger.info("wrote %s (%d frames)", path, n_frames)
+        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hm, rd.radiation, qk,
+                                             result.problem.harmonics, pt.omega, sc)
     return paths

@@ -49,6 +49,12 @@ class NVH:
         Σ_k ERP_k [W].
     rho, c : float
         Air density [kg/m³] and speed of sound [m/s] used.
+    accel_names : tuple of str
+        Virtual accelerometers (``[[outputs.accelerometer]]``).
+    accel_velocity : (n_acc, n, n_h) complex or None
+        Their velocity amplitude per harmonic [m/s].
+    accel_position, accel_direction : (n_acc, 3) float or None
+        Snapped positions (outer facet centres) [m] and unit measuring directions.
     """
 
     harmonics: np.ndarray
@@ -59,6 +65,10 @@ class NVH:
     erp_total: np.ndarray | None
     rho: float
     c: float
+    accel_names: tuple = ()
+    accel_velocity: np.ndarray | None = None
+    accel_position: np.ndarray | None = None
+    accel_direction: np.ndarray | None = None
 
     @property
     def erp_db(self) -> np.ndarray | None:
@@ -83,6 +93,11 @@ def compute_nvh(result) -> NVH:
     rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
     ac = result.scene.acoustics
     erp = np.zeros((n, idx.size)) if rad is not None else None
+    accels = result.scene.outputs.accelerometers if rad is not None else ()
+    if accels:
+        from study.fields import accelerometer_rows
+        arows, apos, adir = accelerometer_rows(accels, rad)
+        avel = np.zeros((len(accels), n, idx.size), dtype=complex)
     for i in range(n):
         pt = point_at(result, i)
         ts = time_series(pb, pt)
@@ -95,11 +110,17 @@ def compute_nvh(result) -> NVH:
             qk = pb.recover(pt)
             w0 = hs.fundamental_rad_s(pt.omega)
             erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+            if accels:
+                avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
     total = None if erp is None else erp.sum(axis=1)
     if erp is not None and n:
         logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
                     float(power_db(total).min()), float(power_db(total).max()))
-    return NVH(idx, idx * hs.divisor, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+    out = NVH(idx, idx * hs.divisor, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+    if accels:
+        out.accel_names = tuple(a.name for a in accels)
+        out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
+    return out
 
 
 def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
@@ -125,6 +146,21 @@ def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
     g["erp_total_db"] = nvh.erp_total_db
     for k in ("erp_db", "erp_total_db"):
         g[k].attrs["unit"] = "dB re 1e-12 W"
+    if nvh.accel_velocity is not None:
+        import h5py
+
+        from study.fields import V_REF, velocity_level_db
+
+        a = g.create_group("accelerometers")
+        a["names"] = np.array(nvh.accel_names, dtype=h5py.string_dtype())
+        a["position"] = nvh.accel_position
+        a["direction"] = nvh.accel_direction
+        a["velocity"] = nvh.accel_velocity
+        a["velocity"].attrs["unit"] = "m/s"
+        a["velocity_level_db"] = velocity_level_db(nvh.accel_velocity)
+        a["velocity_order_db"] = 20 * np.log10(np.maximum(
+            np.abs(nvh.accel_velocity) / np.sqrt(2), V_REF * 1e-5) / V_REF)
+        a.attrs["reference_velocity"] = V_REF
     if radiation is not None:
         r = g.create_group("radiation")
         r["W"] = radiation["W"]

@@ -340,6 +340,8 @@ class Pipeline:
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
                              self.keys, seconds=time.perf_counter() - t0)
         problem, rom = self.problem()
+        from study.fields import check_outputs
+        check_outputs(s, problem.harmonics, rom)
         self.keys.setdefault("hbm", self.hbm_key())
         result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
                            self.keys, rom=rom)

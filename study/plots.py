@@ -19,7 +19,8 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
            "campbell_plot", "campbell_modes", "rom_error_plot", "draw_all", "contact_intervals",
-           "grazing_values", "order_label", "spectrum_lines", "order_map_plot", "erp_plot"]
+           "grazing_values", "order_label", "spectrum_lines", "order_map_plot", "erp_plot",
+           "accelerometer_plot"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
 
@@ -461,6 +462,41 @@ def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.nd
     return _save(fig, path)
 
 
+def accelerometer_plot(branch, names, velocity: np.ndarray, orders: np.ndarray, n_teeth: int,
+                       path: Path, title: str = "") -> Path:
+    """Virtual accelerometers: velocity level (dB re 1 nm/s, rms over all orders) against
+    speed, and the velocity spectrum per order at each accelerometer's loudest point."""
+    from study.fields import V_REF, velocity_level_db
+
+    lv = velocity_level_db(velocity)                               # (n_acc, n)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw={"width_ratios": [1.2, 1]})
+    orders = np.asarray(orders)
+    for a, name in enumerate(names):
+        line, = ax.plot(branch.rpm, lv[a], lw=1.3, label=name)
+        i = int(np.argmax(lv[a]))
+        amp = np.abs(velocity[a, i]) / np.sqrt(2)
+        db = 20 * np.log10(np.maximum(amp, V_REF * 1e-5) / V_REF)
+        sel = orders > 0
+        bx.plot(orders[sel], db[sel], "o", ms=3, color=line.get_color(),
+                label=f"{name} at {branch.rpm[i]:.0f} rpm")
+        bx.vlines(orders[sel], -20, db[sel], color=line.get_color(), lw=0.8, alpha=0.6)
+        for j in np.argsort(-db * sel)[:4]:
+            bx.annotate(order_label(orders[j], n_teeth), (orders[j], db[j]), xytext=(0, 3),
+                        textcoords="offset points", ha="center", fontsize=7)
+    ax.set_xlabel("shaft speed Ω (rpm)")
+    ax.set_ylabel("velocity level (dB re 1 nm/s)")
+    ax.set_xlim(branch.rpm_start, branch.rpm_end)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    bx.set_xlabel("shaft order")
+    bx.set_ylabel("velocity per order (dB re 1 nm/s rms)")
+    bx.set_ylim(bottom=max(-20.0, bx.get_ylim()[0]))
+    bx.grid(alpha=0.3)
+    bx.legend(fontsize=7)
+    fig.suptitle(title or "virtual accelerometers", fontsize=10)
+    return _save(fig, path)
+
+
 def rom_error_plot(full_hz: np.ndarray, rom_hz: np.ndarray, path: Path,
                    relative_error: np.ndarray | None = None) -> Path:
     """Relative error of the ROM frequencies against the full model (Fig. 9)."""
@@ -516,6 +552,11 @@ def draw_all(result) -> list[Path]:
     if nvh is not None and nvh.erp is not None and "erp" in want and len(br) > 0:
         paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
                               out / "erp.png", f"{name}: equivalent radiated power"))
+    if nvh is not None and nvh.accel_velocity is not None and "accelerometers" in want \
+            and len(br) > 0:
+        paths.append(accelerometer_plot(br, nvh.accel_names, nvh.accel_velocity, nvh.orders, z,
+                                        out / "accelerometers.png",
+                                        f"{name}: virtual accelerometers"))
     if result.rom is not None:
         from study import fe_stages
         paths += fe_stages.rom_plots(result, want)

@@ -28,7 +28,8 @@ import numpy as np
 __all__ = [
     "SceneError", "Scene", "SceneInfo", "GearData", "MeshStiffness", "TransmissionError",
     "LoadData", "AeroLoad", "Unbalance", "ExternalData", "DampingData", "LumpedData",
-    "RomData", "HbmData", "ContinuationData", "OutputsData", "AcousticsData", "load_scene",
+    "RomData", "HbmData", "ContinuationData", "OutputsData", "AcousticsData", "Accelerometer",
+    "load_scene",
     "parse_scene",
     "scene_from_dict", "apply_overrides", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES",
 ]
@@ -92,7 +93,7 @@ def _c(default, choices, doc=""):
 
 
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
-              "order_maps", "erp")
+              "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive")
 
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
@@ -212,6 +213,23 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "housing_field_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
                                 doc="speeds for the XDMF housing field (FE)"),
         "report": Spec("bool", True, doc="write report.md"),
+        "field_orders": _f([], "", 1, 100_000, kind="ints",
+                           doc="shaft orders of the per-order housing fields (FE; default: "
+                           "the mesh orders kZ and the external orders of the set)"),
+        "housing_frames_per_mesh_period": _f(
+            0, "", 0, 10_000, kind="int",
+            doc="frames per mesh period of the housing time series (0: 4 per period of the "
+            "highest harmonic kept; fewer than 2 alias and are refused)"),
+        "housing_mesh_periods": _f(4, "", 1, 1000, kind="int",
+                                   doc="length of the housing time series in mesh periods"),
+    },
+    "outputs.accelerometer": {
+        "name": Spec("str", None, doc="name of the virtual accelerometer", required=True),
+        "position_mm": _f(None, "mm", -1e5, 1e5, kind="vec3", required=True,
+                          doc="point on the housing's outer surface (x, y, z); snapped to the "
+                          "nearest outer facet centre (at most 10 mm away)"),
+        "direction": _f([0.0, 0.0, 0.0], "", -1e6, 1e6, kind="vec3",
+                        doc="measuring axis (x, y, z); [0, 0, 0]: the outer surface normal"),
     },
 }
 for _s in FE_SECTIONS:
@@ -426,13 +444,27 @@ class AcousticsData:
 
 
 @dataclass(frozen=True)
+class Accelerometer:
+    """``[[outputs.accelerometer]]``: name, position (m), direction (zero: surface normal)."""
+
+    name: str
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class OutputsData:
-    """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm)."""
+    """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm), per-order
+    field orders, housing time-series sampling, virtual accelerometers."""
 
     plots: tuple[str, ...]
     time_series: tuple[float, ...]
     housing_field: tuple[float, ...]
     report: bool
+    field_orders: tuple[int, ...] = ()
+    housing_frames_per_mesh_period: int = 0
+    housing_mesh_periods: int = 4
+    accelerometers: tuple[Accelerometer, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -663,6 +695,24 @@ def _build_gear(d: dict) -> GearData:
     return g
 
 
+def _build_accelerometers(items: Any, kind: str) -> tuple[Accelerometer, ...]:
+    if not isinstance(items, list):
+        raise SceneError(f"outputs.accelerometer = {_fmt(items)}: must be an array of tables "
+                         "([[outputs.accelerometer]])")
+    out: list[Accelerometer] = []
+    for i, item in enumerate(items):
+        where = f"outputs.accelerometer[{i}]"
+        d = _check_table(where, item, SCHEMA["outputs.accelerometer"])
+        if kind != "fe":
+            raise SceneError(f"{where}: accelerometers need the housing (scene.kind = 'fe')")
+        if any(a.name == d["name"] for a in out):
+            raise SceneError(f"{where}.name = {d['name']!r}: used twice (names must be unique)")
+        if not d["name"].strip():
+            raise SceneError(f"{where}.name = {d['name']!r}: must not be empty")
+        out.append(Accelerometer(d["name"], tuple(d["position"]), tuple(d["direction"])))
+    return tuple(out)
+
+
 def _build_external(ext: Any, kind: str) -> ExternalData:
     if ext is None:
         return ExternalData()
@@ -732,7 +782,12 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
         if key not in _TOP_LEVEL:
             raise SceneError(f"[{key}]: unknown section{_suggest(key, _TOP_LEVEL)}; "
                              f"allowed: {', '.join(_TOP_LEVEL)}")
-    sec = {s: _check_table(s, raw.get(s, {}), SCHEMA[s])
+    raw_out = raw.get("outputs", {})
+    accel_raw = []
+    if isinstance(raw_out, dict) and "accelerometer" in raw_out:
+        raw_out = dict(raw_out)
+        accel_raw = raw_out.pop("accelerometer")
+    sec = {s: _check_table(s, raw_out if s == "outputs" else raw.get(s, {}), SCHEMA[s])
            for s in _TOP_LEVEL if s not in ("external", *FE_SECTIONS)}
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
     gear = _build_gear(sec["gear"])
@@ -826,10 +881,14 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
             if not lo <= v <= hi:
                 raise SceneError(f"outputs.{key}_rpm = {list(o[key])}: {v:g} is outside "
                                  f"continuation.speed_rpm = [{lo:g}, {hi:g}]")
+    if o["field_orders"] and info.kind != "fe":
+        raise SceneError(f"outputs.field_orders = {list(o['field_orders'])}: only for "
+                         "scene.kind = 'fe'")
     if o["housing_field"] and info.kind != "fe":
         raise SceneError(f"outputs.housing_field_rpm = {list(o['housing_field'])}: only for "
                          "scene.kind = 'fe'")
-    outputs = OutputsData(**o)
+    accels = _build_accelerometers(accel_raw, info.kind)
+    outputs = OutputsData(**o, accelerometers=accels)
 
     fe: dict[str, dict] = {}
     for s in FE_SECTIONS:

@@ -83,7 +83,7 @@ def test_check_outputs_against_the_harmonic_set():
         check_outputs(scene_from_dict(raw), hs)
     raw = _raw(PUMP)
     raw["outputs"]["housing_frames_per_mesh_period"] = 6   # 6 * 76 < 2 * 232 + 1
-    with pytest.raises(SceneError, match="housing_frames_per_mesh_period = 6: aliases .* must be >= 7"):
+    with pytest.raises(SceneError, match="period = 6: aliases .* must be >= 7"):
         check_outputs(scene_from_dict(raw), hs)
     raw["outputs"]["housing_frames_per_mesh_period"] = 7
     check_outputs(scene_from_dict(raw), hs)

@@ -67,6 +67,26 @@ def write_report(result) -> Path:
     for c, iv in s["intervals"].items():
         txt = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
         lines.append(f"- {_CLASS[c]}: {txt}")
+    nvh = getattr(result, "nvh", None)
+    if nvh is not None and nvh.erp is not None and len(result.branch):
+        from study.plots import order_label
+
+        br = result.branch
+        tot = nvh.erp_total_db
+        i = int(np.argmax(tot))
+        j = int(np.argmax(nvh.erp[i]))
+        lines += ["", "## Noise (equivalent radiated power of the housing)", "",
+                  f"- ERP from {tot.min():.1f} to {tot.max():.1f} dB re 1 pW (ρ = "
+                  f"{nvh.rho:g} kg/m³, c = {nvh.c:g} m/s, radiation efficiency 1); loudest at "
+                  f"{br.rpm[i]:.1f} rpm, dominated by order "
+                  f"{order_label(nvh.orders[j], sc.gear.teeth)} ({nvh.erp_db[i, j]:.1f} dB)",
+                  "- curves per point: `curves.csv`; per order: `/nvh` in results.h5"]
+        if nvh.accel_velocity is not None:
+            from study.fields import velocity_level_db
+            lv = velocity_level_db(nvh.accel_velocity)
+            lines += [f"- accelerometer `{n}`: velocity level up to {lv[a].max():.1f} dB re "
+                      f"1 nm/s (at {br.rpm[int(np.argmax(lv[a]))]:.1f} rpm)"
+                      for a, n in enumerate(nvh.accel_names)]
     lines += ["", "## Stages", ""]
     lines += [f"- {k}: {v}" for k, v in result.stages.items()]
     lines += ["", "## Figures", ""]

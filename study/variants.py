@@ -76,6 +76,8 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
     from study import plots, report
+    from study.nvh import compute_nvh
+    res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
     res.figures += plots.draw_all(res)
     report.write_report(res)
     return res

@@ -21,9 +21,10 @@ def _mesh(build, h: float):
     from dolfinx.io import gmshio
     from mpi4py import MPI
 
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+    from geometry import gmsh_session
+
+    with gmsh_session():
+        gmsh.clear()
         gmsh.model.add("t")
         vols = build(gmsh.model.occ)
         gmsh.model.occ.synchronize()
@@ -37,8 +38,7 @@ def _mesh(build, h: float):
         groups = {gmsh.model.getPhysicalName(d, t): (d, t)
                   for d, t in gmsh.model.getPhysicalGroups()}
         mesh, ct, ft = gmshio.model_to_mesh(gmsh.model, MPI.COMM_WORLD, 0, gdim=3)
-    finally:
-        gmsh.finalize()
+        gmsh.clear()
     from fem import FEMesh
     return FEMesh(mesh, ct, ft, groups, {})
 

@@ -353,7 +353,8 @@ class Pipeline:
         result.branch = branch
         if branch.status != "completed":
             write_partial(result, branch)
-            self._log_stage("export", "partial results.h5 only")
+            _partial_curves(result)
+            self._log_stage("export", "partial results.h5 and curves.csv only")
             raise SolverError(f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
                               f"{branch.message} (results.h5 holds {len(branch)} points; "
                               "rerun with --resume after changing the steps/tolerance)",
@@ -370,6 +371,19 @@ class Pipeline:
         logger.info("done in %.2f s; ran: %s; from cache: %s", result.seconds,
                     ", ".join(ran) or "-", ", ".join(cached) or "-")
         return result
+
+
+def _partial_curves(result) -> None:
+    """curves.csv of a continuation that stopped early (the points so far); a failure
+    here is logged, never raised over the solver error being reported."""
+    from study.nvh import compute_nvh, write_curves_csv
+
+    if len(result.branch) == 0:
+        return
+    try:
+        write_curves_csv(result.out / "curves.csv", result.branch, compute_nvh(result))
+    except Exception as exc:  # noqa: BLE001 - the solver error is what the user needs
+        logger.warning("curves.csv of the partial branch not written: %s", exc)
 
 
 class _StageBar:

@@ -361,3 +361,20 @@ def test_nvh_group_and_curves_csv(sdof_run):
         assert int(rows[i]["contact_class"]) == contact[i]
         assert rows[i]["erp_dB_re_1pW"] == ""
         assert float(rows[i]["mesh_load_peak_to_peak_N"]) == pytest.approx(ptp[i], rel=1e-6)
+
+
+def test_stopped_continuation_keeps_curves_csv(tmp_path):
+    """A continuation stopped early (max_points) exits with code 3 and still leaves
+    results.h5 and curves.csv with the points so far."""
+    import csv
+
+    out = tmp_path / "stopped"
+    p = _geardyn("run", str(SDOF), "--out", str(out), "--no-progress",
+                 "--set", "continuation.max_points=6", "--set", "outputs.plots=[]", check=False)
+    assert p.returncode == 3, p.stderr[-2000:]
+    with h5py.File(out / "results.h5", "r") as f:
+        n = f["continuation/rpm"].size
+        std = f["continuation/mesh_load_std"][()]
+    rows = list(csv.DictReader((out / "curves.csv").open()))
+    assert len(rows) == n > 0
+    assert float(rows[-1]["mesh_load_std_N"]) == pytest.approx(std[-1], rel=1e-6)

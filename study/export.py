@@ -59,21 +59,34 @@ def nearest_point(result, rpm: float):
 
 
 def export(result, figures: bool = True) -> None:
-    """Write the final results.h5, then the plots and report.md the scene asks for."""
-    write_partial(result, result.branch)
+    """Write the final results.h5, then the plots and report.md the scene asks for.
+
+    Under mpirun (:mod:`study.parallel`) rank 0 writes every file; the housing fields
+    are reconstructed by all ranks, each from its rows of the basis."""
+    from study.parallel import world
+
+    comm = world()
+    comm.root_call(write_partial, result, result.branch)
     logger.info("wrote %s", result.results)
     if result.rom is not None and result.scene.outputs.housing_field:
         from study import fe_stages
         fields = fe_stages.housing_fields(result)
         result.figures += fields
         if figures and "housing" in result.scene.outputs.plots:
-            from study.render import render_housing_isolated
-            for x in fields:
-                png = render_housing_isolated(x, x.with_suffix(".png"))
-                if png is not None:
-                    result.figures.append(png)
-    if not figures:
-        return
+            comm.root_call(_render, result, fields)
+    if figures:
+        comm.root_call(_figures, result)
+
+
+def _render(result, fields: list[Path]) -> None:
+    from study.render import render_housing_isolated
+    for x in fields:
+        png = render_housing_isolated(x, x.with_suffix(".png"))
+        if png is not None:
+            result.figures.append(png)
+
+
+def _figures(result) -> None:
     from study import plots, report
 
     result.figures += plots.draw_all(result)

@@ -180,8 +180,11 @@ def mesh_stage(scene, folder: Path) -> None:
 
 
 def fe_stage(scene, mesh_dir: Path):
-    """FE model of the pump from the cached mesh (``fem.FEModel``)."""
+    """FE model of the pump from the cached mesh (``fem.FEModel``); collective on
+    ``MPI.COMM_WORLD``: rank 0 reads the mesh file, DOLFINx partitions it over the ranks
+    and every rank assembles its part."""
     import gmsh
+    from mpi4py import MPI
 
     from fem import build_pump_model, load_gmsh_mesh
     from geometry import gmsh_session
@@ -190,10 +193,12 @@ def fe_stage(scene, mesh_dir: Path):
     info = json.loads((Path(mesh_dir) / "mesh.json").read_text())
     groups = {k: (int(v[0]), int(v[1])) for k, v in info["groups"].items()}
     centres = {k: np.asarray(v, dtype=float) for k, v in info["centres"].items()}
+    comm = MPI.COMM_WORLD
     with gmsh_session():
         gmsh.clear()
-        gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
-        fe_mesh = load_gmsh_mesh(None, groups=groups, centres=centres)
+        if comm.rank == 0:  # the other ranks receive their cells from rank 0
+            gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
+        fe_mesh = load_gmsh_mesh(None, comm, 0, groups=groups, centres=centres)
     return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
 
 
@@ -216,7 +221,10 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
     if r.n_check > 0:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
                                       min(r.n_check, rom.n_r))
-    save_rom(folder / "rom.h5", rom)
+    # collective: each rank writes its basis rows with their partition-independent keys
+    save_rom(folder / "rom.h5", rom, row_keys=model.row_keys())
+    if rom.T.getComm().tompi4py().rank != 0:
+        return
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
     rows = sorted({i for v in nodes.values() for i in v if i >= 0})
     with h5py.File(folder / "rom.h5", "r") as f:
@@ -350,21 +358,37 @@ def rom_plots(result, want: set) -> list[Path]:
     return paths
 
 
+def _move_field(tmpdir: Path, path: Path) -> None:
+    """Move a finished XDMF field into place: the .h5 first, the .xdmf last."""
+    from study.results import replace_file
+
+    replace_file(tmpdir / path.with_suffix(".h5").name, path.with_suffix(".h5"))
+    replace_file(tmpdir / path.name, path)
+    shutil.rmtree(tmpdir, ignore_errors=True)
+
+
 def housing_fields(result, n_frames: int = 32) -> list[Path]:
     """Displacement of housing and shafts over one fundamental period at the scene's
     ``housing_field_rpm`` speeds, as XDMF + HDF5 time series (P2 field on the
-    second-order mesh, so ParaView sees every P2 node, ``Tetrahedron_10``)."""
+    second-order mesh, so ParaView sees every P2 node, ``Tetrahedron_10``).
+
+    Collective under mpirun: each rank rebuilds its part of the FE model, reads its rows
+    of the basis and writes its part of the field; rank 0 moves the files into place."""
     from dolfinx.io import XDMFFile
     from mpi4py import MPI
 
     from reduction import load_basis, reconstruct
     from study.export import nearest_point
+    from study.parallel import world
 
+    comm = world()
     sc = result.scene
     rd = result.rom
     logger.info("rebuilding the FE model from the cached mesh for the housing fields")
     model = fe_stage(sc, result.mesh_dir)
-    T = load_basis(rd.folder / "rom.h5", row_range=model.K.getOwnershipRange())
+    # this partition may differ from the reduction's: rows are matched by key
+    T = load_basis(rd.folder / "rom.h5", row_range=model.K.getOwnershipRange(),
+                   row_keys=model.row_keys())
     paths = []
     hs = result.problem.harmonics
     for rpm in sc.outputs.housing_field:
@@ -376,17 +400,16 @@ def housing_fields(result, n_frames: int = 32) -> list[Path]:
         path = Path(result.out) / f"housing_{pt.rpm:.0f}rpm.xdmf"
         # written in a temporary folder under the final names (the .xdmf refers to
         # the .h5 by name), then moved: the .h5 first, the .xdmf last
-        tmpdir = Path(tempfile.mkdtemp(prefix=".housing.", dir=result.out))
+        tmpdir = comm.root_call(lambda: Path(tempfile.mkdtemp(prefix=".housing.",
+                                                              dir=result.out)))
         with XDMFFile(MPI.COMM_WORLD, str(tmpdir / path.name), "w") as xf:
             xf.write_mesh(model.fe_mesh.mesh)
             for t in tau:
                 q = (qk * np.exp(1j * k * t)[None, :]).real.sum(axis=1)
                 u = model.displacement(reconstruct(T, q))
                 xf.write_function(u, t / w0)
-        from study.results import replace_file
-        replace_file(tmpdir / path.with_suffix(".h5").name, path.with_suffix(".h5"))
-        replace_file(tmpdir / path.name, path)
-        shutil.rmtree(tmpdir, ignore_errors=True)
+        comm.barrier()
+        comm.root_call(_move_field, tmpdir, path)
         paths.append(path)
         logger.info("wrote %s (%d frames)", path, n_frames)
     return paths

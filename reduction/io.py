@@ -49,6 +49,12 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True, row_keys=None)
         comm = rom.T.getComm().tompi4py() if rom.T is not None else PETSc.COMM_WORLD.tompi4py()
     if hasattr(comm, "tompi4py"):
         comm = comm.tompi4py()
+    if write_basis and row_keys is not None:
+        r0, r1 = rom.T.getOwnershipRange()
+        row_keys = np.asarray(row_keys, dtype=np.int64)
+        if row_keys.shape != (r1 - r0,):
+            raise ValueError(f"row_keys.shape = {row_keys.shape}: must be ({r1 - r0},), "
+                             "one key per owned row of the basis")
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
     tmp = None
@@ -60,11 +66,6 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True, row_keys=None)
     tmp = comm.bcast(tmp, root=0)
     if write_basis:
         r0, r1 = rom.T.getOwnershipRange()
-        if row_keys is not None:
-            row_keys = np.asarray(row_keys, dtype=np.int64)
-            if row_keys.shape != (r1 - r0,):
-                raise ValueError(f"row_keys.shape = {row_keys.shape}: must be ({r1 - r0},), "
-                                 "one key per owned row of the basis")
         for rank in range(comm.size):
             if rank == comm.rank:
                 with h5py.File(tmp, "r+") as f:

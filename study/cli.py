@@ -4,12 +4,17 @@
 
     geardyn run SCENE --out DIR [--set section.key=v1,v2,...] [--resume] [-q|-v]
     geardyn mesh SCENE --out DIR        # FE scenes: geometry + mesh stage only
-    geardyn reduce SCENE --out DIR      # FE scenes: mesh, FE model and ROM stages
+    geardyn reduce SCENE --out DIR      # FE scenes: mesh, FE model and ROM stages;
+                                        # writes DIR/rom.h5 (ROM and basis)
     geardyn export SCENE --out DIR      # all stages (cached ones reused), results.h5 and
                                         # housing fields, no plots
     geardyn report SCENE --out DIR      # plots + report.md from DIR/results.h5
     geardyn convergence SCENE --out DIR [--knob harmonics=4,8,16] [--only n_cm]
                                         [--tol 1e-2]   # error against run time per knob
+
+``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
+(:mod:`study.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
+same exit code on every rank; ``convergence`` refuses (exit 2).
 
 Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
 the field); 3 solver failure (continuation stopped early; the points computed so
@@ -220,11 +225,16 @@ def _dispatch(args) -> int:
     scene_path = Path(args.scene)
     variants = parse_sets(args.set)
     cmd = args.command
+    from study.parallel import world
+
     if cmd == "report":
         if len(variants) != 1:
             raise SceneError("report: --set takes a single value per key")
         return _report(args, scene_path, variants[0])
     if cmd == "convergence":
+        if world().size > 1:
+            raise SceneError(f"convergence under mpirun -n {world().size}: not supported; "
+                             "run it without mpirun (its FE runs are coarse)")
         return _convergence(args, scene_path)
     until = {"run": "export", "mesh": "mesh", "reduce": "rom", "export": "hbm"}[cmd]
     return _run_variants(args, scene_path, variants, until)

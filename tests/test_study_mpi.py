@@ -1,7 +1,8 @@
 """The whole pipeline under ``mpirun -n 2`` against the serial run on the coarse pump:
 ``geardyn reduce --out DIR`` writes DIR/rom.h5 (serial and distributed), ``geardyn run``
 and ``geardyn export`` under mpirun give results.h5 curves and housing fields equal to
-the serial ones within 1e-10, one log stream, and the same exit codes on every rank."""
+the serial ones within 1e-10, ``geardyn report`` works under mpirun, one log stream,
+and the same exit codes on every rank."""
 from __future__ import annotations
 
 import hashlib
@@ -61,6 +62,10 @@ def runs(tmp_path_factory):
             p = _geardyn(n, cmd, str(PUMP), "--out", str(tmp / tag / cmd), "--cache", cache,
                          *SETS)
             logs[tag, cmd] = p.stderr
+    # `report` under mpirun: the ROM from the cache on both ranks, files from rank 0
+    (tmp / "par/run/report.md").unlink()
+    logs["par", "report"] = _geardyn(2, "report", str(PUMP), "--out", str(tmp / "par/run"),
+                                     "--cache", str(tmp / "cache_par"), *SETS).stderr
     return tmp, logs
 
 
@@ -170,10 +175,11 @@ def test_outputs_and_one_log_stream(runs):
     assert par == ser                                  # no temporary files left either
     assert {p.name for p in (tmp / "par/export").iterdir()} == \
         {n for n in ser if n.endswith((".h5", ".xdmf"))}
-    for cmd in ("reduce", "run", "export"):
+    assert (tmp / "par/run/report.md").stat().st_size > 0      # rewritten by `report`
+    for cmd in ("reduce", "run", "export", "report"):
         err = logs["par", cmd]
         assert "[rank 1]" not in err, err[-2000:]
-        assert err.count("scene 'pump' (fe)") == 1
+        assert err.count("stage rom ") == 1                      # one log stream
     assert logs["par", "reduce"].count("stage rom    ran") == 1
     assert logs["par", "run"].count("stage hbm    ran") == 1
 

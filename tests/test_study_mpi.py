@@ -197,3 +197,20 @@ def test_exit_codes_agree_across_ranks(tmp_path, sets, code):
     if code == 3:
         with h5py.File(tmp_path / "o" / "results.h5", "r") as f:
             assert f["continuation/rpm"].size == 3
+
+
+def test_failure_on_one_rank_ends_the_job(tmp_path):
+    """An error on rank 1 alone while rank 0 waits in a collective call: the job ends
+    (MPI_Abort) with the internal-error code instead of hanging."""
+    mpirun = shutil.which("mpirun")
+    if mpirun is None:
+        pytest.skip("mpirun missing")
+    case = Path(__file__).with_name("study_mpi_fault_case.py")
+    cmd = [mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable,
+           str(case), "reduce", str(PUMP), "--out", str(tmp_path / "o"), "--cache",
+           str(tmp_path / "c"), "--set", "rom.n_cm=20", "--no-progress"]
+    p = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=180)
+    assert p.returncode == 1, p.stderr[-3000:]
+    assert "[rank 1] geardyn: internal error" in p.stderr
+    assert "injected failure on rank 1" in p.stderr and "MPI_ABORT" in p.stderr
+    assert not (tmp_path / "o" / "rom.h5").exists()

@@ -141,7 +141,8 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         m = dict(fe.get("mesh", {}))
         name = m.pop("preset", "coarse")
         if not isinstance(name, str):
-            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse' or 'fine')")
+            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse', 'fine' "
+                             "or 'million')")
         opts = geometry.preset(name, **_convert("mesh", m, geometry.MeshOptions))
         opts.validate()
         mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),

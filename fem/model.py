@@ -71,6 +71,52 @@ class FEModel:
         """Number of reduced unknowns (global)."""
         return self.prolongation.n_red
 
+    def row_keys(self) -> np.ndarray:
+        """Partition-independent key of each owned reduced unknown (int64, reduced order).
+
+        The reduced numbering follows DOLFINx's, which depends on the mesh partition
+        (and the partitioner is not deterministic between runs under mpirun). The key of
+        a free FE DOF is ``3 * i + c``, ``i`` the node's index in the input mesh file and
+        ``c`` the component; the k-th node DOF (last rank) has ``3 * n_nodes + k``. Keys
+        are unique and the same for every partition: a basis stored with its keys can be
+        read back onto another partition (``reduction.load_basis``).
+        """
+        pro = self.prolongation
+        if pro.free_blocks is None:
+            raise ValueError("prolongation.free_blocks = None: model built without it")
+        mesh = self.fe_mesh.mesh
+        geo = mesh.geometry
+        igi = np.asarray(geo.input_global_indices, dtype=np.int64)
+        n_nodes = self.comm.allreduce(int(igi.max(initial=-1)) + 1, op=MPI.MAX)
+        cmap = mesh.topology.index_map(3)
+        n_cells = cmap.size_local + cmap.num_ghosts
+        dofs = np.asarray(self.V.dofmap.list.array).reshape(n_cells, -1)
+        gdofs = np.asarray(geo.dofmap.array).reshape(n_cells, -1)
+        if gdofs.shape != dofs.shape:
+            raise ValueError("V and the mesh geometry differ in nodes per cell: "
+                             "row keys need P2 displacements on a P2 mesh")
+        im = self.V.dofmap.index_map
+        geo_of_block = np.full(im.size_local + im.num_ghosts, -1, dtype=np.int64)
+        geo_of_block[dofs.ravel()] = gdofs.ravel()
+        blocks = pro.free_blocks
+        g = geo_of_block[blocks]
+        if np.any(g < 0):
+            raise ValueError("row keys: a free DOF block is in no local cell")
+        # V and the geometry share the P2 cell layout: the DOF sit on the nodes
+        xb = self.V.tabulate_dof_coordinates()[blocks]
+        if blocks.size and not np.allclose(geo.x[g], xb, rtol=0, atol=1e-12):
+            raise ValueError("row keys: V's DOF do not sit on the geometry nodes")
+        own = igi[g]
+        keys = (3 * own[:, None] + np.arange(3)).ravel()
+        r0, r1 = pro.red_range
+        n_node_local = (r1 - r0) - keys.size
+        if n_node_local:
+            n_free = pro.n_red - sum(int(np.count_nonzero(v >= 0))
+                                     for v in pro.node_red.values())
+            k0 = (r0 + keys.size) - n_free
+            keys = np.concatenate([keys, 3 * n_nodes + k0 + np.arange(n_node_local)])
+        return keys.astype(np.int64)
+
     def reduced_vector(self, q: Any, root: int | None = None) -> Any:
         """A PETSc Vec of the reduced layout from a Vec or a NumPy array.
 

@@ -49,6 +49,8 @@ class Prolongation:
         Coordinates (m) of this rank's free FE DOF in reduced order.
     free_comp : numpy.ndarray, shape (n_free_local,)
         Their component (0, 1, 2).
+    free_blocks : numpy.ndarray, shape (n_free_local / 3,)
+        Local (owned) block indices of V of the free FE DOF, increasing.
     counts : dict[str, int]
         Global numbers of free, linked and clamped FE DOF.
     """
@@ -63,6 +65,7 @@ class Prolongation:
     free_comp: np.ndarray
     counts: dict[str, int]
     node_links: dict[str, int]
+    free_blocks: np.ndarray | None = None
 
 
 def _surface_blocks(V: Any, fe_mesh: FEMesh, name: str) -> np.ndarray:
@@ -249,4 +252,5 @@ def build_prolongation(V: Any, fe_mesh: FEMesh, spec: ModelSpec) -> Prolongation
         free_comp=np.tile(np.arange(3), free_blocks.size),
         counts=counts,
         node_links=node_links,
+        free_blocks=free_blocks,
     )

@@ -578,11 +578,16 @@ _PRESETS: dict[str, MeshOptions] = {
     # a few hundred thousand P2 vector DOF (benchmarks)
     "fine": MeshOptions(size=0.007, shaft_factor=0.6, bore_factor=0.6, hub_factor=1.0,
                         curvature_points=16, name="fine"),
+    # over a million P2 vector DOF (measured 1 629 168; meshing 84 s, 1.0 GB; its
+    # reduction has not been run on the 2-core, 24 GB development machine: docs/scale.md)
+    "million": MeshOptions(size=0.0037, shaft_factor=0.6, bore_factor=0.6, hub_factor=1.0,
+                           curvature_points=16, name="million"),
 }
 
 
 def preset(name: str, **overrides: object) -> MeshOptions:
-    """Named mesh preset (``"coarse"`` or ``"fine"``), optionally with overrides."""
+    """Named mesh preset (``"coarse"``, ``"fine"`` or ``"million"``), optionally with
+    overrides."""
     if name not in _PRESETS:
         raise ValueError(f"mesh preset = {name!r}: must be one of {sorted(_PRESETS)}")
     opts = _PRESETS[name]

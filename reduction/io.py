@@ -25,7 +25,7 @@ log = logging.getLogger(__name__)
 FORMAT_VERSION = 1
 
 
-def save_rom(path, rom: ROM, comm=None, write_basis: bool = True) -> None:
+def save_rom(path, rom: ROM, comm=None, write_basis: bool = True, row_keys=None) -> None:
     """Write ``rom`` to ``path`` (HDF5), atomically; collective on ``comm``.
 
     Parameters
@@ -38,6 +38,10 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True) -> None:
         Defaults to the communicator of ``rom.T`` or ``COMM_WORLD``.
     write_basis : bool
         Also write ``rom/basis`` (reconstruction data).
+    row_keys : array of int, optional
+        Partition-independent key of each of this rank's basis rows
+        (``fem.FEModel.row_keys``), written as ``rom/row_keys``: the basis can then be
+        read onto another partition or number of ranks (:func:`load_basis`).
     """
     if write_basis and rom.T is None:
         raise ValueError("rom.T = None: write_basis=True needs the basis")
@@ -45,6 +49,12 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True) -> None:
         comm = rom.T.getComm().tompi4py() if rom.T is not None else PETSc.COMM_WORLD.tompi4py()
     if hasattr(comm, "tompi4py"):
         comm = comm.tompi4py()
+    if write_basis and row_keys is not None:
+        r0, r1 = rom.T.getOwnershipRange()
+        row_keys = np.asarray(row_keys, dtype=np.int64)
+        if row_keys.shape != (r1 - r0,):
+            raise ValueError(f"row_keys.shape = {row_keys.shape}: must be ({r1 - r0},), "
+                             "one key per owned row of the basis")
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
     tmp = None
@@ -60,6 +70,11 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True) -> None:
             if rank == comm.rank:
                 with h5py.File(tmp, "r+") as f:
                     f["rom/basis"][r0:r1, :] = rom.T.getDenseArray()
+                    if row_keys is not None:
+                        if "row_keys" not in f["rom"]:
+                            f["rom"].create_dataset("row_keys", shape=(rom.T.getSize()[0],),
+                                                    dtype=np.int64)
+                        f["rom/row_keys"][r0:r1] = row_keys
             comm.Barrier()
     if comm.rank == 0:
         os.replace(tmp, path)
@@ -110,7 +125,8 @@ def load_rom(path) -> ROM:
                    gear_dofs=g["gear_dof_indices"][()], validation=val, T=None, **d)
 
 
-def load_basis(path, comm=None, row_range: tuple[int, int] | None = None) -> PETSc.Mat:
+def load_basis(path, comm=None, row_range: tuple[int, int] | None = None,
+               row_keys=None) -> PETSc.Mat:
     """Read ``rom/basis`` into a distributed dense PETSc matrix (collective).
 
     Parameters
@@ -122,6 +138,10 @@ def load_basis(path, comm=None, row_range: tuple[int, int] | None = None) -> PET
     row_range : (int, int), optional
         This rank's rows ``[r0, r1)``; give the ownership range of the FE
         matrices to reconstruct on their layout. Default: PETSc's split.
+    row_keys : array of int, optional
+        Keys of this rank's rows (``fem.FEModel.row_keys``): the rows are looked up by
+        key in ``rom/row_keys``, so the basis may come from another partition. Without
+        them the file's rows are taken in order (same numbering as when written).
     """
     comm = comm or PETSc.COMM_WORLD
     with h5py.File(path, "r") as f:
@@ -131,6 +151,37 @@ def load_basis(path, comm=None, row_range: tuple[int, int] | None = None) -> PET
         T = PETSc.Mat().createDense(((nloc, n_fe), (PETSc.DECIDE, n_r)), comm=comm)
         T.setUp()
         r0, r1 = T.getOwnershipRange()
-        T.getDenseArray()[:] = ds[r0:r1, :]
+        if row_keys is None:
+            T.getDenseArray()[:] = ds[r0:r1, :]
+        else:
+            if "row_keys" not in f["rom"]:
+                raise ValueError(f"{path}: no rom/row_keys; load it without row_keys on the "
+                                 "partition it was written from")
+            T.getDenseArray()[:] = _rows_by_key(ds, f["rom/row_keys"][()],
+                                                np.asarray(row_keys, dtype=np.int64), r1 - r0)
     T.assemble()
     return T
+
+
+def _rows_by_key(ds, file_keys: np.ndarray, keys: np.ndarray, n_local: int,
+                 chunk: int = 65536) -> np.ndarray:
+    """Rows of ``ds`` whose ``file_keys`` are ``keys`` (in that order), read in chunks of
+    ``chunk`` rows so that memory stays at this rank's rows plus one chunk."""
+    if keys.shape != (n_local,):
+        raise ValueError(f"row_keys.shape = {keys.shape}: must be ({n_local},)")
+    order = np.argsort(file_keys, kind="stable")
+    sk = file_keys[order]
+    pos = np.minimum(np.searchsorted(sk, keys), max(sk.size - 1, 0))
+    if keys.size and (sk.size == 0 or np.any(sk[pos] != keys)):
+        raise ValueError("row_keys: some keys are not in rom/row_keys (another model?)")
+    rows = order[pos]                                  # file row of each local row
+    srt = np.argsort(rows, kind="stable")
+    rs = rows[srt]
+    out = np.empty((keys.size, ds.shape[1]))
+    for start in range(0, ds.shape[0], chunk):
+        lo, hi = np.searchsorted(rs, [start, start + chunk])
+        if lo == hi:
+            continue
+        block = ds[start:min(start + chunk, ds.shape[0]), :]
+        out[srt[lo:hi]] = block[rs[lo:hi] - start]
+    return out

@@ -153,23 +153,52 @@ class StageCache:
         return None
 
     def store(self, stage: str, key: str, produce: Callable[[Path], None],
-              info: dict | None = None) -> Path:
-        """Run ``produce(folder)`` in a temporary folder, checksum, and move into place."""
-        self.root.mkdir(parents=True, exist_ok=True)
-        (self.root / stage).mkdir(exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key[:12]}.", dir=self.root / stage))
+              info: dict | None = None, comm: Any = None) -> Path:
+        """Run ``produce(folder)`` in a temporary folder, checksum, and move into place.
+
+        With ``comm`` (a :class:`study.parallel.World`) the call is collective: rank 0
+        creates the folder, every rank runs ``produce`` (which may be collective and
+        should write each file from one rank), then rank 0 checksums and renames the
+        entry while the others wait; every rank gets the entry's path.
+        """
+        if comm is None or comm.size == 1:
+            tmp = self._begin(stage, key)
+            try:
+                produce(tmp)
+                return self._commit(stage, key, tmp, info)
+            except BaseException:
+                shutil.rmtree(tmp, ignore_errors=True)
+                raise
+        tmp = comm.root_call(self._begin, stage, key)
         try:
             produce(tmp)
-            files = {p.name: {"size": p.stat().st_size, "sha256": _sha256(p)}
-                     for p in sorted(tmp.iterdir()) if p.is_file()}
-            man = {"format": CACHE_FORMAT, "stage": stage, "key": key, "files": files,
-                   "info": canonical(info or {})}
-            (tmp / "manifest.json").write_text(json.dumps(man, indent=1))
-            d = self.entry(stage, key)
-            if d.exists():
-                shutil.rmtree(d, ignore_errors=True)
-            os.replace(tmp, d)
-            return d
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
+            if comm.rank == 0:
+                shutil.rmtree(tmp, ignore_errors=True)
             raise
+        comm.barrier()
+
+        def commit() -> Path:
+            try:
+                return self._commit(stage, key, tmp, info)
+            except BaseException:
+                shutil.rmtree(tmp, ignore_errors=True)
+                raise
+        return comm.root_call(commit)
+
+    def _begin(self, stage: str, key: str) -> Path:
+        self.root.mkdir(parents=True, exist_ok=True)
+        (self.root / stage).mkdir(exist_ok=True)
+        return Path(tempfile.mkdtemp(prefix=f".{key[:12]}.", dir=self.root / stage))
+
+    def _commit(self, stage: str, key: str, tmp: Path, info: dict | None) -> Path:
+        files = {p.name: {"size": p.stat().st_size, "sha256": _sha256(p)}
+                 for p in sorted(tmp.iterdir()) if p.is_file()}
+        man = {"format": CACHE_FORMAT, "stage": stage, "key": key, "files": files,
+               "info": canonical(info or {})}
+        (tmp / "manifest.json").write_text(json.dumps(man, indent=1))
+        d = self.entry(stage, key)
+        if d.exists():
+            shutil.rmtree(d, ignore_errors=True)
+        os.replace(tmp, d)
+        return d

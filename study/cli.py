@@ -4,12 +4,17 @@
 
     geardyn run SCENE --out DIR [--set section.key=v1,v2,...] [--resume] [-q|-v]
     geardyn mesh SCENE --out DIR        # FE scenes: geometry + mesh stage only
-    geardyn reduce SCENE --out DIR      # FE scenes: mesh, FE model and ROM stages
+    geardyn reduce SCENE --out DIR      # FE scenes: mesh, FE model and ROM stages;
+                                        # writes DIR/rom.h5 (ROM and basis)
     geardyn export SCENE --out DIR      # all stages (cached ones reused), results.h5 and
                                         # housing fields, no plots
     geardyn report SCENE --out DIR      # plots + report.md from DIR/results.h5
     geardyn convergence SCENE --out DIR [--knob harmonics=4,8,16] [--only n_cm]
                                         [--tol 1e-2]   # error against run time per knob
+
+``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
+(:mod:`study.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
+same exit code on every rank; ``convergence`` refuses (exit 2).
 
 Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
 the field); 3 solver failure (continuation stopped early; the points computed so
@@ -109,13 +114,18 @@ class _OnceFilter(logging.Filter):
         return True
 
 
-def _setup_logging(quiet: bool, verbose: bool) -> None:
+def _setup_logging(quiet: bool, verbose: bool, rank: int = 0) -> None:
+    """One log stream: rank 0 logs at the chosen level, other ranks (mpirun) only errors,
+    prefixed with their rank."""
     level = logging.WARNING if quiet else (logging.DEBUG if verbose else logging.INFO)
+    if rank != 0:
+        level = logging.ERROR
     root = logging.getLogger()
     for h in list(root.handlers):
         root.removeHandler(h)
     h = logging.StreamHandler(sys.stderr)
-    h.setFormatter(logging.Formatter("%(asctime)s %(levelname)-7s %(name)s: %(message)s",
+    tag = f"[rank {rank}] " if rank else ""
+    h.setFormatter(logging.Formatter(f"%(asctime)s %(levelname)-7s {tag}%(name)s: %(message)s",
                                      "%H:%M:%S"))
     h.addFilter(_OnceFilter())
     root.addHandler(h)
@@ -162,8 +172,9 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                     and len(exc.result.branch) > 1:
                 results.append((ov, exc.result))
     if results and until == "export":
+        from study.parallel import world
         from study.variants import write_variants
-        write_variants(out, results)
+        world().root_call(write_variants, out, results)
     return EXIT_SOLVER if failed else EXIT_OK
 
 
@@ -214,11 +225,16 @@ def _dispatch(args) -> int:
     scene_path = Path(args.scene)
     variants = parse_sets(args.set)
     cmd = args.command
+    from study.parallel import world
+
     if cmd == "report":
         if len(variants) != 1:
             raise SceneError("report: --set takes a single value per key")
         return _report(args, scene_path, variants[0])
     if cmd == "convergence":
+        if world().size > 1:
+            raise SceneError(f"convergence under mpirun -n {world().size}: not supported; "
+                             "run it without mpirun (its FE runs are coarse)")
         return _convergence(args, scene_path)
     until = {"run": "export", "mesh": "mesh", "reduce": "rom", "export": "hbm"}[cmd]
     return _run_variants(args, scene_path, variants, until)
@@ -231,30 +247,63 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: usage errors -> 2, --help -> 0
         return int(exc.code or 0)
-    _setup_logging(args.quiet, args.verbose)
+    from study.parallel import world
+
+    comm = world()
+    _setup_logging(args.quiet, args.verbose, comm.rank)
+    code, exc = _main(args)
+    if exc is None:
+        return code
+    from study.pipeline import StageUnavailable
+
+    # raised identically on every rank (scene validation runs on every rank; rank-0
+    # sections share their errors, study.parallel): rank 0 alone reports it
+    agreed = isinstance(exc, (SceneError, StageUnavailable)) or \
+        bool(getattr(exc, "collective", False))
+    if comm.rank != 0 and agreed:
+        logger.disabled = True
+    code = _exit_code(exc)
+    if comm.size > 1 and not agreed:
+        # this error may be local to this rank while the others wait in a collective
+        # call: end the whole job with the same exit code
+        logger.error("rank %d ends the MPI job (exit code %d)", comm.rank, code)
+        sys.stderr.flush()
+        comm.mpi.Abort(code)
+    return code
+
+
+def _main(args) -> tuple[int, BaseException | None]:
+    """Run the command: its exit code, or the exception it raised."""
+    try:
+        return _dispatch(args), None
+    except BaseException as exc:  # noqa: BLE001 - mapped to an exit code by main
+        return EXIT_INTERNAL, exc
+
+
+def _exit_code(exc: BaseException) -> int:
+    """Log ``exc`` and return its exit code (module docstring)."""
     from hbm import ConvergenceError
     from study.pipeline import SolverError, StageUnavailable
 
-    try:
-        return _dispatch(args)
-    except SceneError as exc:
+    if isinstance(exc, SceneError):
         logger.error("invalid input: %s", exc)
         return EXIT_INPUT
-    except (SolverError, ConvergenceError) as exc:
+    if isinstance(exc, (SolverError, ConvergenceError)):
         logger.error("solver failure: %s", exc)
         return EXIT_SOLVER
-    except StageUnavailable as exc:
+    if isinstance(exc, StageUnavailable):
         logger.error("stage unavailable: %s", exc)
         return EXIT_UNAVAILABLE
-    except KeyboardInterrupt:
+    if isinstance(exc, KeyboardInterrupt):
         logger.error("interrupted; checkpoints are kept (rerun with --resume)")
         return EXIT_INTERRUPTED
-    except ValueError as exc:  # invalid model data caught by hbm/fem/reduction checks
+    if isinstance(exc, ValueError):  # invalid model data caught by hbm/fem/reduction checks
         logger.error("invalid input: %s", exc)
         return EXIT_INPUT
-    except OSError as exc:
+    if isinstance(exc, OSError):
         logger.error("file error: %s", exc)
         return EXIT_IO
-    except Exception:  # noqa: BLE001 - last resort: a traceback for a bug report
-        logger.exception("internal error (please report)")
-        return EXIT_INTERNAL
+    if not isinstance(exc, Exception):  # SystemExit and the like
+        raise exc
+    logger.error("internal error (please report)", exc_info=exc)
+    return EXIT_INTERNAL

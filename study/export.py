@@ -78,27 +78,39 @@ def nearest_point(result, rpm: float):
 
 def export(result, figures: bool = True) -> None:
     """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
-    fields, plots and report.md the scene asks for."""
-    from study.nvh import compute_nvh, write_curves_csv
+    fields, plots and report.md the scene asks for.
 
+    Under mpirun (:mod:`study.parallel`) rank 0 writes every file."""
+    from study.nvh import compute_nvh, write_curves_csv
+    from study.parallel import world
+
+    comm = world()
     result.nvh = compute_nvh(result)
-    write_partial(result, result.branch)
+    comm.root_call(write_partial, result, result.branch)
     logger.info("wrote %s", result.results)
-    write_curves_csv(Path(result.out) / "curves.csv", result.branch, result.nvh)
+    comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
+                   result.nvh)
     if result.rom is not None and result.scene.outputs.housing_field:
         from study import fe_stages
         fields = fe_stages.housing_fields(result)
         result.figures += fields
         if figures and "housing" in result.scene.outputs.plots:
-            from study.render import render_housing_isolated
-            for x in fields:
-                if x.name.startswith(("housing_orders_", "housing_surface_")):
-                    continue
-                png = render_housing_isolated(x, x.with_suffix(".png"))
-                if png is not None:
-                    result.figures.append(png)
-    if not figures:
-        return
+            comm.root_call(_render, result, fields)
+    if figures:
+        comm.root_call(_figures, result)
+
+
+def _render(result, fields: list[Path]) -> None:
+    from study.render import render_housing_isolated
+    for x in fields:
+        if x.name.startswith(("housing_orders_", "housing_surface_")):
+            continue
+        png = render_housing_isolated(x, x.with_suffix(".png"))
+        if png is not None:
+            result.figures.append(png)
+
+
+def _figures(result) -> None:
     from study import plots, report
 
     result.figures += plots.draw_all(result)

@@ -139,7 +139,8 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         m = dict(fe.get("mesh", {}))
         name = m.pop("preset", "coarse")
         if not isinstance(name, str):
-            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse' or 'fine')")
+            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse', 'fine' "
+                             "or 'million')")
         opts = geometry.preset(name, **_convert("mesh", m, geometry.MeshOptions))
         opts.validate()
         mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
@@ -177,9 +178,12 @@ def mesh_stage(scene, folder: Path) -> None:
     (folder / "mesh.json").write_text(json.dumps(info, indent=1))
 
 
-def fe_stage(scene, mesh_dir: Path):
-    """FE model of the pump from the cached mesh (``fem.FEModel``)."""
+def fe_stage(scene, mesh_dir: Path, comm=None):
+    """FE model of the pump from the cached mesh (``fem.FEModel``); collective on
+    ``comm`` (default ``MPI.COMM_WORLD``): its rank 0 reads the mesh file, DOLFINx
+    partitions it over the ranks and every rank assembles its part."""
     import gmsh
+    from mpi4py import MPI
 
     from fem import build_pump_model, load_gmsh_mesh
     from geometry import gmsh_session
@@ -188,10 +192,12 @@ def fe_stage(scene, mesh_dir: Path):
     info = json.loads((Path(mesh_dir) / "mesh.json").read_text())
     groups = {k: (int(v[0]), int(v[1])) for k, v in info["groups"].items()}
     centres = {k: np.asarray(v, dtype=float) for k, v in info["centres"].items()}
+    comm = MPI.COMM_WORLD if comm is None else comm
     with gmsh_session():
         gmsh.clear()
-        gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
-        fe_mesh = load_gmsh_mesh(None, groups=groups, centres=centres)
+        if comm.rank == 0:  # the other ranks receive their cells from rank 0
+            gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
+        fe_mesh = load_gmsh_mesh(None, comm, 0, groups=groups, centres=centres)
     return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
 
 
@@ -214,7 +220,10 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
     if r.n_check > 0:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
                                       min(r.n_check, rom.n_r))
-    save_rom(folder / "rom.h5", rom)
+    # collective: each rank writes its basis rows with their partition-independent keys
+    save_rom(folder / "rom.h5", rom, row_keys=model.row_keys())
+    if rom.T.getComm().tompi4py().rank != 0:
+        return
     _radiation(model, folder)
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
     rows = sorted({i for v in nodes.values() for i in v if i >= 0})
@@ -381,11 +390,39 @@ def rom_plots(result, want: set) -> list[Path]:
     return paths
 
 
+def _dense_basis(folder: Path, model) -> np.ndarray:
+    """The whole basis ``rom/basis`` (n_fe × n_r) in the row order of the serial ``model``;
+    rows are matched by their partition-independent keys when the ROM was reduced under
+    mpirun (``rom/row_keys``)."""
+    import h5py
+
+    with h5py.File(folder / "rom.h5", "r") as f:
+        T = f["rom/basis"][()]
+        if "row_keys" not in f["rom"]:
+            return T
+        keys = f["rom/row_keys"][()]
+    order = np.argsort(keys, kind="stable")
+    want = np.asarray(model.row_keys())
+    pos = order[np.searchsorted(keys[order], want)]
+    if not np.array_equal(keys[pos], want):
+        raise ValueError(f"{folder / 'rom.h5'}: rom/row_keys do not match the FE model")
+    return T[pos]
+
+
 def housing_fields(result) -> list[Path]:
     """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.fields):
     time series of the dynamic displacement (no aliasing), complex amplitudes per order,
-    normal velocity and ERP density per order on the outer surface."""
-    import h5py
+    normal velocity and ERP density per order on the outer surface.
+
+    Under mpirun rank 0 writes them from a serial FE model (the files are small), so
+    they are the same whatever the number of ranks."""
+    from study.parallel import world
+
+    return world().root_call(_housing_fields_serial, result)
+
+
+def _housing_fields_serial(result) -> list[Path]:
+    from mpi4py import MPI
 
     from study import acoustics, fields
     from study.export import nearest_point
@@ -393,9 +430,8 @@ def housing_fields(result) -> list[Path]:
     sc = result.scene
     rd = result.rom
     logger.info("rebuilding the FE model from the cached mesh for the housing fields")
-    model = fe_stage(sc, result.mesh_dir)
-    with h5py.File(rd.folder / "rom.h5", "r") as f:
-        T = f["rom/basis"][()]
+    model = fe_stage(sc, result.mesh_dir, comm=MPI.COMM_SELF)
+    T = _dense_basis(rd.folder, model)
     hm = fields.housing_mesh(model, acoustics.fe_basis(model, T))
     del T
     paths = []

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from study.cache import StageCache, source_hash, stage_key
+from study.parallel import mark_collective, world
 from study.scene import Scene, SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
@@ -130,7 +132,11 @@ class Pipeline:
     resume : bool
         Continue an interrupted continuation from ``<out>/results.h5``.
     progress : bool
-        Show tqdm progress bars.
+        Show tqdm progress bars (rank 0 only under mpirun).
+
+    Under ``mpirun -n N`` (see :mod:`study.parallel`) every rank builds a Pipeline:
+    the FE stages run distributed, meshing, cache bookkeeping, the continuation and
+    the files of the output folder on rank 0, and every rank gets the same result.
     """
 
     def __init__(self, scene: Scene, out: str | Path, cache_dir: str | Path | None = None,
@@ -140,7 +146,8 @@ class Pipeline:
         self.cache = StageCache(Path(cache_dir) if cache_dir else
                                 self.out.resolve().parent / ".geardyn-cache", enabled=not refresh)
         self.resume = resume
-        self.progress = progress
+        self.comm = world()
+        self.progress = progress and self.comm.rank == 0
         self.stages: dict[str, str] = {}
         self.keys: dict[str, str] = {}
         self._fe_model = None
@@ -184,34 +191,55 @@ class Pipeline:
 
         _require("geometry", "gmsh")
         key = self.keys["mesh"] = self.mesh_key()
-        hit = self.cache.lookup("mesh", key)
+        hit = self.comm.root_call(self.cache.lookup, "mesh", key)
         if hit is not None:
             self._log_stage("mesh", "cached")
             return hit
         t = time.perf_counter()
-        with _StageBar("mesh (gmsh)", self.progress):
-            d = self.cache.store("mesh", key, lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
+        with _StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
+            d = self.comm.root_call(self.cache.store, "mesh", key,
+                                    lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
         self._log_stage("mesh", "ran", time.perf_counter() - t)
         return d
+
+    def _publish(self, src: Path, name: str) -> Path:
+        """Copy a cached file to ``<out>/name`` atomically (rank 0 writes)."""
+        import shutil
+        import tempfile
+
+        from study.results import replace_file
+
+        def copy() -> Path:
+            target = self.out / name
+            stem, _, ext = name.partition(".")
+            fd, tmp = tempfile.mkstemp(dir=self.out, prefix=f".{stem}.", suffix=f".{ext}.tmp")
+            os.close(fd)
+            try:
+                shutil.copyfile(src, tmp)
+                replace_file(tmp, target)
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
+            return target
+        return self.comm.root_call(copy)
 
     def publish_mesh(self, mesh_dir: Path) -> Path:
         """Copy the cached ``pump.msh`` to ``<out>/mesh.msh`` (atomically) and log its size
         and quality (``geardyn mesh``)."""
         import json
-        import os
-        import shutil
-        import tempfile
 
-        target = self.out / "mesh.msh"
-        fd, tmp = tempfile.mkstemp(dir=self.out, prefix=".mesh.", suffix=".msh.tmp")
-        os.close(fd)
-        shutil.copyfile(Path(mesh_dir) / "pump.msh", tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, target)
+        target = self._publish(Path(mesh_dir) / "pump.msh", "mesh.msh")
         q = json.loads((Path(mesh_dir) / "mesh.json").read_text())["quality"]
         logger.info("mesh: %s — %d tets (10 nodes), %d nodes, %d P2 DOF; min SICN %.3g, "
                     "%d elements below SICN %.3g", target, q["n_elements"], q["n_nodes"],
                     q["n_dofs"], q["min_sicn"], q["n_poor"], q["poor_threshold"])
+        return target
+
+    def publish_rom(self, rom_dir: Path) -> Path:
+        """Copy the cached ``rom.h5`` (dense ROM and basis, docs/results-format.md) to
+        ``<out>/rom.h5`` atomically (``geardyn reduce``)."""
+        target = self._publish(Path(rom_dir) / "rom.h5", "rom.h5")
+        logger.info("ROM: %s (%.1f MB)", target, target.stat().st_size / 1e6)
         return target
 
     def run_rom(self) -> Path:
@@ -221,7 +249,7 @@ class Pipeline:
         _require("reduction", "h5py")
         self.keys["fe"] = self.fe_key()
         key = self.keys["rom"] = self.rom_key()
-        hit = self.cache.lookup("rom", key)
+        hit = self.comm.root_call(self.cache.lookup, "rom", key)
         if hit is not None:
             self.keys["mesh"] = self.mesh_key()
             self._log_stage("mesh", "skipped (rom cached)")
@@ -236,7 +264,7 @@ class Pipeline:
         t = time.perf_counter()
         with _StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
             d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
-                self.scene, model, tmp, self.progress))
+                self.scene, model, tmp, self.progress), comm=self.comm)
         self._log_stage("rom", "ran", time.perf_counter() - t)
         return d
 
@@ -336,7 +364,7 @@ class Pipeline:
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
                              self.keys, seconds=time.perf_counter() - t0)
         elif until == "rom":
-            self.run_rom()
+            self.publish_rom(self.run_rom())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
                              self.keys, seconds=time.perf_counter() - t0)
         problem, rom = self.problem()
@@ -349,16 +377,19 @@ class Pipeline:
         def checkpoint(branch) -> None:
             write_partial(result, branch)
 
-        branch, _ = self.run_hbm(problem, checkpoint)
+        # the continuation is serial and cheap: rank 0 runs it (and writes the checkpoints),
+        # every rank gets the branch
+        branch, how = self.comm.root_call(self.run_hbm, problem, checkpoint)
+        self.stages["hbm"] = how
         result.branch = branch
         if branch.status != "completed":
-            write_partial(result, branch)
-            _partial_curves(result)
+            self.comm.root_call(write_partial, result, branch)
+            self.comm.root_call(_partial_curves, result)
             self._log_stage("export", "partial results.h5 and curves.csv only")
-            raise SolverError(f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
-                              f"{branch.message} (results.h5 holds {len(branch)} points; "
-                              "rerun with --resume after changing the steps/tolerance)",
-                              result)
+            raise mark_collective(SolverError(
+                f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
+                f"{branch.message} (results.h5 holds {len(branch)} points; "
+                "rerun with --resume after changing the steps/tolerance)", result))
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()
         t = time.perf_counter()

@@ -70,14 +70,18 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     problem, rom = pipe.problem()
     key = pipe.hbm_key()
     br = read_branch(Path(out) / "results.h5", problem, expected_key=key)
-    if br is None:
-        raise SolverError(f"{Path(out) / 'results.h5'}: no results of this scene; run "
-                          "`geardyn run` first")
+    if br is None:  # read by every rank under mpirun: the same error everywhere
+        from study.parallel import mark_collective
+        raise mark_collective(SolverError(f"{Path(out) / 'results.h5'}: no results of this "
+                                          "scene; run `geardyn run` first"))
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
-    from study import plots, report
-    from study.nvh import compute_nvh
-    res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
-    res.figures += plots.draw_all(res)
-    report.write_report(res)
+
+    def draw() -> None:
+        from study import plots, report
+        from study.nvh import compute_nvh
+        res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
+        res.figures += plots.draw_all(res)
+        report.write_report(res)
+    pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

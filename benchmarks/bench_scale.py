@@ -1,0 +1,222 @@
+"""Scaling of the FE pipeline (``geardyn reduce``: mesh → fe → rom) with the model size
+and the number of MPI ranks: time per stage, peak memory per rank, fitted exponent.
+
+Run: ``.venv/bin/python -m benchmarks.bench_scale [--sizes coarse,0.0115] [--ranks 1,2]
+[--n-cm 100] [--repeats 1]``. A size is a mesh preset name or a ``mesh.size`` in m
+(fine preset otherwise). Each case runs in its own process (``mpirun -n R`` for R > 1)
+through the same pipeline as ``geardyn reduce`` with a fresh cache, so every stage runs
+and the peak resident memory of each rank (VmHWM) is that case's own. The ROM
+validation against the full eigen-solve is switched off (``rom.n_check = 0``): the table
+is about the reduction. Writes ``benchmarks/results/scale.json`` (atomically); cases
+already in the file and not rerun are kept.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from benchmarks.common import RESULTS, write_json
+
+log = logging.getLogger("bench_scale")
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "scenes" / "pump.toml"
+
+
+def _vm_hwm_mib() -> float:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _overrides(size: str, n_cm: int) -> dict:
+    ov = {"rom.n_cm": n_cm, "rom.n_check": 0}
+    if size in ("coarse", "fine"):
+        ov["mesh.preset"] = size
+    else:
+        ov["mesh.preset"] = "fine"
+        ov["mesh.size"] = float(size)
+    return ov
+
+
+class _StageTimes(logging.Handler):
+    """Collects ``stage NAME ran in X s`` records of study.pipeline."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.seconds: dict[str, float] = {}
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.msg.startswith("stage ") and record.args and len(record.args) >= 3:
+            name, how, extra = record.args[:3]
+            if how == "ran" and extra.startswith(" in "):
+                self.seconds[name] = float(extra.split()[1])
+
+
+def case(size: str, n_cm: int, out: Path) -> None:
+    """One ``reduce`` in this process (one rank of mpirun, or serial)."""
+    import reduction
+    import study
+    from study.parallel import world
+
+    comm = world()
+    times = _StageTimes()
+    logging.getLogger("study.pipeline").addHandler(times)
+    logging.getLogger("study.pipeline").setLevel(logging.INFO)
+    phases: dict = {}
+    cb0 = reduction.craig_bampton
+
+    def cb(*a, **k):
+        r = cb0(*a, **k)
+        phases.update(r.timings)
+        return r
+    reduction.craig_bampton = cb                        # fe_stages imports it at call time
+    tmp = Path(tempfile.mkdtemp(prefix="bench_scale.")) if comm.rank == 0 else None
+    tmp = comm.bcast(tmp)
+    t0 = time.perf_counter()
+    study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm), cache_dir=tmp / "cache",
+              refresh=True, until="rom")
+    wall = time.perf_counter() - t0
+    peaks = [_vm_hwm_mib()] if comm.size == 1 else comm.mpi.allgather(_vm_hwm_mib())
+    if comm.rank == 0:
+        import h5py
+        with h5py.File(tmp / "out" / "rom.h5", "r") as f:
+            n_dof = int(f["rom/basis"].shape[0])
+            f_max = float(f["rom/fixed_interface_hz"][-1])
+        rec = {"size": size, "ranks": comm.size, "n_dof": n_dof, "n_cm": n_cm,
+               "mesh_s": times.seconds.get("mesh"), "fe_s": times.seconds.get("fe"),
+               "rom_s": times.seconds.get("rom"),
+               "eigensolve_s": phases.get("eigensolve"),
+               "static_modes_s": phases.get("static_modes"), "wall_s": wall,
+               "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
+               "highest_fixed_interface_hz": f_max}
+        out.write_text(json.dumps(rec))
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def run_case(size: str, n_cm: int, ranks: int, timeout: float) -> dict | None:
+    with tempfile.TemporaryDirectory() as d:
+        out = Path(d) / "case.json"
+        cmd = [sys.executable, "-m", "benchmarks.bench_scale", "--case", size,
+               "--n-cm", str(n_cm), "--case-out", str(out)]
+        if ranks > 1:
+            cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + cmd
+        env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+               "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+               "PYTHONPATH": str(ROOT)}
+        try:
+            p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
+                               timeout=timeout)
+        except subprocess.TimeoutExpired:
+            log.warning("size %s on %d rank(s): timed out after %.0f s", size, ranks, timeout)
+            return None
+        if p.returncode != 0 or not out.exists():
+            log.warning("size %s on %d rank(s) failed (%d): %s", size, ranks, p.returncode,
+                        p.stderr[-1500:])
+            return None
+        return json.loads(out.read_text())
+
+
+def _median_record(recs: list[dict]) -> dict:
+    rec = dict(recs[0])
+    rec["repeats"] = len(recs)
+    for k in ("mesh_s", "fe_s", "rom_s", "eigensolve_s", "static_modes_s", "wall_s",
+              "peak_rss_max_rank_mib"):
+        vals = [r[k] for r in recs if r.get(k) is not None]
+        rec[k] = statistics.median(vals) if vals else None
+    rec["peak_rss_per_rank_mib"] = [statistics.median(v) for v in
+                                    zip(*(r["peak_rss_per_rank_mib"] for r in recs),
+                                        strict=True)]
+    return rec
+
+
+def exponents(cases: list[dict]) -> list[dict]:
+    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count,
+    over the sizes measured."""
+    out = []
+    for ranks in sorted({c["ranks"] for c in cases}):
+        cs = sorted((c for c in cases if c["ranks"] == ranks and c.get("rom_s")),
+                    key=lambda c: c["n_dof"])
+        if len(cs) < 2:
+            continue
+        row = {"ranks": ranks, "sizes": len(cs), "n_dof_min": cs[0]["n_dof"],
+               "n_dof_max": cs[-1]["n_dof"]}
+        for key in ("rom_s", "eigensolve_s", "wall_s", "peak_rss_max_rank_mib"):
+            xs = [math.log(c["n_dof"]) for c in cs]
+            ys = [math.log(c[key]) for c in cs]
+            mx, my = statistics.fmean(xs), statistics.fmean(ys)
+            row[f"exponent_{key}"] = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True)) \
+                / sum((x - mx) ** 2 for x in xs)
+        out.append(row)
+    return out
+
+
+def tables(cases: list[dict], fits: list[dict]) -> list[dict]:
+    cols = ["size", "ranks", "n_dof", "n_cm", "repeats", "mesh_s", "fe_s", "rom_s",
+            "eigensolve_s", "static_modes_s", "wall_s", "peak_rss_max_rank_mib"]
+    rows = [[c.get(k, "") for k in cols] + [
+        ", ".join(f"{p:.0f}" for p in c["peak_rss_per_rank_mib"])] for c in cases]
+    fcols = ["ranks", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
+             "exponent_eigensolve_s", "exponent_wall_s", "exponent_peak_rss_max_rank_mib"]
+    return [{"title": "geardyn reduce (mesh → fe → rom) against DOF and MPI ranks "
+                      "(times in s, memory in MiB; rom.n_check = 0)",
+             "columns": cols + ["peak_rss_per_rank_mib"], "rows": rows},
+            {"title": "fitted exponents p of t ∝ n^p (least squares over the sizes run)",
+             "columns": fcols, "rows": [[f.get(k, "") for k in fcols] for f in fits]}]
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", default="coarse,0.0115")
+    p.add_argument("--ranks", default="1,2")
+    p.add_argument("--n-cm", type=int, default=100)
+    p.add_argument("--repeats", type=int, default=1)
+    p.add_argument("--timeout", type=float, default=900.0, help="per case (s)")
+    p.add_argument("--case", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--case-out", type=Path, default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.case is None else logging.WARNING,
+                        format="%(asctime)s %(name)s: %(message)s", datefmt="%H:%M:%S")
+    if args.case is not None:
+        case(args.case, args.n_cm, args.case_out)
+        return 0
+    old_path = RESULTS / "scale.json"
+    old = json.loads(old_path.read_text()).get("cases", []) if old_path.exists() else []
+    cases = []
+    for size in args.sizes.split(","):
+        for ranks in (int(r) for r in args.ranks.split(",")):
+            recs = [r for r in (run_case(size, args.n_cm, ranks, args.timeout)
+                                for _ in range(args.repeats)) if r]
+            if recs:
+                rec = _median_record(recs)
+                log.info("%s, %d rank(s): %d DOF, rom %.1f s, wall %.1f s, peak/rank %s MiB",
+                         size, ranks, rec["n_dof"], rec["rom_s"], rec["wall_s"],
+                         rec["peak_rss_per_rank_mib"])
+                cases.append(rec)
+    keep = [c for c in old if not any(c["size"] == n["size"] and c["ranks"] == n["ranks"]
+                                      and c["n_cm"] == n["n_cm"] for n in cases)]
+    cases = sorted(keep + cases, key=lambda c: (c["n_dof"], c["ranks"]))
+    fits = exponents(cases)
+    cmd = (".venv/bin/python -m benchmarks.bench_scale --sizes SIZES --ranks 1,2 "
+           f"--n-cm {args.n_cm} --repeats R (sizes and repeats per row)")
+    path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
+                                "tables": tables(cases, fits),
+                                "not_run": "305k (fine) and >= 1M DOF: above this shared "
+                                           "machine's 8 GB / 15 min budget per run"})
+    log.info("wrote %s", path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -58,11 +58,12 @@ def nearest_point(result, rpm: float):
                     iterations=int(br.newton_iterations[i]))
 
 
-def export(result, figures: bool = True) -> None:
-    """Write the final results.h5, then the plots and report.md the scene asks for."""
+def export(result, figures: bool = True, housing: bool = True) -> None:
+    """Write the final results.h5, then the plots and report.md the scene asks for
+    (``housing=False``: no housing fields, e.g. for an incomplete curve)."""
     write_partial(result, result.branch)
     logger.info("wrote %s", result.results)
-    if result.rom is not None and result.scene.outputs.housing_field:
+    if housing and result.rom is not None and result.scene.outputs.housing_field:
         from study import fe_stages
         fields = fe_stages.housing_fields(result)
         result.figures += fields

@@ -103,6 +103,12 @@ def _asdict(x) -> dict:
     return dataclasses.asdict(x)
 
 
+#: ``[continuation]`` fields that only steer the path finding: a partial run written with
+#: other values of them is resumed (``--resume``), the physics and harmonic set being equal.
+RESUMABLE_CONTROLS = ("step", "min_step", "max_step", "tolerance", "max_points",
+                      "checkpoint_every")
+
+
 def hbm_inputs(scene: Scene) -> dict[str, Any]:
     """Exactly what the hbm stage depends on besides the linear model's key."""
     return {"gear": _asdict(scene.gear), "mesh_stiffness": _asdict(scene.mesh_stiffness),
@@ -261,6 +267,16 @@ class Pipeline:
         return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
                          source_hash("hbm", "study.model", "study.results"))
 
+    def hbm_resume_key(self) -> str:
+        """Key of what a resumed continuation must share with the partial run: the hbm key
+        without the continuation controls (:data:`RESUMABLE_CONTROLS`)."""
+        lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
+        inputs = hbm_inputs(self.scene)
+        inputs["continuation"] = {k: v for k, v in inputs["continuation"].items()
+                                  if k not in RESUMABLE_CONTROLS}
+        return stage_key("hbm_resume", {"linear": lin, **inputs},
+                         source_hash("hbm", "study.model", "study.results"))
+
     def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
         """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
         from hbm import trace
@@ -278,8 +294,15 @@ class Pipeline:
         span = hi - lo
         resume = None
         results = self.out / "results.h5"
+        rkey = self.keys["hbm_resume"] = self.hbm_resume_key()
         if self.resume:
-            resume = read_branch(results, problem, expected_key=key)
+            resume = read_branch(results, problem, expected_key=rkey,
+                                 key_name="stage_key_hbm_resume")
+            if resume is not None and len(resume) and np.max(resume.residual) >= c.tolerance:
+                logger.warning("--resume: the points in %s have residuals up to %.3g, above "
+                               "continuation.tolerance = %g; starting from %g rpm", results,
+                               np.max(resume.residual), c.tolerance, lo)
+                resume = None
             if resume is None:
                 logger.warning("--resume: no matching partial run in %s; starting from %g rpm",
                                results, lo)
@@ -350,10 +373,20 @@ class Pipeline:
         result.branch = branch
         if branch.status != "completed":
             write_partial(result, branch)
-            self._log_stage("export", "partial results.h5 only")
-            raise SolverError(f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
-                              f"{branch.message} (results.h5 holds {len(branch)} points; "
-                              "rerun with --resume after changing the steps/tolerance)",
+            how = "partial results.h5 only"
+            if until == "export" and len(branch) >= 2:
+                # keep and plot what was computed: plots and report.md say it is incomplete
+                try:
+                    export(result, figures=True, housing=False)
+                    how = "partial (results.h5, plots, report.md of the incomplete curve)"
+                except Exception as exc:  # noqa: BLE001 - the solver failure is what matters
+                    logger.warning("plots of the partial curve failed: %s", exc)
+            self._log_stage("export", how)
+            raise SolverError(f"continuation stopped before {s.continuation.speed[1]:g} rpm "
+                              f"({branch.status}): {branch.message} (results.h5 holds "
+                              f"{len(branch)} points; rerun with --resume after changing the "
+                              "continuation steps/tolerance — a run that differs only in "
+                              f"{', '.join(RESUMABLE_CONTROLS)} continues from its last point)",
                               result)
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()

@@ -719,26 +719,36 @@ def _reversal_point(rec, state, yn, hit: int) -> int:
 
 
 def _leap(evaluate, rec, state, tol, max_iter, max_step):
-    """Corner leap: plane predictor ``LEAP_FACTORS`` last chords ahead of the last point
-    along its direction of travel; accepted if it moves forward without revisiting."""
+    """Corner leap: plane predictors ``LEAP_FACTORS`` last chords ahead of the last point
+    along its direction of travel, then with the speed component of that direction
+    reversed (a fold at a corner: the state goes on, the speed turns back); accepted if
+    it moves forward along the predictor without revisiting the branch."""
     y = state(-1)
     travel = y - state(-2)
     h = float(np.linalg.norm(travel))
     if not h > 0:
         return None
-    d = travel / h
-    for f in LEAP_FACTORS:
-        if f * h > max_step:
-            break
-        try:
-            yn, it, res, jx, jw = _correct(evaluate, y + f * h * d, d, tol, max_iter)
-            tn = _tangent(jx, jw, d)
-        except (ConvergenceError, np.linalg.LinAlgError):
-            continue
-        if (yn - y) @ d > 0 and _revisit(rec, state, yn) is None:
-            rec.counters["leaps"] += 1
-            logger.info("corner leap past rpm %.6g (%.0f chords ahead)", rec.last("rpm"), f)
-            return yn, it, res, tn
+    folded = travel.copy()
+    folded[-1] = -folded[-1]
+    e_w = np.zeros_like(y)
+    e_w[-1] = 1.0
+    for d, plane in ((travel / h, None), (folded / np.linalg.norm(folded), e_w)):
+        # folded: longest first (near the fold the piece traced lies close by)
+        for f in (LEAP_FACTORS if plane is None else LEAP_FACTORS[::-1]):
+            if f * h > max_step:
+                continue
+            try:
+                # folded: corrector at the predicted speed (the state from the last point)
+                yn, it, res, jx, jw = _correct(evaluate, y + f * h * d,
+                                               d if plane is None else plane, tol, max_iter)
+                tn = _tangent(jx, jw, d)
+            except (ConvergenceError, np.linalg.LinAlgError):
+                continue
+            if (yn - y) @ d > 0 and _revisit(rec, state, yn) is None:
+                rec.counters["leaps"] += 1
+                logger.info("corner leap past rpm %.6g (%.0f chords ahead%s)", rec.last("rpm"),
+                            f, ", speed turned back" if d[-1] * travel[-1] < 0 else "")
+                return yn, it, res, tn
     return None
 
 

@@ -25,6 +25,57 @@ STRAIGHTEN_BLENDS = (0.5, 0.0)
 ALGORITHMS_2D = (6, 5, 1)
 MAX_RETRIES = 5
 
+# Element-count estimate before meshing: a regular tetrahedron of edge h has volume
+# h^3 / (6 sqrt 2), so a part of volume V meshed at size h holds about
+# TETS_PER_SIZE_CUBED * V / h^3 tets (~8.5; gmsh's Delaunay meshes are close to it in the
+# bulk, and more where thin walls or curvature force smaller elements, so the estimate
+# is a lower bound). Meshing is refused above MAX_ELEMENTS (a P2 mesh of 3e6 tets has
+# ~1.3e7 DOF, beyond what the FE and Craig-Bampton stages hold in 24 GB).
+TETS_PER_SIZE_CUBED = 6.0 * 2.0 ** 0.5
+MAX_ELEMENTS = 3_000_000
+
+
+def check_sizes(parts: dict[str, tuple[float, float, float, str, str]],
+                max_elements: int = MAX_ELEMENTS) -> int:
+    """Refuse element sizes that cannot mesh a part, before any meshing.
+
+    Parameters
+    ----------
+    parts : dict
+        Part name -> ``(volume [m^3], element size [m], largest allowed size [m], field,
+        reason)``: ``field`` is the scene/MeshOptions field that sets the size, ``reason``
+        names the feature that bounds it (e.g. its thinnest wall).
+    max_elements : int
+        Largest estimated element count of all parts together.
+
+    Returns
+    -------
+    int
+        The estimated element count (``TETS_PER_SIZE_CUBED * V / h^3`` summed).
+
+    Raises
+    ------
+    ValueError
+        Naming the field, the size, and the allowed range or the estimate.
+    """
+    total = 0.0
+    for name, (vol, h, h_max, fld, reason) in parts.items():
+        if h > h_max:
+            raise ValueError(f"{fld} = {h:g} m gives an element size on part '{name}' above "
+                             f"{h_max:g} m ({reason}): too coarse to mesh it; allowed "
+                             f"element sizes there are (0, {h_max:g}] m")
+        total += TETS_PER_SIZE_CUBED * vol / h ** 3
+    if total > max_elements:
+        detail = ", ".join(f"{k} {TETS_PER_SIZE_CUBED * v / h ** 3:.3g}"
+                           for k, (v, h, *_r) in parts.items())
+        first, (_, h0, _, f0, _) = next(iter(parts.items()))
+        grow = (total / max_elements) ** (1 / 3)
+        raise ValueError(f"{f0} = {h0:g} m: about {total:.3g} tetrahedra estimated "
+                         f"({TETS_PER_SIZE_CUBED:.2f} V/h^3 per part: {detail}), more than "
+                         f"the {max_elements:.3g} allowed; element sizes must be at least "
+                         f"{grow:.3g} x larger ({f0} >= {h0 * grow:.3g} m on part '{first}')")
+    return int(round(total))
+
 
 def configure(opts: MeshOptions) -> None:
     """Set the gmsh options that make meshing deterministic and second order."""

@@ -26,7 +26,7 @@ import gmsh
 import numpy as np
 
 from .housing import build_housing
-from .meshing import generate, set_part_size
+from .meshing import check_sizes, generate, set_part_size
 from .model import MeshedModel, PartEntities
 from .params import SHAFT_NAMES, MeshOptions, PumpParams, ShaftParams, preset
 from .session import ensure_initialized
@@ -35,6 +35,13 @@ from .shaft import build_shaft
 log = logging.getLogger(__name__)
 
 VOLUME_TAGS = {"shaft_in": 1, "shaft_out": 2, "housing": 3}
+# Coarsest element sizes that still mesh a part (docs/geometry.md): the housing at most
+# HOUSING_SIZE_PER_WALL times its thinnest plate (wall, rib, foot), a shaft at most
+# SHAFT_SIZE_PER_DIAMETER times its smallest diameter. Measured on the default pump:
+# housing sizes up to 25 walls mesh (sizes above ~8 walls give the same mesh, set by
+# the curvature), a shaft at 3 diameters fails (flat tets, SICN 0), at 1.5 meshes.
+HOUSING_SIZE_PER_WALL = 8.0
+SHAFT_SIZE_PER_DIAMETER = 2.0
 SURFACE_TAG0 = 101  # surface physical tags are numbered from here in group order
 
 
@@ -61,6 +68,32 @@ def _add_groups(volumes: dict[str, PartEntities]) -> dict[str, tuple[int, int]]:
             groups[sname] = (2, tag)
             next_tag += 1
     return groups
+
+
+def _shaft_size_limit(p: ShaftParams) -> float:
+    radii = [r for r in (p.coupling_radius, p.journal_radius, p.body_radius, p.hub_radius,
+                         p.tail_radius) if r > 0]
+    return SHAFT_SIZE_PER_DIAMETER * 2.0 * min(radii)
+
+
+def _check_pump_sizes(params: PumpParams, opts: MeshOptions,
+                      volumes: dict[str, PartEntities]) -> None:
+    """Element sizes against the thinnest features and the element-count bound
+    (:func:`geometry.meshing.check_sizes`); raises ``ValueError`` naming the field."""
+    h = params.housing
+    plates = [h.wall_thickness, h.foot_height] + ([h.rib_thickness] if h.rib_count else [])
+    parts = {"housing": (float(gmsh.model.occ.getMass(3, volumes["housing"].volume)),
+                         opts.size, HOUSING_SIZE_PER_WALL * min(plates), "mesh.size",
+                         f"{HOUSING_SIZE_PER_WALL:g} x its thinnest plate {min(plates):g} m")}
+    for s in SHAFT_NAMES:
+        sp = params.shaft(s)
+        lim = _shaft_size_limit(sp)
+        parts[f"shaft_{s}"] = (float(gmsh.model.occ.getMass(3, volumes[f"shaft_{s}"].volume)),
+                               opts.shaft_size, lim, "mesh.size * mesh.shaft_factor",
+                               f"{SHAFT_SIZE_PER_DIAMETER:g} x its smallest diameter "
+                               f"{lim / SHAFT_SIZE_PER_DIAMETER:g} m")
+    n = check_sizes(parts)
+    log.info("mesh sizes checked: about %d tets estimated", n)
 
 
 def _shaft_local_sizes(name: str, opts: MeshOptions) -> dict[str, float]:
@@ -128,6 +161,7 @@ def build_pump(params: PumpParams | None = None, mesh_options: MeshOptions | Non
         volumes[f"shaft_{s}"] = build_shaft(params.shaft(s), s, params.shaft_origin(s))
     volumes["housing"] = build_housing(params.housing, params.centre_distance)
     gmsh.model.occ.synchronize()
+    _check_pump_sizes(params, opts, volumes)
     housing = volumes["housing"]
     bore = opts.size * opts.bore_factor
     set_part_size(housing, opts.size, {k: bore for k in housing.surfaces if "/bore_" in k})

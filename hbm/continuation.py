@@ -47,6 +47,13 @@ REFINE_BOUND = 1e-7     # refine a converged point when cond * residual exceeds 
 CORNER_STEP = 1e-4      # steps below this may turn sharply (corners of the branch)
 CORNER_RADIUS = 1e-3    # largest sphere of a corner step (no room for another branch)
 FOLD_MERGE_POINTS = 3   # sign changes of dOmega/ds closer than this (points) cancel
+# A new point closer than REVISIT_RATIO times its chord to an earlier segment of the
+# branch (all but the last) is the branch walking back over itself, not a fold: on the
+# pump the retraced points lie 1e-3..5e-2 chords from the old polyline, distinct pieces
+# that meet at a fold or corner 0.7..2 chords (docs/hbm.md, "Reversals").
+REVISIT_RATIO = 0.1
+MAX_REVERSALS = 8       # roll-backs after a reversal before the trace gives up
+LEAP_FACTORS = (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)   # corner leap: lengths in last chords
 
 _ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
            "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
@@ -89,13 +96,20 @@ class Branch:
         Failed continuation steps (each halved the step); among the retries,
         those made with the secant predictor, and the points accepted by the
         spherical corrector past a corner of the branch.
+    reversals, leaps
+        Reversals detected (the branch walking back over points already traced;
+        the points after the turn are dropped and the trace re-predicted from it
+        with the old orientation) and corner leaps (a predictor several chords
+        ahead along the direction of travel past a non-smooth point).
     max_condition
         Largest 1-norm condition estimate of a corrector matrix (scaled); a
         warning is logged once when it exceeds ``hbm.problem.COND_WARN``.
     status, message
         ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
         through rpm_start), ``"max_points"``, ``"step_failed"``,
-        ``"start_failed"``; the message says why in words.
+        ``"reversal"`` (kept walking back over its own branch after
+        ``MAX_REVERSALS`` recoveries), ``"start_failed"``; the message says why
+        in words. Every status but ``"completed"`` means the curve is incomplete.
     """
 
     harmonics: tuple
@@ -129,6 +143,8 @@ class Branch:
     step_cuts: int = 0
     secant_retries: int = 0
     corner_steps: int = 0
+    reversals: int = 0
+    leaps: int = 0
     max_condition: float = float("nan")
 
     def __len__(self) -> int:
@@ -149,12 +165,16 @@ class _Recorder:
         self.folds: list[float] = []
         self.fold_index: list[int] = []
         self.counters = {"step_cuts": 0, "secant_retries": 0, "corner_steps": 0,
-                         "max_condition": 0.0}
+                         "reversals": 0, "leaps": 0, "max_condition": 0.0}
         self.warned = False
+        self.n_grazing: list[int] = []   # len(grazing) after each point (for roll-back)
+        self.guard: tuple[int, np.ndarray] | None = None   # (point, travel) after a reversal
         if resume is not None:
             self.counters = {"step_cuts": int(resume.step_cuts),
                              "secant_retries": int(resume.secant_retries),
                              "corner_steps": int(resume.corner_steps),
+                             "reversals": int(getattr(resume, "reversals", 0)),
+                             "leaps": int(getattr(resume, "leaps", 0)),
                              "max_condition": float(np.nan_to_num(resume.max_condition))}
             for k in _ARRAYS:
                 self.lists[k] = list(getattr(resume, k))
@@ -163,6 +183,7 @@ class _Recorder:
             self.fold_index = list(resume.fold_index)
             if len(self.fold_index) != len(self.folds):     # branch rebuilt without it
                 self.fold_index = [-(10 ** 9)] * len(self.folds)
+            self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
 
     def __len__(self) -> int:
         return len(self.lists["rpm"])
@@ -173,6 +194,17 @@ class _Recorder:
     def add(self, **values) -> None:
         for k in _ARRAYS:
             self.lists[k].append(values[k])
+        self.n_grazing.append(len(self.grazing))
+
+    def truncate(self, n: int) -> None:
+        """Keep the first ``n`` points (and the folds and grazing points found by then)."""
+        for k in _ARRAYS:
+            del self.lists[k][n:]
+        keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
+        self.folds = [self.folds[i] for i in keep]
+        self.fold_index = [self.fold_index[i] for i in keep]
+        del self.grazing[self.n_grazing[n - 1]:]
+        del self.n_grazing[n:]
 
     def branch(self, status: str, message: str, next_step: float) -> Branch:
         arrays = {}
@@ -184,6 +216,7 @@ class _Recorder:
                       step_cuts=self.counters["step_cuts"],
                       secant_retries=self.counters["secant_retries"],
                       corner_steps=self.counters["corner_steps"],
+                      reversals=self.counters["reversals"], leaps=self.counters["leaps"],
                       max_condition=self.counters["max_condition"] or float("nan"),
                       status=status, message=message, next_step=float(next_step))
 
@@ -405,7 +438,11 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         wscale = resume.omega_scale
         evaluate = _augmented(problem, wscale)
         rec = _Recorder(problem, rpm_start, rpm_end, wscale, resume)
-        ds = resume.next_step if resume.next_step > 0 else step
+        # a run that was interrupted (or hit max_points) continues with its step; one that
+        # failed (step, reversal) restarts from its last point with this call's step settings
+        ds = resume.next_step if resume.status in ("running", "max_points") and \
+            resume.next_step > 0 else step
+        ds = min(max(ds, min_step), max_step)
     else:
         rec = _Recorder(problem, rpm_start, rpm_end, wscale)
         try:
@@ -474,6 +511,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                     _note_condition(rec, conds)
                     chord = (yn - y) / np.linalg.norm(yn - y)
                     tn = _tangent(jx, jw, chord)
+                    _check_forward(rec, y, yn)
                     rec.counters["corner_steps"] += 1
                     accepted = (yn, it, res, tn)
                     continue
@@ -489,6 +527,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                     # branch, an AFT sample entering contact, not a jump to another branch)
                     angle = np.degrees(np.arccos(np.clip(tn @ t, -1, 1)))
                     raise _StepRejected(f"tangent turned by {angle:.0f} deg")
+                _check_forward(rec, y, yn)
                 accepted = (yn, it, res, tn)
             except (ConvergenceError, _StepRejected, np.linalg.LinAlgError) as exc:
                 _note_condition(rec, conds)
@@ -505,9 +544,46 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                                f"steps (tangent, corner, secant and patient retries) from the "
                                f"last converged point at rpm {rec.last('rpm'):.6g}: {exc}")
                     break
+        if accepted is None and len(rec) >= 2:
+            # corner leap: past a non-smooth point along the direction of travel
+            accepted = _leap(evaluate, rec, state, tol, max_iter, max_step)
+            if accepted is not None:
+                status, message = "running", ""
+                ds = max(min_step, min(step, max_step))
         if accepted is None:
+            if rec.guard is not None and rec.guard[0] == len(rec) - 1:
+                message += ("; the branch had turned back over its own points here (a "
+                            "reversal, undone) and no step forward converged")
             break
         yn, it, res, tn = accepted
+        hit = _revisit(rec, state, yn)
+        if hit is not None:
+            # the branch walks back over points already traced: drop the points after
+            # the turn, re-predict from it with the old orientation and a smaller step
+            k = _reversal_point(rec, state, yn, hit)
+            rec.counters["reversals"] += 1
+            if rec.counters["reversals"] > MAX_REVERSALS:
+                status = "reversal"
+                message = (f"the branch walked back over its own points (near rpm "
+                           f"{rec.lists['rpm'][hit]:.6g}) after {MAX_REVERSALS} recoveries from "
+                           f"reversals; the curve is complete up to rpm {rec.lists['rpm'][k]:.6g}"
+                           " only")
+                rec.truncate(k + 1)
+                break
+            logger.warning("continuation reversal: the new point at rpm %.6g revisits the "
+                           "branch near rpm %.6g; back to the turn at rpm %.6g (point %d) with "
+                           "the old orientation", yn[-1] * wscale / RPM_TO_RAD_S,
+                           rec.lists["rpm"][hit], rec.lists["rpm"][k], k)
+            rec.truncate(k + 1)
+            travel = state(k) - state(k - 1)
+            rec.guard = (k, travel / np.linalg.norm(travel))
+            tk = rec.lists["tangents"][k]
+            if tk @ travel < 0:      # re-predict with the orientation the branch came in
+                rec.lists["tangents"][k] = -tk
+            ds = max(min_step, 0.5 * min(ds, float(np.linalg.norm(travel))))
+            if on_point:
+                on_point(rec.branch("running", "", ds))
+            continue
         wn = yn[-1] * wscale
         beyond_end = dirn * (wn - w_end) > 0
         before_start = dirn * (wn - w_floor) < 0
@@ -599,6 +675,83 @@ def _corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
     raise last
 
 
+def _check_forward(rec, y, yn) -> None:
+    """After a reversal was undone at point k, refuse a step from k that goes back."""
+    if rec.guard is not None and rec.guard[0] == len(rec) - 1 and (yn - y) @ rec.guard[1] <= 0:
+        raise _StepRejected("step goes back over the branch (a reversal was undone here)")
+
+
+def _states(rec, state) -> np.ndarray:
+    return np.array([state(i) for i in range(len(rec))])
+
+
+def _revisit(rec, state, yn) -> int | None:
+    """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
+
+    Every segment but the last is checked; ``yn`` revisits the branch when its distance
+    to the segment is below ``REVISIT_RATIO`` times its chord from the last point.
+    """
+    n = len(rec)
+    if n < 3:
+        return None
+    ys = _states(rec, state)
+    a, b = ys[:n - 2], ys[1:n - 1]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                                1e-300), 0.0, 1.0)
+    d = np.linalg.norm(a + t[:, None] * ab - yn, axis=1)
+    i = int(np.argmin(d))
+    chord = float(np.linalg.norm(yn - ys[-1]))
+    return i if d[i] < REVISIT_RATIO * chord else None
+
+
+def _reversal_point(rec, state, yn, hit: int) -> int:
+    """The point after the revisited segment ``hit`` where the path turned the most."""
+    n = len(rec)
+    lo = max(hit + 1, 1)
+    if lo >= n:
+        return n - 1
+    ys = np.vstack([_states(rec, state)[lo - 1:], yn])
+    ch = np.diff(ys, axis=0)
+    nrm = np.maximum(np.linalg.norm(ch, axis=1), 1e-300)
+    cos = np.einsum("ij,ij->i", ch[1:], ch[:-1]) / (nrm[1:] * nrm[:-1])
+    return lo + int(np.argmin(cos))
+
+
+def _leap(evaluate, rec, state, tol, max_iter, max_step):
+    """Corner leap: plane predictors ``LEAP_FACTORS`` last chords ahead of the last point
+    along its direction of travel, then with the speed component of that direction
+    reversed (a fold at a corner: the state goes on, the speed turns back); accepted if
+    it moves forward along the predictor without revisiting the branch."""
+    y = state(-1)
+    travel = y - state(-2)
+    h = float(np.linalg.norm(travel))
+    if not h > 0:
+        return None
+    folded = travel.copy()
+    folded[-1] = -folded[-1]
+    e_w = np.zeros_like(y)
+    e_w[-1] = 1.0
+    for d, plane in ((travel / h, None), (folded / np.linalg.norm(folded), e_w)):
+        # folded: longest first (near the fold the piece traced lies close by)
+        for f in (LEAP_FACTORS if plane is None else LEAP_FACTORS[::-1]):
+            if f * h > max_step:
+                continue
+            try:
+                # folded: corrector at the predicted speed (the state from the last point)
+                yn, it, res, jx, jw = _correct(evaluate, y + f * h * d,
+                                               d if plane is None else plane, tol, max_iter)
+                tn = _tangent(jx, jw, d)
+            except (ConvergenceError, np.linalg.LinAlgError):
+                continue
+            if (yn - y) @ d > 0 and _revisit(rec, state, yn) is None:
+                rec.counters["leaps"] += 1
+                logger.info("corner leap past rpm %.6g (%.0f chords ahead%s)", rec.last("rpm"),
+                            f, ", speed turned back" if d[-1] * travel[-1] < 0 else "")
+                return yn, it, res, tn
+    return None
+
+
 def _note_condition(rec, conds) -> None:
     """Track the largest corrector condition estimate; warn once per trace."""
     finite = [c for c in conds if np.isfinite(c)]
@@ -629,6 +782,7 @@ def _check_events(problem, rec, evaluate, yn, tn, it, res, wscale, tol, max_iter
     for side, which, kind in events:
         rpm = _locate(problem, evaluate, ya, yn, which, wscale, tol, max_iter, gtol)
         rec.grazing.append(GrazingPoint(rpm=rpm, kind=kind, side=side))
+        rec.n_grazing[-1] = len(rec.grazing)
         logger.info("grazing (%s, %s flank) at %.9g rpm", kind, side, rpm)
 
 

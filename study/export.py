@@ -76,9 +76,10 @@ def nearest_point(result, rpm: float):
                     iterations=int(br.newton_iterations[i]))
 
 
-def export(result, figures: bool = True) -> None:
+def export(result, figures: bool = True, housing: bool = True) -> None:
     """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
-    fields, plots and report.md the scene asks for.
+    fields, plots and report.md the scene asks for (``housing=False``: no housing
+    fields, e.g. for an incomplete curve).
 
     Under mpirun (:mod:`study.parallel`) rank 0 writes every file."""
     from study.nvh import compute_nvh, write_curves_csv
@@ -90,7 +91,7 @@ def export(result, figures: bool = True) -> None:
     logger.info("wrote %s", result.results)
     comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
                    result.nvh)
-    if result.rom is not None and result.scene.outputs.housing_field:
+    if housing and result.rom is not None and result.scene.outputs.housing_field:
         from study import fe_stages
         fields = fe_stages.housing_fields(result)
         result.figures += fields

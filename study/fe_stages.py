@@ -163,10 +163,14 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
 def mesh_stage(scene, folder: Path) -> None:
     """Build and mesh the pump; write ``pump.msh`` and ``mesh.json`` (groups, centres)."""
     from geometry import build_pump, gmsh_session, write_msh
+    from study.scene import SceneError
 
     p = fe_parameters(scene.fe, scene.gear)
     with gmsh_session():
-        meshed = build_pump(p.pump, p.mesh)
+        try:
+            meshed = build_pump(p.pump, p.mesh)
+        except (ValueError, RuntimeError) as exc:  # sizes refused, or quality too low
+            raise SceneError(f"meshing: {exc}") from exc
         write_msh(folder / "pump.msh")
         q = meshed.quality
         info = {"groups": {k: [int(v[0]), int(v[1])] for k, v in meshed.groups.items()},

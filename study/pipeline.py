@@ -106,6 +106,12 @@ def _asdict(x) -> dict:
     return dataclasses.asdict(x)
 
 
+#: ``[continuation]`` fields that only steer the path finding: a partial run written with
+#: other values of them is resumed (``--resume``), the physics and harmonic set being equal.
+RESUMABLE_CONTROLS = ("step", "min_step", "max_step", "tolerance", "max_points",
+                      "checkpoint_every")
+
+
 def hbm_inputs(scene: Scene) -> dict[str, Any]:
     """Exactly what the hbm stage depends on besides the linear model's key."""
     return {"gear": _asdict(scene.gear), "mesh_stiffness": _asdict(scene.mesh_stiffness),
@@ -290,6 +296,16 @@ class Pipeline:
         return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
                          source_hash("hbm", "study.model", "study.results"))
 
+    def hbm_resume_key(self) -> str:
+        """Key of what a resumed continuation must share with the partial run: the hbm key
+        without the continuation controls (:data:`RESUMABLE_CONTROLS`)."""
+        lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
+        inputs = hbm_inputs(self.scene)
+        inputs["continuation"] = {k: v for k, v in inputs["continuation"].items()
+                                  if k not in RESUMABLE_CONTROLS}
+        return stage_key("hbm_resume", {"linear": lin, **inputs},
+                         source_hash("hbm", "study.model", "study.results"))
+
     def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
         """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
         from hbm import trace
@@ -307,8 +323,15 @@ class Pipeline:
         span = hi - lo
         resume = None
         results = self.out / "results.h5"
+        rkey = self.keys["hbm_resume"] = self.hbm_resume_key()
         if self.resume:
-            resume = read_branch(results, problem, expected_key=key)
+            resume = read_branch(results, problem, expected_key=rkey,
+                                 key_name="stage_key_hbm_resume")
+            if resume is not None and len(resume) and np.max(resume.residual) >= c.tolerance:
+                logger.warning("--resume: the points in %s have residuals up to %.3g, above "
+                               "continuation.tolerance = %g; starting from %g rpm", results,
+                               np.max(resume.residual), c.tolerance, lo)
+                resume = None
             if resume is None:
                 logger.warning("--resume: no matching partial run in %s; starting from %g rpm",
                                results, lo)
@@ -385,11 +408,21 @@ class Pipeline:
         if branch.status != "completed":
             self.comm.root_call(write_partial, result, branch)
             self.comm.root_call(_partial_curves, result)
-            self._log_stage("export", "partial results.h5 and curves.csv only")
+            how = "partial results.h5 and curves.csv only"
+            if until == "export" and len(branch) >= 2:
+                # keep and plot what was computed: plots and report.md say it is incomplete
+                try:
+                    export(result, figures=True, housing=False)
+                    how = "partial (results.h5, curves.csv, plots, report.md: incomplete curve)"
+                except Exception as exc:  # noqa: BLE001 - the solver failure is what matters
+                    logger.warning("plots of the partial curve failed: %s", exc)
+            self._log_stage("export", how)
             raise mark_collective(SolverError(
-                f"continuation stopped before {s.continuation.speed[1]:g} rpm: "
-                f"{branch.message} (results.h5 holds {len(branch)} points; "
-                "rerun with --resume after changing the steps/tolerance)", result))
+                f"continuation stopped before {s.continuation.speed[1]:g} rpm "
+                f"({branch.status}): {branch.message} (results.h5 holds {len(branch)} points; "
+                "rerun with --resume after changing the continuation steps/tolerance — a run "
+                f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
+                "point)", result))
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()
         t = time.perf_counter()

@@ -52,6 +52,10 @@ def write_report(result) -> Path:
              "", "## Continuation", "",
              f"- {s['points']} points from {sc.continuation.speed[0]:g} to "
              f"{sc.continuation.speed[1]:g} rpm, status `{s['status']}`",
+             *([] if s["status"] == "completed" else [
+                 f"- **incomplete curve**: the continuation stopped at "
+                 f"{result.branch.rpm[-1]:.1f} rpm before {sc.continuation.speed[1]:g} rpm: "
+                 f"{result.branch.message}"]),
              f"- largest relative residual {s['max_residual']:.2e} "
              f"(tolerance {sc.continuation.tolerance:g})",
              f"- largest std of the dynamic mesh load {s['max_mesh_load_std']:.4g} N at "

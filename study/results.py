@@ -200,11 +200,13 @@ def write_results(path: str | Path, scene, problem, branch, *, settings: dict | 
         write_branch(f, branch, settings)
 
 
-def read_branch(path: str | Path, problem=None, expected_key: str | None = None):
+def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
+                key_name: str = "stage_key_hbm"):
     """Rebuild the :class:`hbm.Branch` stored in ``results.h5`` (for ``--resume``).
 
     Returns ``None`` when the file has no continuation, was written by another
-    scene/problem (``expected_key`` differs from the stored hbm stage key), or
+    scene/problem (``expected_key`` differs from the stored ``/scene`` attribute
+    ``key_name``, by default the hbm stage key), or
     cannot be read; the reason is logged.
     """
     from hbm import Branch, GrazingPoint
@@ -217,12 +219,14 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None)
             if "continuation" not in f:
                 return None
             if expected_key is not None and \
-                    f["scene"].attrs.get("stage_key_hbm", "") != expected_key:
-                logger.warning("%s was written for other hbm inputs; not resuming from it", p)
+                    f["scene"].attrs.get(key_name, "") != expected_key:
+                logger.warning("%s was written for another model, harmonic set, speed range "
+                               "or code version (only the continuation steps/tolerance may "
+                               "change); not resuming from it", p)
                 return None
             c = f["continuation"]
             arrays = {k: c[k][()] for k in _branch_array_fields() if k in c}
-            missing = set(_branch_array_fields()) - set(arrays)
+            missing = set(_branch_array_fields()) - set(arrays) - {"reversals", "leaps"}
             if missing:
                 raise KeyError(f"continuation datasets missing: {sorted(missing)}")
             grazing = [GrazingPoint(float(r), k.decode() if isinstance(k, bytes) else str(k),

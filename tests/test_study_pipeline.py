@@ -378,3 +378,35 @@ def test_stopped_continuation_keeps_curves_csv(tmp_path):
     rows = list(csv.DictReader((out / "curves.csv").open()))
     assert len(rows) == n > 0
     assert float(rows[-1]["mesh_load_std_N"]) == pytest.approx(std[-1], rel=1e-6)
+
+
+def test_incomplete_curve_is_plotted_and_resumed_after_a_step_change(tmp_path):
+    """A run that stops early keeps and plots its points (report says why); --resume with
+    other continuation steps/tolerance continues from its last point; another physics
+    input starts over."""
+    out = tmp_path / "r"
+    base = ["--set", "continuation.speed_rpm=[600,2300]", "--set", "outputs.plots="
+            "['forced_response']", "--no-progress", "--cache", str(tmp_path / "c")]
+    p = _geardyn("run", str(SDOF), "--out", str(out), *base, "--set",
+                 "continuation.max_points=30", check=False)
+    assert p.returncode == 3 and "continues from its last point" in p.stderr
+    assert (out / "forced_response.png").stat().st_size > 0
+    report = (out / "report.md").read_text()
+    assert "**incomplete curve**" in report and "max_points = 30" in report
+    with h5py.File(out / "results.h5", "r") as f:
+        first = f["continuation/rpm"][()]
+    assert first.size == 30
+    p = _geardyn("run", str(SDOF), "--out", str(out), *base, "--resume", "--set",
+                 "continuation.step_rpm=4", "--set", "continuation.tolerance=1e-9")
+    assert "resuming from point 30" in p.stderr, p.stderr[-2000:]
+    with h5py.File(out / "results.h5", "r") as f:
+        rpm = f["continuation/rpm"][()]
+        assert f["continuation"].attrs["status"] == "completed"
+        assert np.max(f["continuation/residual"][()]) < 1e-9
+    np.testing.assert_array_equal(rpm[:30], first)
+    assert rpm[-1] == pytest.approx(2300.0)
+    assert "incomplete" not in (out / "report.md").read_text()
+    # a changed physical input is not resumed
+    p = _geardyn("run", str(SDOF), "--out", str(out), *base, "--resume", "--set",
+                 "load.torque_Nm=3.0")
+    assert "not resuming from it" in p.stderr and "resuming from point" not in p.stderr

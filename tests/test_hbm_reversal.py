@@ -1,0 +1,107 @@
+"""The continuation never walks back over its own branch (issue 14, item 4).
+
+A reversal is provoked on the single-DOF gear pair by flipping the stored tangent of one
+point (the tangent flipping without a fold, as at a corner of the piecewise-smooth
+branch): without detection the trace walks back to rpm_start and leaves the range. The
+recovered branch must equal an undisturbed trace, be monotone where that one is, and
+never revisit traced points.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hbm_models import RPM, sdof_problem
+
+import hbm
+import hbm.continuation as cont
+
+
+def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1) -> list:
+    """Store the reversed tangent for the first ``times`` points accepted beyond rpm_flip."""
+    orig = cont._check_events
+    done: list[float] = []
+
+    def flipped(problem, rec, evaluate, yn, tn, *args):
+        if len(done) < times and yn[-1] * rec.meta["omega_scale"] / RPM > rpm_flip:
+            done.append(yn[-1] * rec.meta["omega_scale"] / RPM)
+            tn = -tn
+        return orig(problem, rec, evaluate, yn, tn, *args)
+
+    monkeypatch.setattr(cont, "_check_events", flipped)
+    return done
+
+
+def _scaled(pb, br):
+    return np.hstack([br.unknowns / pb.x_scale, br.omega[:, None] / br.omega_scale])
+
+
+def _min_revisit_ratio(pb, br) -> float:
+    """Smallest distance of a point to an earlier segment (not its own), over its chord."""
+    y = _scaled(pb, br)
+    worst = np.inf
+    for i in range(3, len(y)):
+        a, b = y[:i - 2], y[1:i - 1]
+        ab = b - a
+        t = np.clip(np.sum((y[i] - a) * ab, 1) / np.sum(ab * ab, 1), 0, 1)
+        d = np.linalg.norm(a + t[:, None] * ab - y[i], axis=1).min()
+        worst = min(worst, d / np.linalg.norm(y[i] - y[i - 1]))
+    return worst
+
+
+@pytest.fixture(scope="module")
+def reference():
+    pb = sdof_problem(harmonics=20, fa=0.1, b=0.2)
+    return pb, hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
+
+
+def test_reversal_is_detected_and_recovered(reference, monkeypatch):
+    pb, ref = reference
+    assert ref.status == "completed" and ref.reversals == 0
+    flips = _flip_once_at(monkeypatch, 0.5 / RPM)
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
+    assert flips, "the tangent flip was not applied"
+    assert br.status == "completed", br.message
+    assert br.reversals >= 1
+    # never revisits a traced point (the undisturbed branch has no ratio below ~1)
+    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    # monotone in speed where the reference is: up to its first fold
+    first_fold = ref.fold_index[0] if ref.fold_index else len(ref) - 1
+    lim = ref.rpm[first_fold]
+    seg = br.rpm[br.rpm <= lim - 1e-9]
+    seg = seg[:np.argmax(seg) + 1]
+    assert np.all(np.diff(seg) > 0)
+    # the same curve: mesh-load std interpolated on the monotone stretch
+    sel = ref.rpm[:first_fold] <= seg[-1]
+    np.testing.assert_allclose(np.interp(ref.rpm[:first_fold][sel], seg,
+                                         br.mesh_load_std[:seg.size]),
+                               ref.mesh_load_std[:first_fold][sel], rtol=2e-3)
+    np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
+    assert len(br.grazing) == len(ref.grazing)
+
+
+def test_repeated_reversals_stop_with_reason_and_keep_points(reference, monkeypatch):
+    pb, _ = reference
+    _flip_once_at(monkeypatch, 0.5 / RPM, times=10 ** 6)    # every point flips
+    snapshots = []
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, on_point=snapshots.append)
+    assert br.status == "reversal"
+    assert "walked back over its own points" in br.message
+    assert br.reversals == cont.MAX_REVERSALS + 1
+    assert len(br) >= 2 and np.all(br.residual < 1e-8)
+    assert br.rpm[-1] > 0.5 / RPM - 1e-9 and snapshots[-1].status == "reversal"
+    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+
+
+def test_resume_after_a_step_change_continues_from_the_last_point(reference):
+    pb, ref = reference
+    part = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, max_points=15)
+    assert part.status == "max_points"
+    part.status = "step_failed"     # as after a failed step: the new settings apply
+    rest = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, resume=part, step=0.002,
+                     max_step=0.02)
+    assert rest.status == "completed"
+    np.testing.assert_array_equal(rest.rpm[:15], part.rpm)
+    assert np.all(np.diff(rest.rpm[14:20]) > 0)
+    assert rest.rpm[15] - rest.rpm[14] < ref.rpm[15] - ref.rpm[14]    # the new, smaller step
+    np.testing.assert_allclose(np.interp(ref.rpm[:20], rest.rpm, rest.mesh_load_std),
+                               ref.mesh_load_std[:20], rtol=1e-3)

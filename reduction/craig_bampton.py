@@ -182,7 +182,7 @@ def craig_bampton(
     n_modes: int | None = None,
     f_cut_hz: float | None = None,
     comm=None,
-    eps_tol: float = 1e-10,
+    eps_tol: float = 1e-12,
 ) -> CBResult:
     """Craig–Bampton reduction with one MUMPS factorisation of K_ii (eq. 5–9).
 

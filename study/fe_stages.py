@@ -205,7 +205,8 @@ def fe_stage(scene, mesh_dir: Path, comm=None):
     return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
 
 
-def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
+def rom_stage(scene, model, folder: Path, progress: bool = False,
+              mesh_dir: Path | None = None) -> None:
     """Craig–Bampton ROM (``rom.h5`` with basis) and the basis rows of the load nodes.
 
     The coupled quantities stored in rom.h5 (frequencies, mesh energy, C, and the
@@ -228,7 +229,7 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
     save_rom(folder / "rom.h5", rom, row_keys=model.row_keys())
     if rom.T.getComm().tompi4py().rank != 0:
         return
-    _radiation(model, folder)
+    _radiation(scene, model, folder, mesh_dir)
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
     rows = sorted({i for v in nodes.values() for i in v if i >= 0})
     with h5py.File(folder / "rom.h5", "r") as f:
@@ -240,18 +241,22 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
         f.attrs["n_fe"] = int(model.K.getSize()[0])
 
 
-def _radiation(model, folder: Path) -> None:
-    """Radiation data of the housing's outer surface (ERP, study.acoustics), serial only."""
-    import h5py
+def _radiation(scene, model, folder: Path, mesh_dir: Path | None) -> None:
+    """Radiation data of the housing's outer surface (ERP, study.acoustics), built on
+    one process: under mpirun rank 0 rebuilds a serial FE model from the cached mesh
+    and reads the basis rows by key."""
+    from mpi4py import MPI
 
     from study import acoustics
 
     if model.comm.size != 1:
-        logger.warning("ERP: the radiation matrix is built on one process only; skipped")
-        return
-    with h5py.File(folder / "rom.h5", "r") as f:
-        T = f["rom/basis"][()]
-    acoustics.radiation_data(model, T, folder / acoustics.RADIATION_FILE)
+        if mesh_dir is None:
+            logger.warning("ERP: no mesh folder to build the radiation matrix serially; "
+                           "skipped")
+            return
+        model = fe_stage(scene, mesh_dir, comm=MPI.COMM_SELF)
+    acoustics.radiation_data(model, _dense_basis(folder, model),
+                             folder / acoustics.RADIATION_FILE)
 
 
 @dataclass

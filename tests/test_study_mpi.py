@@ -141,30 +141,46 @@ def test_two_ranks_results_equal_serial(runs, cmd):
             assert _rel(fs["rom/" + name][()], fp["rom/" + name][()]) < 1e-10, name
 
 
-def _field(xdmf: Path) -> np.ndarray:
-    """Points and displacement frames of an XDMF series, rows sorted by point (the
-    node numbering depends on the partition)."""
-    import meshio
-
-    with meshio.xdmf.TimeSeriesReader(str(xdmf)) as rd:
-        points, _ = rd.read_points_cells()
-        frames = [next(iter(rd.read_data(k)[1].values())) for k in range(rd.num_steps)]
-    rows = np.hstack([points] + frames)
+def _sorted_rows(*cols) -> np.ndarray:
+    rows = np.hstack([np.asarray(c).reshape(len(cols[0]), -1) for c in cols])
     return rows[np.lexsort(rows.T[::-1])]
 
 
+def _field(xdmf: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Points with their data (rows sorted by point: the node numbering may depend on
+    the partition) and the cell data (rows sorted) of an XDMF time series or static
+    grid. Phases are left out: they are noise where the amplitude is round-off."""
+    import meshio
+
+    try:
+        with meshio.xdmf.TimeSeriesReader(str(xdmf)) as rd:
+            points, _ = rd.read_points_cells()
+            frames = [next(iter(rd.read_data(k)[1].values())) for k in range(rd.num_steps)]
+        return _sorted_rows(points, *frames), np.zeros((0, 0))
+    except meshio.ReadError:                       # one static grid (fields per order)
+        mesh = meshio.read(xdmf)
+    keep = [k for k in sorted(mesh.point_data) if not k.endswith("_phase_deg")]
+    cells = [np.concatenate(mesh.cell_data[k]) for k in sorted(mesh.cell_data)
+             if not k.endswith("_phase_deg")]
+    return (_sorted_rows(mesh.points, *[mesh.point_data[k] for k in keep]),
+            _sorted_rows(*cells) if cells else np.zeros((0, 0)))
+
+
 def test_housing_field_equals_serial(runs):
-    """Each rank reconstructs its part of the field from its rows of the basis."""
+    """The housing files written under mpirun (rank 0, basis rows matched by key) equal
+    the serial ones: time series, complex amplitude per order, outer surface."""
     pytest.importorskip("meshio")
     tmp, _ = runs
-    ser = sorted((tmp / "ser/run").glob("housing_*rpm.xdmf"))
-    assert len(ser) == 1
-    s = _field(ser[0])
-    for cmd in ("run", "export"):
-        p = _field(tmp / f"par/{cmd}" / ser[0].name)
-        np.testing.assert_array_equal(p[:, :3], s[:, :3])
-        assert np.abs(s[:, 3:]).max() > 0
-        assert _rel(s[:, 3:], p[:, 3:]) < 1e-10
+    ser = sorted((tmp / "ser/run").glob("housing*rpm.xdmf"))
+    assert len(ser) == 3, ser
+    for path in ser:
+        s, sc = _field(path)
+        assert max(np.abs(s[:, 3:]).max(initial=0), np.abs(sc).max(initial=0)) > 0
+        for cmd in ("run", "export"):
+            p, pc = _field(tmp / f"par/{cmd}" / path.name)
+            np.testing.assert_array_equal(p[:, :3], s[:, :3])
+            assert _rel(s[:, 3:], p[:, 3:]) < 1e-10, path.name
+            assert _rel(sc, pc) < 1e-10, path.name
 
 
 def test_outputs_and_one_log_stream(runs):
@@ -174,7 +190,7 @@ def test_outputs_and_one_log_stream(runs):
     assert {"results.h5", "report.md", "forced_response.png", "campbell.png"} <= ser
     assert par == ser                                  # no temporary files left either
     assert {p.name for p in (tmp / "par/export").iterdir()} == \
-        {n for n in ser if n.endswith((".h5", ".xdmf"))}
+        {n for n in ser if n.endswith((".h5", ".xdmf", ".csv"))}
     assert (tmp / "par/run/report.md").stat().st_size > 0      # rewritten by `report`
     for cmd in ("reduce", "run", "export", "report"):
         err = logs["par", cmd]
@@ -212,5 +228,9 @@ def test_failure_on_one_rank_ends_the_job(tmp_path):
     p = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=180)
     assert p.returncode == 1, p.stderr[-3000:]
     assert "[rank 1] geardyn: internal error" in p.stderr
-    assert "injected failure on rank 1" in p.stderr and "MPI_ABORT" in p.stderr
+    # our own line before MPI_Abort: Open MPI's "MPI_ABORT was invoked" banner is not
+    # always printed (seen: "ORTE_ERROR_LOG: Data unpack had inadequate space" in its
+    # show_help under load), so the test does not rely on it
+    assert "injected failure on rank 1" in p.stderr
+    assert "rank 1 ends the MPI job (exit code 1)" in p.stderr
     assert not (tmp_path / "o" / "rom.h5").exists()

@@ -35,11 +35,17 @@ import logging
 import numpy as np
 import scipy.linalg as sla
 
+from .exponents import (
+    classify_exponent,
+    det_sign,
+    largest_real_root,
+    line_of_action_operator,
+)
 from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["floquet_exponents", "real_blocks"]
+__all__ = ["floquet_exponents", "real_blocks", "loss_of_stability"]
 
 
 def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:
@@ -114,6 +120,7 @@ def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
     w0 = hs.fundamental_rad_s(point.omega)
     w = problem.kS * w0
     _, jf = problem.mesh_force(problem.delta_real(point.unknowns))
+    jf_all = jf
     if np.any(h_rest != 0):
         # omitted modes: Delta = Delta_kept - H_rest J_f Delta  =>  J_eff = J_f (I + H_rest J_f)^-1
         hr = problem._cmul_rows(h_rest, np.eye(nr))
@@ -149,5 +156,38 @@ def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
     # four tied copies at Im = +-w0/2, and the selection may keep two copies of
     # the same one: the stability verdict takes the largest real part over the
     # 4 m best candidates, all copies of genuine exponents when Hill converged.
-    max_real = max(float(np.max(lam[order[: 4 * m]].real)), rest_max)
-    return max_real, exps
+    cand = lam[order[: 4 * m]]
+    if not problem.modal:
+        return max(float(np.max(cand.real)), rest_max), exps
+    exps, max_real = _exact(problem, jf_all, w0, exps, cand)
+    return max(max_real, rest_max), exps
+
+
+def _exact(problem: HBMProblem, jf: np.ndarray, w0: float, exps: np.ndarray,
+           cand: np.ndarray) -> tuple[np.ndarray, float]:
+    """Add the exact real positive exponent that the sign of ``det T(0)`` reveals (T.9).
+
+    ``det T(0) < 0``: an odd number of real exponents in ``(0, inf)`` for the whole
+    ROM (every mode, no truncation); one of them is located by bisection on the sign
+    of ``det T`` and Newton on ``T(lam) v = 0`` (fold-type instability, the segment
+    between two folds). The (possibly mode-truncated) Hill candidates are kept.
+    """
+    max_real = float(np.max(cand.real))
+    if det_sign(line_of_action_operator(problem, jf, 0.0, w0).real) >= 0:
+        return exps, max_real
+    real = largest_real_root(problem, jf, w0)
+    if not np.any((np.abs(cand.imag) <= 1e-9 * w0) & (np.abs(cand.real - real)
+                                                       <= 1e-6 * abs(real))):
+        exps = np.concatenate([[complex(real, 0.0)], exps[:-1]])
+    return exps, max(max_real, real)
+
+
+def loss_of_stability(problem: HBMProblem, point: Point, max_size: int = 600) -> str:
+    """``"stable"`` or the kind of the exponent of largest real part:
+    ``"fold"``, ``"period_doubling"`` or ``"neimark_sacker"`` (see classify_exponent)."""
+    max_real, exps = floquet_exponents(problem, point, max_size)
+    if max_real <= 0.0:
+        return "stable"
+    w0 = problem.harmonics.fundamental_rad_s(point.omega)
+    lam = exps[np.argmax(exps.real)]
+    return classify_exponent(complex(lam), w0)

@@ -37,3 +37,16 @@ def random_modal_system(n=20, seed=0, zeta=0.03, kbar=2.0e3, n_gear=12):
     w2, phi = sla.eigh(k + kbar * np.outer(g, g), m)
     c = m @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ m            # eq. (19)
     return m, c, k, g
+
+
+def gear_and_stiff_mode_problem():
+    """A gear mode and a weakly coupled stiff mode (10 % modal damping, eq. 19),
+    parametric mesh stiffness, one tooth; its branch over 0.3-1.6 rad/s has two folds."""
+    import scipy.linalg as sla
+    m, k, g = np.eye(2), np.array([[0.0, 0.0], [0.0, 100.0]]), np.array([1.0, 0.3])
+    w2, phi = sla.eigh(k + np.outer(g, g), m)
+    c = m @ phi @ np.diag(0.1 * np.sqrt(w2)) @ phi.T @ m
+    return hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
+                          hbm.GearMesh(1, {0: 1.0, 1: 0.2}, backlash=1.0),
+                          hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.05, 0.0]}),
+                          hbm.HarmonicSet.build(1, 20))

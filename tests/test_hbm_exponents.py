@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from hbm_models import RPM, random_modal_system, sdof_problem
+from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sdof_problem
 
 import hbm
 from hbm.exponents import (
@@ -43,14 +43,7 @@ def _dense_hill_eigenvalues(pb, pt):
 
 
 def _two_dof():
-    m, k, g = np.eye(2), np.array([[0.0, 0.0], [0.0, 100.0]]), np.array([1.0, 0.3])
-    w2, phi = sla.eigh(k + np.outer(g, g), m)
-    c = m @ phi @ np.diag(0.1 * np.sqrt(w2)) @ phi.T @ m
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(1, {0: 1.0, 1: 0.2}, backlash=1.0),
-                        hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.05, 0.0]}),
-                        hbm.HarmonicSet.build(1, 20))
-    return pb, 0.3 / RPM, 1.6 / RPM
+    return gear_and_stiff_mode_problem(), 0.3 / RPM, 1.6 / RPM
 
 
 def _twelve_dof():

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hbm_models import RPM, random_modal_system
+from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system
 
 import hbm
 
@@ -83,14 +83,7 @@ def test_checkpoint_callback_sees_only_converged_points():
 def test_truncated_hill_with_residual_compliance_matches_full():
     """Gear mode + a weakly coupled stiff mode: Hill on the gear mode alone (the
     other one as residual compliance) gives the same verdicts as the full Hill."""
-    import scipy.linalg as sla
-    m, k, g = np.eye(2), np.array([[0.0, 0.0], [0.0, 100.0]]), np.array([1.0, 0.3])
-    w2, phi = sla.eigh(k + np.outer(g, g), m)
-    c = m @ phi @ np.diag(0.1 * np.sqrt(w2)) @ phi.T @ m
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(1, {0: 1.0, 1: 0.2}, backlash=1.0),
-                        hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.05, 0.0]}),
-                        hbm.HarmonicSet.build(1, 20))
+    pb = gear_and_stiff_mode_problem()
     br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM)
     assert br.status == "completed" and len(br.folds) == 2
     assert not np.all(br.stable)

@@ -21,9 +21,9 @@ condensation; for real ``lam -> +inf``, ``T -> I``.  Hence:
 * the sign of ``det T(0)`` gives the parity of the number of real positive
   exponents (an odd number: the point lies between two folds) at no cost beyond
   the Newton factorisation;
-* any candidate exponent (from a reduced Hill matrix) is refined to machine
-  precision by Newton's method on ``T(lam) v = 0`` (bordered system), with every
-  mode of the ROM.
+* a real positive exponent is then located by bisection on the sign of ``det T``
+  and refined to machine precision by Newton's method on ``T(lam) v = 0``
+  (bordered system), with every mode of the ROM.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from .problem import HBMProblem
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["line_of_action_operator", "det_sign", "refine_exponent", "largest_real_root",
+__all__ = ["line_of_action_operator", "det_sign", "refine_exponent", "positive_real_root",
            "real_root_bound", "classify_exponent"]
 
 
@@ -52,8 +52,9 @@ def _blocks_times(x: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
     return out
 
 
-def _receptance_blocks(problem: HBMProblem, lam: complex, w0: float):
-    """``(x_k, y_k)`` of R(lam) and of dR/dlam per harmonic (m/N, m/(N s))."""
+def _receptance_blocks(problem: HBMProblem, lam: complex, w0: float,
+                       derivative: bool = False):
+    """``(x_k, y_k)`` of R(lam) per harmonic (m/N) and, if asked, of dR/dlam (m s/N)."""
     keep = ~problem.rigid
     g2 = problem.gj[keep] ** 2
     c = problem.cj[keep][:, None]
@@ -64,6 +65,8 @@ def _receptance_blocks(problem: HBMProblem, lam: complex, w0: float):
     den = u * u + v * v
     x = g2 @ (u / den)
     y = -(g2 @ (v / den))
+    if not derivative:
+        return x, y
     du = 2.0 * lam + c
     dv = 2.0 * kw
     s = u * u - v * v
@@ -89,12 +92,12 @@ def line_of_action_operator(problem: HBMProblem, jf: np.ndarray, lam: complex, w
     """
     if not problem.modal:
         raise ValueError("line_of_action_operator: needs a modal damping (eq. 17-19)")
-    x, y, dx, dy = _receptance_blocks(problem, lam, w0)
-    t = _blocks_times(x, y, jf)
+    blocks = _receptance_blocks(problem, lam, w0, derivative)
+    t = _blocks_times(blocks[0], blocks[1], jf)
     t[np.diag_indices_from(t)] += 1.0
     if not derivative:
         return t
-    return t, _blocks_times(dx, dy, jf)
+    return t, _blocks_times(blocks[2], blocks[3], jf)
 
 
 def det_sign(t: np.ndarray) -> float:
@@ -118,10 +121,12 @@ def real_root_bound(problem: HBMProblem, jf: np.ndarray) -> float:
     return 1.01 * float(np.sqrt(g2 * np.linalg.norm(jf))) + 1e-300
 
 
-def largest_real_root(problem: HBMProblem, jf: np.ndarray, w0: float, hi: float | None = None,
-                      rtol: float = 1e-12) -> float:
-    """A real root of ``det T`` in ``(0, hi)`` when ``det T(0) < 0`` (an odd count of real
-    positive exponents), by bisection on the sign then the secant rule; NaN otherwise."""
+def positive_real_root(problem: HBMProblem, jf: np.ndarray, w0: float,
+                       hi: float | None = None, rtol: float = 1e-12) -> float:
+    """A real root (1/s) of ``det T`` in ``(0, hi)`` when ``det T(0) < 0`` (an odd count of
+    real positive exponents), by bisection on the sign of ``det T`` then Newton on
+    ``T(lam) v = 0``; NaN when ``det T(0) >= 0``. ``hi`` defaults to
+    :func:`real_root_bound`. With three or more real roots, any one of them."""
     def sign(lam):
         return det_sign(line_of_action_operator(problem, jf, lam, w0).real)
 

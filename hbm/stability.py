@@ -35,12 +35,7 @@ import logging
 import numpy as np
 import scipy.linalg as sla
 
-from .exponents import (
-    classify_exponent,
-    det_sign,
-    largest_real_root,
-    line_of_action_operator,
-)
+from .exponents import classify_exponent, positive_real_root
 from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
@@ -173,9 +168,9 @@ def _exact(problem: HBMProblem, jf: np.ndarray, w0: float, exps: np.ndarray,
     between two folds). The (possibly mode-truncated) Hill candidates are kept.
     """
     max_real = float(np.max(cand.real))
-    if det_sign(line_of_action_operator(problem, jf, 0.0, w0).real) >= 0:
+    real = positive_real_root(problem, jf, w0)         # NaN when det T(0) >= 0
+    if np.isnan(real):
         return exps, max_real
-    real = largest_real_root(problem, jf, w0)
     if not np.any((np.abs(cand.imag) <= 1e-9 * w0) & (np.abs(cand.real - real)
                                                        <= 1e-6 * abs(real))):
         exps = np.concatenate([[complex(real, 0.0)], exps[:-1]])

@@ -16,8 +16,8 @@ import hbm
 from hbm.exponents import (
     classify_exponent,
     det_sign,
-    largest_real_root,
     line_of_action_operator,
+    positive_real_root,
     real_root_bound,
 )
 from hbm.stability import real_blocks
@@ -128,7 +128,7 @@ def test_real_root_matches_dense_hill(branch):
         sign = det_sign(line_of_action_operator(pb, jf, 0.0, w0).real)
         assert (sign < 0) == (real_pos.size % 2 == 1), br.rpm[i]
         assert real_root_bound(pb, jf) > np.max(lam.real)
-        root = largest_real_root(pb, jf, w0)
+        root = positive_real_root(pb, jf, w0)
         if sign < 0:
             assert np.min(np.abs(real_pos - root)) <= 1e-8 * root, (br.rpm[i], root, real_pos)
             checked += 1

@@ -71,7 +71,7 @@ def curve_time(pb, scene, stability: bool) -> dict[str, Any]:
     t0 = time.perf_counter()
     br = hbm.trace(pb, lo, hi, step=c.step / span, min_step=c.min_step / span,
                    max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
-                   stability=stability, hill_max_size=scene.hbm.hill_max_size)
+                   stability=stability)
     dt = time.perf_counter() - t0
     return {"seconds": dt, "points": len(br), "per_point": dt / max(len(br), 1),
             "status": br.status}

@@ -22,7 +22,7 @@ import numpy as np
 
 from .postprocess import point_stats
 from .problem import COND_WARN, RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton, solve_checked
-from .stability import floquet_exponents
+from .stability import stability as point_stability
 
 logger = logging.getLogger(__name__)
 
@@ -58,7 +58,7 @@ LEAP_FACTORS = (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)   # corner leap: lengths in las
 _ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
            "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
            "contact_loss_fraction", "impacts_per_mesh_period", "margin_active",
-           "margin_reverse", "ipp", "tangents")
+           "margin_reverse", "ipp", "tangents", "floquet_kind", "stability_consistent")
 
 
 @dataclass
@@ -76,7 +76,15 @@ class Branch:
     residual
         Relative residual norm of each point (all < tol).
     newton_iterations, stable, floquet_max_real
-        Corrector iterations; Hill stability and largest Floquet real part (1/s).
+        Corrector iterations; stability and largest Floquet real part (1/s)
+        (:func:`hbm.stability.stability`).
+    floquet_kind
+        Index in :data:`hbm.stability.KINDS` (0 stable, 1 fold, 2 period doubling,
+        3 Neimark-Sacker) of the leading exponent.
+    stability_consistent
+        False where the branch lies between two folds (T.9) but the variational
+        equation (T.10) finds the orbit stable: the harmonic set does not resolve
+        the orbit there (the point is reported unstable).
     mesh_load_std, mesh_load_max
         Standard deviation and maximum in time of f_LoA (N).
     contact
@@ -134,6 +142,8 @@ class Branch:
     margin_reverse: np.ndarray
     ipp: np.ndarray
     tangents: np.ndarray
+    floquet_kind: np.ndarray
+    stability_consistent: np.ndarray
     grazing: list = field(default_factory=list)
     folds: list = field(default_factory=list)
     fold_index: list = field(default_factory=list)
@@ -330,7 +340,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
           min_step: float = 1e-6, max_step: float = 0.05, tol: float = 1e-8,
           max_points: int = 2000, max_iter: int = 12,
           on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
-          stability: bool = True, hill_max_size: int = 600, overshoot: float = 0.25,
+          stability: bool = True, overshoot: float = 0.25,
           grazing_tol_rpm: float | None = None, start_fallback: bool = True) -> Branch:
     """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
 
@@ -353,10 +363,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         A previous Branch of the same problem and bounds: continue from its
         last point, tangent and step, giving the same curve as one run.
     stability
-        Compute Hill stability per point (cost O((2 m n_real)^3) per point).
-    hill_max_size
-        Largest Hill companion matrix; beyond it the modes of largest static
-        mesh participation are kept (approximation, logged once).
+        Compute the stability of every point (:func:`hbm.stability.stability`).
     grazing_tol_rpm
         Tolerance on located grazing speeds (default 1e-9 of rpm_end).
     start_fallback
@@ -398,16 +405,8 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     gtol = 1e-9 * rpm_end if grazing_tol_rpm is None else float(grazing_tol_rpm)
     xs = problem.x_scale
     evaluate = _augmented(problem, wscale)
-    if stability:
-        n_hill = 2 * problem.nr * (int(np.sum(~problem.rigid)) if problem.modal
-                                   else problem.n_dof)
-        if n_hill > hill_max_size and not problem.modal:
-            raise ValueError(
-                f"trace.hill_max_size = {hill_max_size}: the Hill matrix of this non-modal "
-                f"damping has size {n_hill}; raise it or pass stability=False")
-        if n_hill > hill_max_size:
-            logger.warning("Hill matrix %d > hill_max_size %d: stability from the modes of "
-                           "largest mesh participation only (approximate)", n_hill, hill_max_size)
+
+    basis = [None]          # dominant Floquet subspace of the last point (warm start)
 
     def record(rec, y, it, res, tangent):
         omega = y[-1] * wscale
@@ -415,18 +414,20 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         pt = problem.point(u, omega, it, res)
         st = point_stats(problem, pt)
         if stability:
-            fmax, _ = floquet_exponents(problem, pt, hill_max_size)
-            w0 = problem.harmonics.fundamental_rad_s(omega)
-            stable = fmax <= 1e-9 * (w0 + np.sqrt(np.max(problem.w2)))
+            stab = point_stability(problem, pt, start=basis[0])
+            basis[0] = stab.basis
+            fmax, kind, consistent = stab.max_real, stab.code, stab.consistent
+            stable = stab.kind == "stable"
         else:
-            fmax, stable = 0.0, True
+            fmax, stable, kind, consistent = 0.0, True, 0, True
         rec.add(rpm=pt.rpm, omega=omega, coefficients=pt.coefficients, unknowns=u,
                 residual=res, newton_iterations=it, stable=bool(stable), floquet_max_real=fmax,
                 mesh_load_std=st.mesh_load_std, mesh_load_max=st.mesh_load_max,
                 contact=st.contact, contact_loss_fraction=st.contact_loss_fraction,
                 impacts_per_mesh_period=st.impacts_per_mesh_period,
                 margin_active=st.margin_active, margin_reverse=st.margin_reverse,
-                ipp=st.ipp, tangents=tangent)
+                ipp=st.ipp, tangents=tangent, floquet_kind=kind,
+                stability_consistent=bool(consistent))
 
     if resume is not None:
         if len(resume) == 0:

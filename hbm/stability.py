@@ -1,4 +1,17 @@
-"""Stability of periodic solutions by Hill's method.
+"""Stability of periodic solutions: the verdict, and Hill's method for reference.
+
+:func:`stability` is what the continuation calls: the Floquet exponents of the
+variational equation (T.10, :mod:`hbm.monodromy`, every mode, no harmonic
+truncation of the perturbation), checked against the exact parity of the real
+positive exponents of the harmonic balance itself (T.9, :mod:`hbm.exponents`):
+a point between two folds of the HBM branch has ``det T(0) < 0``. When the two
+disagree the harmonic set does not resolve the orbit there (the flag is kept
+per point); the verdict then follows the branch (unstable, with the exact real
+root of T.9 as its exponent), so a segment between two folds is never reported
+stable.
+
+Hill's method (:func:`floquet_exponents` with ``method="hill"``) stays for
+comparisons:
 
 A perturbation ``y = exp(lambda t) p(t)`` of the periodic solution, p periodic
 and expanded on the same harmonic set, satisfies the quadratic eigenproblem
@@ -31,16 +44,88 @@ where the omitted modes are far above the band, and an approximation otherwise.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
 
-from .exponents import classify_exponent, positive_real_root
+from .exponents import classify_exponent, det_sign, line_of_action_operator, positive_real_root
+from .monodromy import monodromy_exponents
 from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["floquet_exponents", "real_blocks", "loss_of_stability"]
+__all__ = ["KINDS", "Stability", "stability", "floquet_exponents", "real_blocks",
+           "loss_of_stability"]
+
+#: Kinds of a point's stability, in the order of the codes stored per point.
+KINDS = ("stable", "fold", "period_doubling", "neimark_sacker")
+
+
+@dataclass(frozen=True)
+class Stability:
+    """Stability of one periodic solution.
+
+    Attributes
+    ----------
+    max_real
+        Largest real part of the Floquet exponents (1/s); > 0 is unstable.
+    exponents
+        Exponents (1/s) by decreasing real part, ``|Im| <= w0 / 2``.
+    kind
+        One of :data:`KINDS`: ``"stable"``, or how the leading exponent leaves the
+        unit circle (multiplier +1: ``"fold"``, -1: ``"period_doubling"``, complex:
+        ``"neimark_sacker"``).
+    fold_parity
+        ``det T(0) < 0`` (T.9): an odd number of real positive exponents of the
+        harmonic balance, i.e. the point lies between two folds of the branch
+        (modal damping only; False otherwise).
+    consistent
+        False when ``fold_parity`` holds but the variational equation finds no
+        exponent with a positive real part: the harmonic set does not resolve the
+        orbit there.
+    error
+        Estimated error of ``max_real`` from the time step (1/s).
+    basis
+        Dominant subspace of the monodromy (see :class:`hbm.monodromy.MonodromyResult`).
+    """
+
+    max_real: float
+    exponents: np.ndarray
+    kind: str
+    fold_parity: bool
+    consistent: bool
+    error: float
+    basis: np.ndarray | None = None
+
+    @property
+    def code(self) -> int:
+        """Index of ``kind`` in :data:`KINDS`."""
+        return KINDS.index(self.kind)
+
+
+def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None) -> Stability:
+    """Floquet exponents (T.10) and the fold parity (T.9) of a solution; see the module.
+
+    ``start``: :attr:`Stability.basis` of a neighbouring point (faster, same result).
+    """
+    res = monodromy_exponents(problem, point, start=start)
+    w0 = problem.harmonics.fundamental_rad_s(point.omega)
+    exps, max_real = res.exponents, res.max_real
+    parity = False
+    jf = None
+    if problem.modal:
+        _, jf = problem.mesh_force(problem.delta_real(point.unknowns))
+        parity = det_sign(line_of_action_operator(problem, jf, 0.0, w0).real) < 0
+    consistent = not parity or max_real > 0
+    if not consistent:
+        root = positive_real_root(problem, jf, w0)
+        logger.debug("%.2f rpm: between two folds (T.9 root %.4g 1/s) but the variational "
+                     "equation has max Re %.4g 1/s", point.rpm, root, max_real)
+        exps = np.concatenate([[complex(root, 0.0)], exps])
+        max_real = float(root)
+    kind = "stable" if max_real <= 0 else classify_exponent(complex(exps[0]), w0)
+    return Stability(max_real, exps, kind, bool(parity), bool(consistent), res.error, res.basis)
 
 
 def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:
@@ -97,8 +182,12 @@ def _coordinates(problem: HBMProblem, max_size: int, omega: float):
 
 
 def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
-                      criterion: str = "auto"):
+                      criterion: str = "auto", method: str = "monodromy"):
     """Floquet exponents (1/s) of a periodic solution and their largest real part.
+
+    ``method="monodromy"`` (default): :func:`stability`'s exponents (T.10, with the
+    T.9 fold parity). ``method="hill"``: Hill's method as described in the module,
+    ``max_size`` and ``criterion`` applying to it only.
 
     Returns
     -------
@@ -108,6 +197,11 @@ def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
     exponents : ndarray of complex
         The selected 2 m exponents.
     """
+    if method == "monodromy":
+        st = stability(problem, point)
+        return st.max_real, st.exponents
+    if method != "hill":
+        raise ValueError(f"floquet_exponents.method = {method!r}: must be 'monodromy' or 'hill'")
     mm, cm, km, g, h_rest, rest_max = _coordinates(problem, max_size, point.omega)
     m = g.size
     nr = problem.nr
@@ -177,12 +271,7 @@ def _exact(problem: HBMProblem, jf: np.ndarray, w0: float, exps: np.ndarray,
     return exps, max(max_real, real)
 
 
-def loss_of_stability(problem: HBMProblem, point: Point, max_size: int = 600) -> str:
+def loss_of_stability(problem: HBMProblem, point: Point) -> str:
     """``"stable"`` or the kind of the exponent of largest real part:
     ``"fold"``, ``"period_doubling"`` or ``"neimark_sacker"`` (see classify_exponent)."""
-    max_real, exps = floquet_exponents(problem, point, max_size)
-    if max_real <= 0.0:
-        return "stable"
-    w0 = problem.harmonics.fundamental_rad_s(point.omega)
-    lam = exps[np.argmax(exps.real)]
-    return classify_exponent(complex(lam), w0)
+    return stability(problem, point).kind

@@ -344,8 +344,7 @@ class Pipeline:
         try:
             br = trace(problem, lo, hi, step=c.step / span, min_step=c.min_step / span,
                        max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
-                       on_point=ck, resume=resume, stability=self.scene.hbm.stability,
-                       hill_max_size=self.scene.hbm.hill_max_size)
+                       on_point=ck, resume=resume, stability=self.scene.hbm.stability)
         finally:
             bar.close()
         dt = time.perf_counter() - t

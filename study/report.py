@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hbm.stability import KINDS
 from study.plots import contact_intervals
 
 __all__ = ["summary", "write_report"]
@@ -25,8 +26,22 @@ def summary(result) -> dict:
         "folds": [float(f) for f in br.folds],
         "classes": {int(c): int(np.sum(br.contact == c)) for c in np.unique(br.contact)},
         "unstable_points": int(np.sum(~br.stable.astype(bool))),
+        "unstable_kinds": {KINDS[k]: int(np.sum(br.floquet_kind == k))
+                           for k in range(1, len(KINDS)) if np.any(br.floquet_kind == k)},
+        "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
         "intervals": contact_intervals(br.rpm, br.contact),
     }
+
+
+def _unresolved(rpm: list[float]) -> list[str]:
+    """Report lines for points whose stability the harmonic set does not resolve."""
+    if not rpm:
+        return []
+    return [f"- **stability not resolved at {len(rpm)} points** ({min(rpm):.1f}–{max(rpm):.1f} "
+            "rpm): the branch lies between two folds of the harmonic balance there (reported "
+            "unstable) but the variational equation finds the orbit stable, so the harmonic "
+            "set does not resolve the orbit; raise `hbm.mesh_harmonics` / `sideband_order` "
+            "(docs/convergence.md)"]
 
 
 def write_report(result) -> Path:
@@ -62,7 +77,11 @@ def write_report(result) -> Path:
              f"{s['at_rpm']:.1f} rpm",
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
-             f"- unstable points (Hill): {s['unstable_points']}",
+             f"- unstable points: {s['unstable_points']}"
+             + (" (" + ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in
+                                 s["unstable_kinds"].items()) + ")" if s["unstable_kinds"] else "")
+             + " — Floquet exponents of the variational equation, every mode",
+             *_unresolved(s["unresolved_rpm"]),
              "- folds (jumps) near: " + (", ".join(f"{f:.1f}" for f in s["folds"]) or "none")
              + " rpm", "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]

@@ -182,9 +182,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="explicit harmonic set (must contain 0); overrides the builder"),
         "aft_samples": _f(0, "", 0, 1 << 20, kind="int", doc="AFT time samples (0: automatic)"),
         "condensation": _c("loa", ("loa", "gear", "none"), "exact condensation level"),
-        "stability": Spec("bool", True, doc="Hill stability of every point"),
-        "hill_max_size": _f(1600, "", 10, 100_000, kind="int",
-                            doc="largest Hill eigenproblem (fewer modes kept above it)"),
+        "stability": Spec("bool", True, doc="stability of every point (variational "
+                          "equation, every mode; docs/theory.md §11)"),
     },
     "continuation": {
         "speed_rpm": _f([500.0, 8000.0], "rpm", 0, 1e6, lo_open=True, kind="pair",
@@ -419,7 +418,6 @@ class HbmData:
     aft_samples: int
     condensation: str
     stability: bool = True
-    hill_max_size: int = 1600
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,142 @@
+"""Floquet exponents from the variational equation (T.10, hbm.monodromy), against an
+independent integration of the same equation (scipy DOP853, physical coordinates)
+and the parity of the harmonic balance's real exponents (T.9)."""
+
+import numpy as np
+import pytest
+from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sdof_problem
+from scipy.integrate import solve_ivp
+
+import hbm
+from hbm.monodromy import monodromy_exponents
+from hbm.stability import KINDS, stability
+
+
+def _reference_exponents(pb, pt):
+    """Exponents of M y'' + C y' + K y + s(t) G G^T y = 0 along the HBM orbit, by DOP853
+    on the monodromy columns (s = k_m where a flank is loaded, eq. 13)."""
+    s = pb.system
+    n = s.n_dof
+    w0 = pb.harmonics.fundamental_rad_s(pt.omega)
+    period = 2 * np.pi / w0
+    minv = np.linalg.inv(s.M)
+    mk, mc, mg = minv @ s.K, minv @ s.C, minv @ pb.G
+    kS = pb.kS * w0
+
+    def rhs(t, y):
+        ph = np.array([pb.mesh_step * w0 * t])
+        delta = float((pt.coefficients * np.exp(1j * kS * t)).real.sum())
+        p = delta - pb.mesh.error_at(ph)[0]
+        km = pb.mesh.stiffness_at(ph)[0] if abs(p) > pb.b else 0.0
+        x = y.reshape(2 * n, 2 * n)
+        acc = -mk @ x[:n] - mc @ x[n:] - km * np.outer(mg, pb.G @ x[:n])
+        return np.vstack([x[n:], acc]).ravel()
+
+    sol = solve_ivp(rhs, (0.0, period), np.eye(2 * n).ravel(), method="DOP853",
+                    rtol=1e-11, atol=1e-12)
+    mu = np.linalg.eigvals(sol.y[:, -1].reshape(2 * n, 2 * n))
+    lam = np.log(mu.astype(complex)) / period
+    return lam[np.argsort(-lam.real)]
+
+
+def _twelve_dof(modal=True):
+    m, c, k, g = random_modal_system(n=6, seed=1, zeta=0.02, kbar=2e3, n_gear=4)
+    if not modal:
+        c = c + 0.5 * np.diag(np.diag(c)) * np.linspace(0.0, 1.0, 6)   # non-proportional
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
+                        hbm.GearMesh(1, {0: 2e3, 1: 400}, backlash=1e-3),
+                        hbm.Excitation(6, constant={0: 2.0 * g, 1: 1.0 * g}),
+                        hbm.HarmonicSet.build(1, 12))
+    assert pb.modal == modal
+    w = np.sqrt(pb.w2[~pb.rigid]) if modal else np.sqrt(np.linalg.eigvalsh(pb.Kp))
+    return pb, 0.3 * w.min() / RPM, 1.3 * w.max() / RPM
+
+
+@pytest.fixture(scope="module", params=[True, False], ids=["modal", "dense"])
+def six_dof_branch(request):
+    pb, r0, r1 = _twelve_dof(request.param)
+    br = hbm.trace(pb, r0, r1, max_points=3000, stability=False)
+    assert br.status == "completed"
+    return pb, br
+
+
+def test_exponents_match_independent_integration(six_dof_branch):
+    """Leading exponents at a contact, an impact and a fold-segment point, to 1e-3."""
+    pb, br = six_dof_branch
+    d = np.diff(br.rpm)
+    picks = [int(np.flatnonzero(br.contact == 0)[0]), int(np.argmax(br.contact_loss_fraction))]
+    down = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
+    if down.size:
+        picks.append(int(down[down.size // 2]))
+    for i in picks:
+        pt = pb.point(br.unknowns[i], br.omega[i])
+        res = monodromy_exponents(pb, pt, rtol=1e-5, sign_margin=np.inf, max_refine=6)
+        ref = _reference_exponents(pb, pt)
+        scale = abs(ref[0].real) + 1e-3 * pb.harmonics.fundamental_rad_s(pt.omega)
+        assert abs(res.max_real - ref[0].real) < 1e-3 * scale, br.rpm[i]
+        assert res.exponents.size == ref.size            # full monodromy: 2 n exponents
+
+
+def test_liouville_holds_exactly(six_dof_branch):
+    """det Phi = exp(-T tr M^-1 C): the mesh kicks have determinant one (T.10)."""
+    pb, br = six_dof_branch
+    trace = np.trace(np.linalg.solve(pb.system.M, pb.system.C))
+    i = int(np.argmax(br.contact_loss_fraction))
+    res = monodromy_exponents(pb, pb.point(br.unknowns[i], br.omega[i]))
+    assert np.sum(res.exponents.real) == pytest.approx(-trace, rel=1e-9)
+
+
+def test_second_order_in_the_time_step():
+    """Permanent contact (smooth coefficients): the error falls 4x per halved step (on
+    the imaginary part: the real parts of the SDOF's complex pair are exact, Liouville)."""
+    pb = sdof_problem(harmonics=20, fa=0.01, b=1.0)
+    pt = pb.solve(0.8 / RPM)
+    assert hbm.point_stats(pb, pt).contact == 0
+    ref = abs(_reference_exponents(pb, pt)[0].imag)
+    errs = [abs(abs(monodromy_exponents(pb, pt, n_steps=n, rtol=1.0, max_refine=0)
+                    .exponents[0].imag) - ref) for n in (64, 128, 256)]
+    assert errs[0] / errs[1] == pytest.approx(4.0, rel=0.1)
+    assert errs[1] / errs[2] == pytest.approx(4.0, rel=0.1)
+
+
+@pytest.mark.parametrize("make", [lambda: (sdof_problem(harmonics=30, fa=0.05), 0.3, 1.6),
+                                  lambda: (gear_and_stiff_mode_problem(), 0.3, 1.6)],
+                         ids=["sdof", "2dof"])
+def test_converged_harmonic_set_agrees_with_fold_parity(make):
+    """With a converged harmonic set, T.9 (parity of the HBM's real exponents) and T.10
+    (variational equation) agree at every point but next to a fold (where the real
+    exponent crosses 0 at speeds that differ by the truncation); folds bound the
+    unstable segment and the exponent there is real (multiplier > 1)."""
+    pb, r0, r1 = make()
+    br = hbm.trace(pb, r0 / RPM, r1 / RPM)
+    assert br.status == "completed" and len(br.folds) == 2
+    near_fold = np.zeros(len(br), dtype=bool)
+    for f in br.fold_index:
+        near_fold[max(f - 1, 0): f + 2] = True
+    assert np.all(br.stability_consistent[~near_fold])
+    d = np.diff(br.rpm)
+    inner = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
+    inner = inner[(inner > min(br.fold_index) + 1) & (inner < max(br.fold_index) - 1)]
+    assert inner.size >= 3
+    assert not np.any(br.stable[inner])
+    assert np.all(br.floquet_kind[inner] == KINDS.index("fold"))
+    for i in inner[::4]:
+        st = stability(pb, pb.point(br.unknowns[i], br.omega[i]))
+        assert st.fold_parity and st.consistent and st.exponents[0].imag == 0.0
+
+
+def test_subspace_iteration_matches_full_monodromy():
+    """Dominant exponents from a 4-column block equal those of the full monodromy."""
+    m, c, k, g = random_modal_system(n=20, seed=3, zeta=0.03, kbar=2e3, n_gear=8)
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
+                        hbm.GearMesh(1, {0: 2e3, 1: 600}, backlash=1e-3),
+                        hbm.Excitation(20, constant={0: 2.0 * g, 1: 1.0 * g}),
+                        hbm.HarmonicSet.build(1, 10))
+    w = np.sqrt(pb.w2)
+    pt = pb.solve(0.15 * w.min() / RPM)       # a long period: all but a few modes contract
+    full = monodromy_exponents(pb, pt, columns=40, rtol=1.0, max_refine=0)
+    sub = monodromy_exponents(pb, pt, columns=4, rtol=1.0, max_refine=0)
+    assert full.columns == 40 and sub.columns < 40
+    assert sub.max_real == pytest.approx(full.max_real, rel=1e-9)
+    k = min(sub.exponents.size, 2)
+    assert sub.exponents[:k] == pytest.approx(full.exponents[:k], rel=1e-8)

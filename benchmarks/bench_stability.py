@@ -1,0 +1,145 @@
+"""Stability on the coarse pump: cost per point, and the verdicts against time integration.
+
+1. The shipped pump curve is traced without stability (Newton cost per point), then
+   the stability of every point is computed in branch order as the continuation
+   does (:func:`hbm.stability.stability`, warm-started): ms/point of each, and the
+   ratio. The mode-truncated Hill of earlier versions (``method="hill"``, 4 of 112
+   modes at ``max_size`` 400) is timed on a sample of the same points.
+2. At four speeds — 1084 rpm (where the truncated Hill said unstable), the middle of
+   a speed-decreasing segment between two folds, the largest mesh load and one
+   permanent-contact point — the ROM is integrated in time (DOP853, modal form of
+   benchmarks.bench_verify) from the HBM state, one period at a time. The
+   period-to-period change of the state decays (stable) or grows (unstable) by the
+   leading multiplier: its slope in log over the last periods, divided by the
+   period, is the measured largest real part, compared with the Floquet exponent.
+   A period-doubling point is added when the branch has one.
+
+Run: ``.venv/bin/python -m benchmarks.bench_stability [--periods 8]``. Writes
+``benchmarks/results/stability.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from benchmarks.bench_verify import _rhs, _state_norm, initial_state, modal_model
+from benchmarks.common import machine, write_json
+
+logger = logging.getLogger("bench_stability")
+ROOT = Path(__file__).resolve().parents[1]
+PUMP_SCENE = ROOT / "scenes" / "pump.toml"
+
+
+def measured_rate(problem, point, periods: int, rtol: float = 1e-9) -> dict:
+    """Largest real part (1/s) seen by time integration from the HBM state."""
+    mm = modal_model(problem, point.rpm)
+    y = initial_state(problem, point, mm)
+    fun = _rhs(mm)
+    m = mm.n_modes
+    T = mm.period
+    scale_x = max(np.max(np.abs(y[:m])), 1e-300)
+    scale_v = max(np.max(np.abs(y[m:])), scale_x * 2 * np.pi / T)
+    atol = np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
+    norm0 = np.linalg.norm(_state_norm(mm, y))
+    changes = []
+    t0 = time.perf_counter()
+    for _ in range(periods):
+        sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=rtol, atol=atol)
+        if not sol.success:
+            raise RuntimeError(sol.message)
+        yn = sol.y[:, -1]
+        changes.append(float(np.linalg.norm(_state_norm(mm, yn - y)) / norm0))
+        y = yn
+    k = np.arange(len(changes))
+    last = slice(max(1, len(changes) - 4), None)
+    slope = np.polyfit(k[last], np.log(changes)[last], 1)[0]
+    return {"changes": changes, "rate": float(slope / T), "seconds": time.perf_counter() - t0}
+
+
+def main(argv: list[str] | None = None) -> dict:
+    import hbm
+    import study
+    from hbm.stability import KINDS, stability
+    from study.pipeline import Pipeline
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--periods", type=int, default=8)
+    ap.add_argument("--work", type=Path, default=ROOT / ".cache" / "bench-stability")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    scene = study.load_scene(PUMP_SCENE)
+    pl = Pipeline(scene, args.work, progress=False)
+    problem, _ = pl.problem()
+    c = scene.continuation
+    span = c.speed[1] - c.speed[0]
+    t0 = time.perf_counter()
+    br = hbm.trace(problem, c.speed[0], c.speed[1], step=c.step / span,
+                   min_step=c.min_step / span, max_step=c.max_step / span, tol=c.tolerance,
+                   max_points=c.max_points, stability=False)
+    t_newton = time.perf_counter() - t0
+    logger.info("curve without stability: %d points, %.1f s", len(br), t_newton)
+    pts = [problem.point(br.unknowns[i], br.omega[i]) for i in range(len(br))]
+    t0 = time.perf_counter()
+    basis, stab = None, []
+    for p in pts:
+        s = stability(problem, p, start=basis)
+        basis = s.basis
+        stab.append(s)
+    t_stab = time.perf_counter() - t0
+    sample = pts[:: max(1, len(pts) // 20)]
+    t0 = time.perf_counter()
+    for p in sample:
+        hbm.floquet_exponents(problem, p, 400, method="hill")
+    t_hill = (time.perf_counter() - t0) / len(sample)
+    max_real = np.array([s.max_real for s in stab])
+    kinds = np.array([s.code for s in stab])
+    consistent = np.array([s.consistent for s in stab])
+    logger.info("stability: %.1f ms/point (Newton %.1f ms/point), truncated Hill %.1f ms/point",
+                1e3 * t_stab / len(pts), 1e3 * t_newton / len(pts), 1e3 * t_hill)
+
+    d = np.diff(br.rpm)
+    down = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
+    picks = {"1084 rpm": int(np.argmin(np.abs(br.rpm - 1084.0))),
+             "between two folds": int(down[0]) if down.size else None,
+             "largest mesh load": int(np.argmax(br.mesh_load_std)),
+             "permanent contact": int(np.flatnonzero(br.contact == 0)[-1])
+             if np.any(br.contact == 0) else None}
+    pd = np.flatnonzero(kinds == KINDS.index("period_doubling"))
+    if pd.size:
+        picks["period doubling"] = int(pd[0])
+    checks = []
+    for label, i in picks.items():
+        if i is None:
+            continue
+        meas = measured_rate(problem, pts[i], args.periods)
+        s = stab[i]
+        checks.append({"case": label, "rpm": float(br.rpm[i]), "contact": int(br.contact[i]),
+                       "floquet_max_real": s.max_real, "kind": s.kind,
+                       "fold_parity": s.fold_parity, "consistent": s.consistent,
+                       "variational_max_real": float(s.exponents[0].real) if s.consistent
+                       else float(s.exponents[1].real),
+                       "time_integration_rate": meas["rate"], "changes": meas["changes"],
+                       "ti_seconds": meas["seconds"]})
+        logger.info("%s %.1f rpm: exponent %.3f (%s, consistent %s), time integration %.3f 1/s",
+                    label, br.rpm[i], s.max_real, s.kind, s.consistent, meas["rate"])
+    payload = {"machine": machine(), "points": len(br),
+               "newton_ms_per_point": 1e3 * t_newton / len(pts),
+               "stability_ms_per_point": 1e3 * t_stab / len(pts),
+               "stability_over_newton": t_stab / t_newton,
+               "truncated_hill_ms_per_point": 1e3 * t_hill,
+               "curve_newton_s": t_newton, "curve_stability_s": t_stab,
+               "unstable": int(np.sum(max_real > 0)),
+               "unresolved": int(np.sum(~consistent)),
+               "kinds": {k: int(np.sum(kinds == j)) for j, k in enumerate(KINDS)},
+               "checks": checks}
+    write_json("stability", payload)
+    return payload
+
+
+if __name__ == "__main__":
+    main()

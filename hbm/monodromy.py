@@ -46,7 +46,8 @@ from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MonodromyResult", "step_stiffness", "monodromy_exponents"]
+__all__ = ["MonodromyResult", "orbit_gap", "step_stiffness", "exponents_along",
+           "monodromy_exponents"]
 
 
 @dataclass(frozen=True)
@@ -87,17 +88,25 @@ def _in_contact_fraction(p0: np.ndarray, p1: np.ndarray, thr: float) -> np.ndarr
     return np.where(a & b, 1.0, np.where(~a & ~b, 0.0, np.where(b, 1.0 - th, th)))
 
 
-def step_stiffness(problem: HBMProblem, unknowns: np.ndarray, n_steps: int) -> np.ndarray:
-    """Mean of ``s'(t) = d f'/d Delta`` over each of ``n_steps`` steps of one period (N/m).
+def orbit_gap(problem: HBMProblem, unknowns: np.ndarray, n_steps: int) -> np.ndarray:
+    """Gap ``p = Delta - e`` (m, eq. 13) of an HBM solution at ``n_steps`` instants
+    ``t_i = i T / n_steps`` of one fundamental period."""
+    e_fine, _, e = problem.fine_grid(n_steps)
+    return e_fine @ problem.delta_real(unknowns) - e
 
-    eq. (13) differentiated: ``k_m`` where the flank is loaded (``p > b`` or
-    ``p < -b``, ``p = Delta - e``), 0 in the backlash, minus ``k_bar``.
+
+def step_stiffness(problem: HBMProblem, gap: np.ndarray) -> np.ndarray:
+    """Mean of ``s'(t) = d f'/d Delta`` over each step between the gap samples (N/m).
+
+    eq. (13) differentiated: ``k_m`` where a flank is loaded (``p > b`` or
+    ``p < -b``), 0 in the backlash, minus ``k_bar``; ``gap`` holds ``p`` at the
+    ``n`` instants ``i T / n`` of one period (:func:`orbit_gap`, or samples of a
+    time integration).
     """
-    e_fine, k, e = problem.fine_grid(n_steps)
-    p = e_fine @ problem.delta_real(unknowns) - e
-    p1, k1 = np.roll(p, -1), np.roll(k, -1)
-    frac = (_in_contact_fraction(p, p1, problem.b)
-            + _in_contact_fraction(-p, -p1, problem.b))
+    _, k, _ = problem.fine_grid(gap.size)
+    p1, k1 = np.roll(gap, -1), np.roll(k, -1)
+    frac = (_in_contact_fraction(gap, p1, problem.b)
+            + _in_contact_fraction(-gap, -p1, problem.b))
     return 0.5 * (k + k1) * frac - problem.kbar
 
 
@@ -199,10 +208,9 @@ class _DensePeriod:
         return x
 
 
-def _period(problem: HBMProblem, unknowns: np.ndarray, period: float, n_steps: int):
-    jbar = step_stiffness(problem, unknowns, n_steps)
+def _period(problem: HBMProblem, gap: np.ndarray, period: float):
     cls = _ModalPeriod if problem.modal else _DensePeriod
-    return cls(problem, jbar, period)
+    return cls(problem, step_stiffness(problem, gap), period)
 
 
 def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int):
@@ -249,6 +257,22 @@ def _projected(step, basis: np.ndarray) -> np.ndarray:
     return mu[np.argsort(-np.abs(mu))[: max(1, basis.shape[1] // 2)]]
 
 
+def exponents_along(problem: HBMProblem, gap: np.ndarray, period: float,
+                    columns: int = 16, ritz_tol: float = 1e-8) -> np.ndarray:
+    """Dominant Floquet exponents (1/s) of (T.10) along any periodic gap signal.
+
+    ``gap``: ``p = Delta - e`` (m) at ``n`` equally spaced instants of one period
+    ``period`` (s) starting at the mesh phase origin — e.g. the last period of a
+    time integration, to check the exponents of an HBM orbit against those of the
+    orbit the equations of motion settle on.
+    """
+    size = 2 * (int(np.sum(~problem.rigid)) if problem.modal else problem.n_dof)
+    cols = size if size <= 2 * columns else columns
+    mu, _, _ = _multipliers(_period(problem, np.asarray(gap, dtype=float), period), size,
+                            cols, ritz_tol, None, np.random.default_rng(12345))
+    return _exponents(mu, period)
+
+
 def _exponents(mu: np.ndarray, period: float) -> np.ndarray:
     lam = np.log(mu.astype(complex)) / period
     return lam[np.argsort(-lam.real, kind="stable")]
@@ -292,11 +316,12 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     cols = size if size <= 2 * columns else columns
     prev = None
     for refine in range(max_refine + 1):
-        mu, cols, basis = _multipliers(_period(problem, point.unknowns, period, n), size,
-                                       cols, ritz_tol, start, rng)
+        mu, cols, basis = _multipliers(
+            _period(problem, orbit_gap(problem, point.unknowns, n), period), size, cols,
+            ritz_tol, start, rng)
         lam = _exponents(mu, period)
         if prev is None:
-            half = _period(problem, point.unknowns, period, n // 2)
+            half = _period(problem, orbit_gap(problem, point.unknowns, n // 2), period)
             mu_h = np.linalg.eigvals(half(np.eye(size))) if basis is None else \
                 _projected(half, basis)
             prev = float(_exponents(mu_h, period)[0].real)

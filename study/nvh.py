@@ -13,13 +13,12 @@ from __future__ import annotations
 import csv
 import io
 import logging
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.acoustics import P_REF, erp_harmonics, power_db
 
 logger = logging.getLogger(__name__)
@@ -184,10 +183,7 @@ def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
                     "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
                     int(bool(branch.stable[i]))])
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+    with atomic_write(path, "w") as fh:
         fh.write(buf.getvalue())
-    from study.results import replace_file
-    replace_file(tmp, path)
     logger.info("wrote %s", path)
     return path

@@ -15,6 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from geometry.files import atomic_write
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
@@ -26,17 +28,12 @@ CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "doub
 
 
 def _save(fig, path: Path) -> Path:
-    import os
-    import tempfile
-
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    plt.close(fig)
-    from study.results import replace_file
-    replace_file(tmp, path)
+    try:
+        with atomic_write(path) as tmp:
+            fig.savefig(tmp, dpi=130, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     logger.info("wrote %s", path)
     return path
 

@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.plots import contact_intervals
 
 __all__ = ["summary", "write_report"]
@@ -102,9 +102,6 @@ def write_report(result) -> Path:
         else:
             lines += [f"- [{p.name}]({os.path.relpath(p, out)})"]
     path = out / "report.md"
-    fd, tmp = tempfile.mkstemp(prefix=".report.", suffix=".md", dir=out)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
+    with atomic_write(path, "w") as f:
         f.write("\n".join(lines) + "\n")
-    from study.results import replace_file
-    replace_file(tmp, path)
     return path

@@ -197,7 +197,7 @@ def _num(v) -> str:
 
 
 def _mesh_size(scene: Scene) -> float:
-    from study.fe_stages import fe_parameters
+    from study.fe_params import fe_parameters
     return float(fe_parameters(scene.fe, scene.gear).mesh.size)
 
 

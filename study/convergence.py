@@ -454,7 +454,7 @@ def _housing_field(result: RunResult, rpm: float) -> _Field:
     import h5py
 
     from hbm import ConvergenceError
-    from study.export import nearest_point
+    from study.points import nearest_point
 
     _, pt = nearest_point(result, rpm)
     prob = result.problem

@@ -1,5 +1,6 @@
 """FE stages of the pipeline (``scene.kind = "fe"``): mesh, FE model, ROM, the HBM
-problem on the ROM, the ``rom/`` group of results.h5, housing fields and ROM plots.
+problem on the ROM, the ``rom/`` group of results.h5 and housing fields (the ROM plots
+are :func:`study.plots.rom_plots`).
 
 Everything that needs gmsh, dolfinx, petsc4py or slepc4py is imported inside the
 functions, so that importing this module (or running a lumped scene) loads none of
@@ -17,13 +18,17 @@ from typing import Any
 
 import numpy as np
 
+from study import acoustics, fields
 from study.errors import SceneError
 from study.fe_params import FEParams, fe_parameters
+from study.model import build_problem
+from study.parallel import world
+from study.points import nearest_point
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["FEParams", "fe_parameters", "mesh_stage", "fe_stage", "rom_stage", "rom_problem",
-           "write_rom_group", "rom_plots", "housing_fields", "NODE_NAMES"]
+           "write_rom_group", "housing_fields", "NODE_NAMES"]
 
 #: Named FE nodes whose basis rows are kept with the ROM (loads act there).
 NODE_NAMES = tuple(f"{s}/station_{k}" for s in ("in", "out") for k in range(1, 7)) + \
@@ -118,8 +123,6 @@ def _radiation(scene, model, folder: Path, mesh_dir: Path | None) -> None:
     and reads the basis rows by key."""
     from mpi4py import MPI
 
-    from study import acoustics
-
     if model.comm.size != 1:
         if mesh_dir is None:
             logger.warning("ERP: no mesh folder to build the radiation matrix serially; "
@@ -211,9 +214,7 @@ def _load_radiation(folder: Path) -> dict | None:
     """Datasets and attributes of the cached ``radiation.h5`` (None when absent)."""
     import h5py
 
-    from study.acoustics import RADIATION_FILE
-
-    p = folder / RADIATION_FILE
+    p = folder / acoustics.RADIATION_FILE
     if not p.exists():
         return None
     with h5py.File(p, "r") as f:
@@ -224,8 +225,6 @@ def _load_radiation(folder: Path) -> dict | None:
 
 def rom_problem(scene, rom_dir: Path):
     """(HBMProblem, RomData) of an FE scene from its cached ROM."""
-    from study.model import build_problem
-
     rd = load_rom_data(scene, rom_dir)
     const, om2 = rom_forcing(scene, rd.node_rows, rd.M.shape[0])
     return build_problem(scene, rd.M, rd.C, rd.K, rd.G, const, om2), rd
@@ -250,24 +249,6 @@ def write_rom_group(f, result) -> None:
         g[name] = val
     g.attrs["km_mean"] = rd.km_mean
     g.attrs["xi_run"] = result.scene.damping.modal_ratio
-
-
-def rom_plots(result, want: set) -> list[Path]:
-    """Campbell diagram (Fig. 8) and ROM frequency error (Fig. 9)."""
-    from study import plots
-
-    rd, out, sc = result.rom, Path(result.out), result.scene
-    paths = []
-    if "campbell" in want:
-        paths.append(plots.campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
-                                         sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
-                                         out / "campbell.png",
-                                         external_orders=sc.external.orders))
-    if "rom_error" in want and rd.validation is not None:
-        paths.append(plots.rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
-                                          out / "rom_error.png",
-                                          rd.validation.relative_error))
-    return paths
 
 
 def _dense_basis(folder: Path, model) -> np.ndarray:
@@ -296,16 +277,12 @@ def housing_fields(result) -> list[Path]:
 
     Under mpirun rank 0 writes them from a serial FE model (the files are small), so
     they are the same whatever the number of ranks."""
-    from study.parallel import world
 
     return world().root_call(_housing_fields_serial, result)
 
 
 def _housing_fields_serial(result) -> list[Path]:
     from mpi4py import MPI
-
-    from study import acoustics, fields
-    from study.export import nearest_point
 
     sc = result.scene
     rd = result.rom

@@ -20,6 +20,8 @@ import numpy as np
 
 from geometry.files import atomic_write
 from study.acoustics import P_REF, erp_harmonics, power_db
+from study.fields import V_REF, accelerometer_rows, velocity_level_db
+from study.points import point_at
 
 logger = logging.getLogger(__name__)
 
@@ -81,7 +83,6 @@ class NVH:
 def compute_nvh(result) -> NVH:
     """NVH quantities at every point of ``result.branch``."""
     from hbm import time_series
-    from study.export import point_at
 
     pb, br = result.problem, result.branch
     hs = pb.harmonics
@@ -94,7 +95,6 @@ def compute_nvh(result) -> NVH:
     erp = np.zeros((n, idx.size)) if rad is not None else None
     accels = result.scene.outputs.accelerometers if rad is not None else ()
     if accels:
-        from study.fields import accelerometer_rows
         arows, apos, adir = accelerometer_rows(accels, rad)
         avel = np.zeros((len(accels), n, idx.size), dtype=complex)
     for i in range(n):
@@ -148,7 +148,6 @@ def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
     if nvh.accel_velocity is not None:
         import h5py
 
-        from study.fields import V_REF, velocity_level_db
 
         a = g.create_group("accelerometers")
         a["names"] = np.array(nvh.accel_names, dtype=h5py.string_dtype())

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
+
 log = logging.getLogger("bench_reduction")
 OUT = Path(__file__).resolve().parent / "results" / "reduction.json"
 
@@ -262,11 +264,8 @@ def pump_case(preset_name: str, n_cm: int, out: Path) -> dict:
            "highest_fixed_interface_hz": float(cb.fixed_interface_hz[-1]),
            "first_coupled_hz": [float(f) for f in rom.frequencies_hz[:4]]}
     if comm.rank == 0:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".json.tmp")
-        with os.fdopen(fd, "w") as f:
+        with atomic_write(out, "w") as f:
             json.dump(rec, f, indent=2)
-        os.replace(tmp, out)
     return rec
 
 
@@ -424,11 +423,8 @@ def main(argv=None) -> dict:
         "eigensolve_vs_calculix": ccx,
         "pump": pump,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=args.out.parent, suffix=".json.tmp")
-    with os.fdopen(fd, "w") as f:
+    with atomic_write(args.out, "w") as f:
         json.dump(result, f, indent=2)
-    os.replace(tmp, args.out)
     log.info("written %s", args.out)
     return result
 

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 from benchmarks.common import RESULTS
+from geometry.files import atomic_write
 
 LOG = logging.getLogger(__name__)
 TARGET = Path(__file__).resolve().parents[1] / "BENCHMARKS.md"
@@ -95,11 +94,8 @@ def _tables_from(data: dict[str, Any]) -> list[dict[str, Any]]:
 
 def main() -> None:
     text = render()
-    fd, tmp = tempfile.mkstemp(dir=TARGET.parent, prefix=".BENCHMARKS.", suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
+    with atomic_write(TARGET, "w") as fh:
         fh.write(text)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600
-    os.replace(tmp, TARGET)
     LOG.info("wrote %s", TARGET)
 
 

@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from geometry.files import atomic_write
+
 from .materials import Material
 
 log = logging.getLogger(__name__)
@@ -97,10 +99,8 @@ def write_inp(
         parts.append("*BOUNDARY")
         parts += [f"FIX{j}, 1, 3" for j in range(len(clamps))]
     parts += ["*END STEP", ""]
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("\n".join(parts))
-    os.replace(tmp, path)
+    with atomic_write(path, "w") as f:
+        f.write("\n".join(parts))
 
 
 def read_dat_frequencies(path: Path) -> np.ndarray:

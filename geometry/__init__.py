@@ -3,34 +3,41 @@
 
 Never imports dolfinx. See docs/geometry.md for the frame, parameters, group
 names and presets, and :mod:`geometry.pump` for the hand-over to DOLFINx.
-"""
 
-from .housing import build_housing
-from .io import write_msh
-from .meshing import mesh_volume
-from .model import MeshedModel, PartEntities, QualityReport
-from .params import (
-    SHAFT_NAMES,
-    HousingParams,
-    MeshOptions,
-    PumpParams,
-    ShaftParams,
-    preset,
-)
-from .pump import build_pump, build_single_shaft
-from .session import finalize_gmsh, gmsh_session
-from .shaft import build_shaft
-from .volumes import housing_volume, part_volumes, shaft_volume
+The public names are resolved on first use (PEP 562), so ``import geometry.files``
+(the atomic-write helper every package uses) does not load gmsh: a lumped run
+never imports the FE stack.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+#: public name -> submodule defining it
+_WHERE = {
+    "build_housing": "housing",
+    "write_msh": "io",
+    "mesh_volume": "meshing",
+    "MeshedModel": "model", "PartEntities": "model", "QualityReport": "model",
+    "SHAFT_NAMES": "params", "HousingParams": "params", "MeshOptions": "params",
+    "PumpParams": "params", "ShaftParams": "params", "preset": "params",
+    "build_pump": "pump", "build_single_shaft": "pump",
+    "finalize_gmsh": "session", "gmsh_session": "session",
+    "build_shaft": "shaft",
+    "housing_volume": "volumes", "part_volumes": "volumes", "shaft_volume": "volumes",
+    "atomic_write": "files",
+}
 
 __all__ = [
-    "SHAFT_NAMES",
     "HousingParams",
     "MeshOptions",
     "MeshedModel",
     "PartEntities",
     "PumpParams",
     "QualityReport",
+    "SHAFT_NAMES",
     "ShaftParams",
+    "atomic_write",
     "build_housing",
     "build_pump",
     "build_shaft",
@@ -44,3 +51,35 @@ __all__ = [
     "shaft_volume",
     "write_msh",
 ]
+
+if TYPE_CHECKING:  # static analysers see the names eagerly
+    from .files import atomic_write
+    from .housing import build_housing
+    from .io import write_msh
+    from .meshing import mesh_volume
+    from .model import MeshedModel, PartEntities, QualityReport
+    from .params import (
+        SHAFT_NAMES,
+        HousingParams,
+        MeshOptions,
+        PumpParams,
+        ShaftParams,
+        preset,
+    )
+    from .pump import build_pump, build_single_shaft
+    from .session import finalize_gmsh, gmsh_session
+    from .shaft import build_shaft
+    from .volumes import housing_volume, part_volumes, shaft_volume
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))

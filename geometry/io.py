@@ -8,6 +8,8 @@ from pathlib import Path
 
 import gmsh
 
+from .files import atomic_write
+
 log = logging.getLogger(__name__)
 
 
@@ -31,17 +33,11 @@ def write_msh(path: str | os.PathLike[str], *, binary: bool = False) -> Path:
     target = Path(path)
     if target.suffix != ".msh":
         raise ValueError(f"path = {str(target)!r}: must end in '.msh'")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    # gmsh picks the format from the extension: the temporary name ends in .msh too
-    tmp = target.with_name(f".{target.stem}.{os.getpid()}.tmp.msh")
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     gmsh.option.setNumber("Mesh.Binary", 1 if binary else 0)
     gmsh.option.setNumber("Mesh.SaveAll", 0)
-    try:
+    # gmsh picks the format from the extension: the temporary name ends in .msh too
+    with atomic_write(target) as tmp:
         gmsh.write(str(tmp))
-        os.replace(tmp, target)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     log.info("wrote %s", target)
     return target

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .contact import dead_zone
 from .problem import HBMProblem, Point
 
 __all__ = ["PointStats", "TimeSeries", "point_stats", "time_series", "spectrum", "ipp_sequence"]
@@ -68,10 +69,6 @@ def _signals(problem: HBMProblem, delta_r: np.ndarray, n: int):
     return tau, e_fine @ delta_r, k, e
 
 
-def _dead_zone(p: np.ndarray, k: np.ndarray, b: float) -> np.ndarray:
-    return k * (np.where(p > b, p - b, 0.0) + np.where(p < -b, p + b, 0.0))  # eq. (13)
-
-
 def _refined_min(y: np.ndarray) -> float:
     """Minimum of a periodic sampled signal refined by a parabola through 3 samples."""
     i = int(np.argmin(y))
@@ -93,7 +90,7 @@ def point_stats(problem: HBMProblem, point: Point | np.ndarray,
     _, delta, k, e = _signals(problem, problem.delta_real(_unknowns(point)), n)
     b = problem.b
     p = delta - e
-    f = _dead_zone(p, k, b)
+    f = dead_zone(p, k, b)
     act = p > b
     rev = p < -b
     loss = ~(act | rev)
@@ -135,7 +132,7 @@ def time_series(problem: HBMProblem, point: Point, n_periods: int = 1,
     n = _n_fine(problem, samples_per_period)
     _, delta, k, e = _signals(problem, problem.delta_real(point.unknowns), n)
     b = problem.b
-    f = _dead_zone(delta - e, k, b)
+    f = dead_zone(delta - e, k, b)
     w0 = problem.harmonics.fundamental_rad_s(point.omega)
     reps = int(n_periods)
     t = 2 * np.pi * np.arange(n * reps) / n / w0
@@ -155,7 +152,7 @@ def spectrum(problem: HBMProblem, point: Point, n_time: int | None = None) -> di
     """
     n = _n_fine(problem, n_time)
     _, delta, k, e = _signals(problem, problem.delta_real(point.unknowns), n)
-    f = _dead_zone(delta - e, k, problem.b)
+    f = dead_zone(delta - e, k, problem.b)
     c = np.fft.rfft(f) / n
     c[1:] *= 2.0
     idx = np.arange(c.size)

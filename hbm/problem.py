@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .contact import dead_zone, dead_zone_stiffness
 from .harmonics import HarmonicSet
 from .model import Excitation, GearMesh, LinearSystem
 
@@ -433,10 +434,8 @@ class HBMProblem:
             f = self.k_t * (p - self.b)
             s = self.k_t
         else:
-            act = p > self.b
-            rev = p < -self.b
-            f = self.k_t * (np.where(act, p - self.b, 0.0) + np.where(rev, p + self.b, 0.0))
-            s = np.where(act | rev, self.k_t, 0.0)
+            f = dead_zone(p, self.k_t, self.b)
+            s = dead_zone_stiffness(p, self.k_t, self.b)
             if law != 1.0:
                 f = law * f + (1.0 - law) * self.k_t * (p - self.b)
                 s = law * s + (1.0 - law) * self.k_t

@@ -20,15 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .contact import dead_zone, dead_zone_stiffness
 from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["ShootingCheck", "full_residual", "quasi_static_delta", "shooting_error"]
-
-
-def _dead_zone(p: np.ndarray, k: np.ndarray, b: float) -> np.ndarray:
-    return k * (np.where(p > b, p - b, 0.0) + np.where(p < -b, p + b, 0.0))   # eq. (13)
 
 
 def full_residual(problem: HBMProblem, point: Point) -> float:
@@ -54,8 +51,8 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
     spec[:, k] = q * np.where(k == 0, 1.0, 0.5) * n_t
     delta = problem.G @ np.fft.irfft(spec, n_t, axis=1)          # Delta(tau_j)
     phase = hs.time_grid() * problem.mesh_step
-    f_t = _dead_zone(delta - problem.mesh.error_at(phase), problem.mesh.stiffness_at(phase),
-                     problem.mesh.backlash)
+    f_t = dead_zone(delta - problem.mesh.error_at(phase), problem.mesh.stiffness_at(phase),
+                    problem.mesh.backlash)
     fk = np.fft.rfft(f_t)[k] / n_t * np.where(k == 0, 1.0, 2.0)  # f_LoA,k
     w = problem.kS * hs.divisor * point.omega
     forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)
@@ -139,7 +136,7 @@ def shooting_error(problem: HBMProblem, point: Point, periods: int = 1,
         ph = step * w0 * t
         km = problem.mesh.stiffness_at(np.array([ph]))[0]
         e = problem.mesh.error_at(np.array([ph]))[0]
-        f = _dead_zone(np.array([g @ x - e]), np.array([km]), b)[0]
+        f = dead_zone(np.array([g @ x - e]), np.array([km]), b)[0]
         ext = (mf * np.exp(1j * kw * t)[:, None]).real.sum(axis=0)
         return np.concatenate([v, ext - mc @ v - mk @ x - mg * f])
 
@@ -148,7 +145,7 @@ def shooting_error(problem: HBMProblem, point: Point, periods: int = 1,
         ph = step * w0 * t
         km = problem.mesh.stiffness_at(np.array([ph]))[0]
         p = g @ x - problem.mesh.error_at(np.array([ph]))[0]
-        kc = km if abs(p) > b else 0.0
+        kc = dead_zone_stiffness(p, km, b)
         jmat = np.zeros((2 * n, 2 * n))
         jmat[:n, n:] = np.eye(n)
         jmat[n:, :n] = -mk - kc * np.outer(mg, g)
@@ -204,7 +201,7 @@ def quasi_static_delta(problem: HBMProblem) -> np.ndarray:
     out = np.empty(problem.harmonics.n_time)
     for j, (k, e) in enumerate(zip(problem.k_t, problem.e_t, strict=True)):
         def f(z, k=k, e=e):
-            return z + h0 * (_dead_zone(np.array([z - e]), np.array([k]), b)[0] - kbar * z) - d0
+            return z + h0 * (dead_zone(np.array([z - e]), np.array([k]), b)[0] - kbar * z) - d0
         scale = max(abs(d0), abs(e) + b)
         lo, hi = -scale, scale
         while f(lo) > 0:

@@ -4,19 +4,19 @@ Rank 0 writes the dense ROM data; the basis ``T`` is written as the dataset
 ``rom/basis`` (n_fe × n_r) by rows, each rank writing its own rows in turn
 (serial h5py, no parallel HDF5 needed), so it is never gathered on one process.
 The file is written under a temporary name in the target folder and
-``os.replace``d when complete.
+``os.replace``d when complete (:func:`geometry.files.atomic_write`, on rank 0).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
-import os
-import tempfile
 
 import h5py
 import numpy as np
 from petsc4py import PETSc
 
+from geometry.files import atomic_write
 from reduction.rom import ROM
 from reduction.validate import Validation
 
@@ -55,29 +55,27 @@ def save_rom(path, rom: ROM, comm=None, write_basis: bool = True, row_keys=None)
         if row_keys.shape != (r1 - r0,):
             raise ValueError(f"row_keys.shape = {row_keys.shape}: must be ({r1 - r0},), "
                              "one key per owned row of the basis")
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    tmp = None
+    with contextlib.ExitStack() as rank0:
+        tmp = None
+        if comm.rank == 0:  # rank 0 owns the temporary file and renames it at the end
+            tmp = rank0.enter_context(atomic_write(path))
+            with h5py.File(tmp, "w") as f:
+                _write_dense(f, rom, write_basis)
+        tmp = comm.bcast(tmp, root=0)
+        if write_basis:
+            r0, r1 = rom.T.getOwnershipRange()
+            for rank in range(comm.size):
+                if rank == comm.rank:
+                    with h5py.File(tmp, "r+") as f:
+                        f["rom/basis"][r0:r1, :] = rom.T.getDenseArray()
+                        if row_keys is not None:
+                            if "row_keys" not in f["rom"]:
+                                f["rom"].create_dataset("row_keys",
+                                                        shape=(rom.T.getSize()[0],),
+                                                        dtype=np.int64)
+                            f["rom/row_keys"][r0:r1] = row_keys
+                comm.Barrier()
     if comm.rank == 0:
-        fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=folder)
-        os.close(fd)
-        with h5py.File(tmp, "w") as f:
-            _write_dense(f, rom, write_basis)
-    tmp = comm.bcast(tmp, root=0)
-    if write_basis:
-        r0, r1 = rom.T.getOwnershipRange()
-        for rank in range(comm.size):
-            if rank == comm.rank:
-                with h5py.File(tmp, "r+") as f:
-                    f["rom/basis"][r0:r1, :] = rom.T.getDenseArray()
-                    if row_keys is not None:
-                        if "row_keys" not in f["rom"]:
-                            f["rom"].create_dataset("row_keys", shape=(rom.T.getSize()[0],),
-                                                    dtype=np.int64)
-                        f["rom/row_keys"][r0:r1] = row_keys
-            comm.Barrier()
-    if comm.rank == 0:
-        os.replace(tmp, path)
         log.info("ROM written to %s", path)
     comm.Barrier()
 

@@ -58,14 +58,13 @@ import io
 import json
 import logging
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.pipeline import Pipeline, RunResult, SolverError
 from study.scene import Scene, SceneError, apply_overrides, load_scene, scene_from_dict
 
@@ -198,7 +197,7 @@ def _num(v) -> str:
 
 
 def _mesh_size(scene: Scene) -> float:
-    from study.fe_stages import fe_parameters
+    from study.fe_params import fe_parameters
     return float(fe_parameters(scene.fe, scene.gear).mesh.size)
 
 
@@ -455,7 +454,7 @@ def _housing_field(result: RunResult, rpm: float) -> _Field:
     import h5py
 
     from hbm import ConvergenceError
-    from study.export import nearest_point
+    from study.points import nearest_point
 
     _, pt = nearest_point(result, rpm)
     prob = result.problem
@@ -540,11 +539,8 @@ class _Timings:
 
 
 def _write_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
+    with atomic_write(path, "w") as f:
         f.write(text)
-    from study.results import replace_file
-    replace_file(tmp, path)
 
 
 def _run_one(setting: Setting, scene: Scene, out: Path, cache_dir: Path, timings: _Timings,
@@ -841,10 +837,9 @@ def pareto_plot(result: ConvergenceResult, path: Path) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(prefix=".pareto.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    from study.results import replace_file
-    replace_file(tmp, path)
+    try:
+        with atomic_write(path) as tmp:
+            fig.savefig(tmp, dpi=120)
+    finally:
+        plt.close(fig)
     return path

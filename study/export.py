@@ -4,10 +4,14 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import numpy as np
+from study import fe_stages
+from study.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.parallel import world
+from study.points import nearest_point, point_at, time_series_speeds
 
 logger = logging.getLogger(__name__)
 
+# time_series_speeds, nearest_point and point_at live in study.points (re-exported)
 __all__ = ["write_partial", "export", "time_series_speeds", "nearest_point", "point_at"]
 
 
@@ -23,10 +27,8 @@ def _extra(result):
 
     def extra(f) -> None:
         if result.rom is not None:
-            from study import fe_stages
             fe_stages.write_rom_group(f, result)
         if nvh is not None:
-            from study.nvh import write_nvh_group
             write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
     return extra
 
@@ -39,52 +41,12 @@ def write_partial(result, branch) -> None:
                   settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
 
 
-def time_series_speeds(result) -> list[float]:
-    """Speeds for time series: the scene's list, else per contact class the stable point
-    with the largest dynamic mesh load."""
-    s = result.scene.outputs.time_series
-    if s:
-        return list(s)
-    br = result.branch
-    out = []
-    for cls in (0, 1, 2):
-        idx = np.flatnonzero((br.contact == cls) & br.stable)
-        if idx.size:
-            out.append(float(br.rpm[idx[np.argmax(br.mesh_load_std[idx])]]))
-    return out
-
-
-def point_at(result, i: int):
-    """Point ``i`` of the branch as an :class:`hbm.Point`."""
-    from hbm import Point
-
-    br = result.branch
-    return Point(rpm=float(br.rpm[i]), omega=float(br.omega[i]), unknowns=br.unknowns[i],
-                 coefficients=br.coefficients[i], residual=float(br.residual[i]),
-                 iterations=int(br.newton_iterations[i]))
-
-
-def nearest_point(result, rpm: float):
-    """The stored point closest in speed (stable ones preferred) as an :class:`hbm.Point`."""
-    from hbm import Point
-
-    br = result.branch
-    d = np.abs(br.rpm - rpm) + np.where(br.stable, 0.0, 1e9)
-    i = int(np.argmin(d))
-    return i, Point(rpm=float(br.rpm[i]), omega=float(br.omega[i]), unknowns=br.unknowns[i],
-                    coefficients=br.coefficients[i], residual=float(br.residual[i]),
-                    iterations=int(br.newton_iterations[i]))
-
-
 def export(result, figures: bool = True, housing: bool = True) -> None:
     """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
     fields, plots and report.md the scene asks for (``housing=False``: no housing
     fields, e.g. for an incomplete curve).
 
     Under mpirun (:mod:`study.parallel`) rank 0 writes every file."""
-    from study.nvh import compute_nvh, write_curves_csv
-    from study.parallel import world
-
     comm = world()
     result.nvh = compute_nvh(result)
     comm.root_call(write_partial, result, result.branch)
@@ -92,7 +54,6 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
                    result.nvh)
     if housing and result.rom is not None and result.scene.outputs.housing_field:
-        from study import fe_stages
         fields = fe_stages.housing_fields(result)
         result.figures += fields
         if figures and "housing" in result.scene.outputs.plots:

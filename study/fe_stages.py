@@ -1,161 +1,38 @@
 """FE stages of the pipeline (``scene.kind = "fe"``): mesh, FE model, ROM, the HBM
-problem on the ROM, the ``rom/`` group of results.h5, housing fields and ROM plots.
+problem on the ROM, the ``rom/`` group of results.h5 and housing fields (the ROM plots
+are :func:`study.plots.rom_plots`).
 
 Everything that needs gmsh, dolfinx, petsc4py or slepc4py is imported inside the
 functions, so that importing this module (or running a lumped scene) loads none of
-them. Scene values reach the FE packages as their parameter dataclasses
-(:class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
-:class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`,
-:class:`fem.GearParams`), built by :func:`fe_parameters`.
-
-FE-section keys are the dataclass field names in SI units, or the field name with a
-unit suffix (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``, ``radial_N_per_um = 100``).
+them. Scene values reach the FE packages as their parameter dataclasses, built by
+:func:`study.fe_params.fe_parameters`.
 """
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import json
 import logging
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from study import acoustics, fields
+from study.errors import SceneError
+from study.fe_params import FEParams, fe_parameters
+from study.model import build_problem
+from study.parallel import world
+from study.points import nearest_point
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["FEParams", "fe_parameters", "mesh_stage", "fe_stage", "rom_stage", "rom_problem",
-           "write_rom_group", "rom_plots", "housing_fields", "NODE_NAMES"]
-
-_SUFFIX = {"mm": 1e-3, "um": 1e-6, "GPa": 1e9, "MPa": 1e6, "deg": math.pi / 180,
-           "N_per_um": 1e6}
+           "write_rom_group", "housing_fields", "NODE_NAMES"]
 
 #: Named FE nodes whose basis rows are kept with the ROM (loads act there).
 NODE_NAMES = tuple(f"{s}/station_{k}" for s in ("in", "out") for k in range(1, 7)) + \
     ("in/coupling", "out/coupling", "in/gear", "out/gear")
-
-
-@dataclass(frozen=True)
-class FEParams:
-    """Parameter dataclasses of the FE packages for one scene."""
-
-    pump: Any
-    mesh: Any
-    materials: Any
-    bearings: Any
-    drive: Any
-    gears: Any
-
-
-class _Err(ValueError):
-    pass
-
-
-def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | None = None,
-             skip: tuple[str, ...] = ()) -> dict:
-    """Scene table -> keyword arguments of ``cls`` (unit suffixes converted)."""
-    from study.scene import SceneError
-
-    names = [f.name for f in dataclasses.fields(cls)]
-    defaults = {f.name: f.default for f in dataclasses.fields(cls)
-                if f.default is not dataclasses.MISSING}
-    nested = nested or {}
-    out: dict[str, Any] = {}
-    for key, val in table.items():
-        if key in skip:
-            continue
-        if key in nested:
-            if not isinstance(val, dict):
-                raise SceneError(f"{section}.{key} = {val!r}: must be a table "
-                                 f"([{section}.{key}])")
-            out[key] = nested[key](**_convert(f"{section}.{key}", val, nested[key]))
-            continue
-        field, factor = key, 1.0
-        if key not in names:
-            for suf, f in sorted(_SUFFIX.items(), key=lambda kv: -len(kv[0])):
-                if key.endswith("_" + suf) and key[: -len(suf) - 1] in names:
-                    field, factor = key[: -len(suf) - 1], f
-                    break
-        if field not in names:
-            allowed = [n for n in names if n not in skip] + list(nested)
-            m = difflib.get_close_matches(key, allowed, n=1, cutoff=0.5)
-            hint = f" (did you mean {m[0]!r}?)" if m else ""
-            raise SceneError(f"{section}.{key}: unknown key{hint}; allowed: "
-                             f"{', '.join(allowed)} (SI, or with a unit suffix "
-                             f"{', '.join('_' + s for s in _SUFFIX)})")
-        if isinstance(val, bool) or not isinstance(val, (int, float, str, list)):
-            raise SceneError(f"{section}.{key} = {val!r}: must be a number, string or list")
-        if factor != 1.0:
-            if isinstance(val, list):
-                if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val):
-                    raise SceneError(f"{section}.{key} = {val!r}: must be numbers")
-                val = tuple(v * factor for v in val)
-            elif isinstance(val, (int, float)):
-                val = val * factor
-            else:
-                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
-        elif isinstance(val, list):
-            val = tuple(val)
-        if isinstance(val, float) and not math.isfinite(val):
-            raise SceneError(f"{section}.{key} = {val!r}: must be finite")
-        default = defaults.get(field)
-        if isinstance(default, (int, float)) and not isinstance(default, bool):
-            if isinstance(val, bool) or not isinstance(val, (int, float)):
-                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
-            if isinstance(default, int) and not isinstance(default, bool) and \
-                    not (isinstance(val, int) or float(val).is_integer()):
-                raise SceneError(f"{section}.{key} = {val!r}: must be an integer")
-            val = type(default)(val) if isinstance(default, int) else float(val)
-        elif isinstance(default, str) and not isinstance(val, str):
-            raise SceneError(f"{section}.{key} = {val!r}: must be a string")
-        out[field] = val
-    return out
-
-
-def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
-    """Build and validate the FE parameter dataclasses (raises SceneError).
-
-    ``[geometry]`` holds :class:`geometry.PumpParams` fields with nested tables
-    ``[geometry.housing]``, ``[geometry.shaft_in]``, ``[geometry.shaft_out]``;
-    the centre distance, gear tip radius and gear width default to the ``[gear]``
-    values. ``[mesh]`` holds ``preset`` (default ``"coarse"``) and
-    :class:`geometry.MeshOptions` overrides.
-    """
-    import fem
-    import geometry
-    from study.scene import SceneError
-
-    try:
-        g = _convert("geometry", fe.get("geometry", {}), geometry.PumpParams,
-                     {"housing": geometry.HousingParams, "shaft_in": geometry.ShaftParams,
-                      "shaft_out": geometry.ShaftParams})
-        g.setdefault("centre_distance", gear.centre_distance)
-        g.setdefault("gear_tip_radius", gear.tip_radius)
-        g.setdefault("gear_width", gear.face_width)
-        pump = geometry.PumpParams(**g)
-        pump.validate()
-        m = dict(fe.get("mesh", {}))
-        name = m.pop("preset", "coarse")
-        if not isinstance(name, str):
-            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse', 'fine' "
-                             "or 'million')")
-        opts = geometry.preset(name, **_convert("mesh", m, geometry.MeshOptions))
-        opts.validate()
-        mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
-                                             fem.MaterialParams))
-        bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
-                                            fem.BearingParams))
-        drive = fem.DriveParams(**_convert("drive", fe.get("drive", {}), fem.DriveParams))
-        gears = fem.GearParams(base_radius_1=gear.base_radius, base_radius_2=gear.base_radius,
-                               pressure_angle=gear.pressure_angle, helix_angle=gear.helix_angle,
-                               face_width=gear.face_width, outer_radius=gear.tip_radius)
-    except SceneError:
-        raise
-    except (TypeError, ValueError) as exc:
-        raise SceneError(f"FE parameters: {exc}") from exc
-    return FEParams(pump, opts, mats, bear, drive, gears)
 
 
 # --------------------------------------------------------------------------- stages
@@ -163,7 +40,6 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
 def mesh_stage(scene, folder: Path) -> None:
     """Build and mesh the pump; write ``pump.msh`` and ``mesh.json`` (groups, centres)."""
     from geometry import build_pump, gmsh_session, write_msh
-    from study.scene import SceneError
 
     p = fe_parameters(scene.fe, scene.gear)
     with gmsh_session():
@@ -246,8 +122,6 @@ def _radiation(scene, model, folder: Path, mesh_dir: Path | None) -> None:
     one process: under mpirun rank 0 rebuilds a serial FE model from the cached mesh
     and reads the basis rows by key."""
     from mpi4py import MPI
-
-    from study import acoustics
 
     if model.comm.size != 1:
         if mesh_dir is None:
@@ -340,9 +214,7 @@ def _load_radiation(folder: Path) -> dict | None:
     """Datasets and attributes of the cached ``radiation.h5`` (None when absent)."""
     import h5py
 
-    from study.acoustics import RADIATION_FILE
-
-    p = folder / RADIATION_FILE
+    p = folder / acoustics.RADIATION_FILE
     if not p.exists():
         return None
     with h5py.File(p, "r") as f:
@@ -353,8 +225,6 @@ def _load_radiation(folder: Path) -> dict | None:
 
 def rom_problem(scene, rom_dir: Path):
     """(HBMProblem, RomData) of an FE scene from its cached ROM."""
-    from study.model import build_problem
-
     rd = load_rom_data(scene, rom_dir)
     const, om2 = rom_forcing(scene, rd.node_rows, rd.M.shape[0])
     return build_problem(scene, rd.M, rd.C, rd.K, rd.G, const, om2), rd
@@ -379,24 +249,6 @@ def write_rom_group(f, result) -> None:
         g[name] = val
     g.attrs["km_mean"] = rd.km_mean
     g.attrs["xi_run"] = result.scene.damping.modal_ratio
-
-
-def rom_plots(result, want: set) -> list[Path]:
-    """Campbell diagram (Fig. 8) and ROM frequency error (Fig. 9)."""
-    from study import plots
-
-    rd, out, sc = result.rom, Path(result.out), result.scene
-    paths = []
-    if "campbell" in want:
-        paths.append(plots.campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
-                                         sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
-                                         out / "campbell.png",
-                                         external_orders=sc.external.orders))
-    if "rom_error" in want and rd.validation is not None:
-        paths.append(plots.rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
-                                          out / "rom_error.png",
-                                          rd.validation.relative_error))
-    return paths
 
 
 def _dense_basis(folder: Path, model) -> np.ndarray:
@@ -425,16 +277,12 @@ def housing_fields(result) -> list[Path]:
 
     Under mpirun rank 0 writes them from a serial FE model (the files are small), so
     they are the same whatever the number of ranks."""
-    from study.parallel import world
 
     return world().root_call(_housing_fields_serial, result)
 
 
 def _housing_fields_serial(result) -> list[Path]:
     from mpi4py import MPI
-
-    from study import acoustics, fields
-    from study.export import nearest_point
 
     sc = result.scene
     rd = result.rom

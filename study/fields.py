@@ -33,6 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
+from study.acoustics import node_blocks
+from study.errors import SceneError
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["field_orders", "frames_per_mesh_period", "check_outputs", "HousingMesh",
@@ -79,7 +82,6 @@ def frames_per_mesh_period(scene, harmonics) -> int:
 def check_outputs(scene, harmonics, rom=None) -> None:
     """Refuse field orders outside the harmonic set, aliasing frame rates and
     accelerometers away from the housing's outer surface (SceneError)."""
-    from study.scene import SceneError
 
     if scene.scene.kind != "fe":
         return
@@ -108,7 +110,6 @@ def accelerometer_rows(accels, rad: dict) -> tuple[np.ndarray, np.ndarray, np.nd
     position (facet centre) and its unit direction; SceneError when a position lies
     farther than ``SNAP_DISTANCE`` plus the facet's radius from the nearest outer facet
     centre (i.e. clearly off the surface)."""
-    from study.scene import SceneError
 
     cen, nrm, urows = rad["facet_centroid"], rad["facet_normal"], rad["facet_u_rows"]
     rows, pos, dirs = [], [], []
@@ -160,7 +161,6 @@ class HousingMesh:
 
 def housing_mesh(model, PT: np.ndarray, part: str = "housing") -> HousingMesh:
     """:class:`HousingMesh` of ``part`` from a serial FE model and ``P T`` (n_fe × n_r)."""
-    from study.acoustics import node_blocks
 
     fm = model.fe_mesh
     mesh = fm.mesh

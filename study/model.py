@@ -10,6 +10,7 @@ import logging
 
 import numpy as np
 
+from study.lumped import sdof_forcing, sdof_matrices
 from study.scene import Scene
 
 logger = logging.getLogger(__name__)
@@ -60,7 +61,6 @@ def build_problem(scene: Scene, M, C, K, G, constant: dict, omega_squared: dict 
 
 def lumped_problem(scene: Scene):
     """HBM problem of a lumped (single-DOF) scene."""
-    from study.lumped import sdof_forcing, sdof_matrices
 
     M, C, K, G = sdof_matrices(scene)
     return build_problem(scene, M, C, K, G, sdof_forcing(scene))

@@ -13,14 +13,15 @@ from __future__ import annotations
 import csv
 import io
 import logging
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.acoustics import P_REF, erp_harmonics, power_db
+from study.fields import V_REF, accelerometer_rows, velocity_level_db
+from study.points import point_at
 
 logger = logging.getLogger(__name__)
 
@@ -82,7 +83,6 @@ class NVH:
 def compute_nvh(result) -> NVH:
     """NVH quantities at every point of ``result.branch``."""
     from hbm import time_series
-    from study.export import point_at
 
     pb, br = result.problem, result.branch
     hs = pb.harmonics
@@ -95,7 +95,6 @@ def compute_nvh(result) -> NVH:
     erp = np.zeros((n, idx.size)) if rad is not None else None
     accels = result.scene.outputs.accelerometers if rad is not None else ()
     if accels:
-        from study.fields import accelerometer_rows
         arows, apos, adir = accelerometer_rows(accels, rad)
         avel = np.zeros((len(accels), n, idx.size), dtype=complex)
     for i in range(n):
@@ -149,7 +148,6 @@ def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
     if nvh.accel_velocity is not None:
         import h5py
 
-        from study.fields import V_REF, velocity_level_db
 
         a = g.create_group("accelerometers")
         a["names"] = np.array(nvh.accel_names, dtype=h5py.string_dtype())
@@ -184,10 +182,7 @@ def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
                     "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
                     int(bool(branch.stable[i]))])
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+    with atomic_write(path, "w") as fh:
         fh.write(buf.getvalue())
-    from study.results import replace_file
-    replace_file(tmp, path)
     logger.info("wrote %s", path)
     return path

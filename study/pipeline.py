@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
 from study.parallel import mark_collective, world
 from study.scene import Scene, SceneError, StageUnavailable
@@ -211,21 +211,11 @@ class Pipeline:
     def _publish(self, src: Path, name: str) -> Path:
         """Copy a cached file to ``<out>/name`` atomically (rank 0 writes)."""
         import shutil
-        import tempfile
-
-        from study.results import replace_file
 
         def copy() -> Path:
             target = self.out / name
-            stem, _, ext = name.partition(".")
-            fd, tmp = tempfile.mkstemp(dir=self.out, prefix=f".{stem}.", suffix=f".{ext}.tmp")
-            os.close(fd)
-            try:
+            with atomic_write(target) as tmp:
                 shutil.copyfile(src, tmp)
-                replace_file(tmp, target)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
             return target
         return self.comm.root_call(copy)
 

@@ -15,28 +15,27 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from geometry.files import atomic_write
+from study.fields import V_REF, velocity_level_db
+from study.points import nearest_point, time_series_speeds
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
-           "campbell_plot", "campbell_modes", "rom_error_plot", "draw_all", "contact_intervals",
-           "grazing_values", "order_label", "spectrum_lines", "order_map_plot", "erp_plot",
-           "accelerometer_plot"]
+           "campbell_plot", "campbell_modes", "rom_error_plot", "rom_plots", "draw_all",
+           "contact_intervals", "grazing_values", "order_label", "spectrum_lines",
+           "order_map_plot", "erp_plot", "accelerometer_plot"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
 
 
 def _save(fig, path: Path) -> Path:
-    import os
-    import tempfile
-
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    plt.close(fig)
-    from study.results import replace_file
-    replace_file(tmp, path)
+    try:
+        with atomic_write(path) as tmp:
+            fig.savefig(tmp, dpi=130, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     logger.info("wrote %s", path)
     return path
 
@@ -466,7 +465,6 @@ def accelerometer_plot(branch, names, velocity: np.ndarray, orders: np.ndarray, 
                        path: Path, title: str = "") -> Path:
     """Virtual accelerometers: velocity level (dB re 1 nm/s, rms over all orders) against
     speed, and the velocity spectrum per order at each accelerometer's loudest point."""
-    from study.fields import V_REF, velocity_level_db
 
     lv = velocity_level_db(velocity)                               # (n_acc, n)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw={"width_ratios": [1.2, 1]})
@@ -515,10 +513,22 @@ def rom_error_plot(full_hz: np.ndarray, rom_hz: np.ndarray, path: Path,
     return _save(fig, path)
 
 
+def rom_plots(result, want: set) -> list[Path]:
+    """Campbell diagram (Fig. 8) and ROM frequency error (Fig. 9)."""
+    rd, out, sc = result.rom, Path(result.out), result.scene
+    paths = []
+    if "campbell" in want:
+        paths.append(campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
+                                  sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
+                                  out / "campbell.png", external_orders=sc.external.orders))
+    if "rom_error" in want and rd.validation is not None:
+        paths.append(rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
+                                    out / "rom_error.png", rd.validation.relative_error))
+    return paths
+
+
 def draw_all(result) -> list[Path]:
     """All plots the scene's ``[outputs] plots`` asks for; returns the PNG paths."""
-    from study.export import nearest_point, time_series_speeds
-
     want = set(result.scene.outputs.plots)
     out = Path(result.out)
     br, pb = result.branch, result.problem
@@ -558,6 +568,5 @@ def draw_all(result) -> list[Path]:
                                         out / "accelerometers.png",
                                         f"{name}: virtual accelerometers"))
     if result.rom is not None:
-        from study import fe_stages
-        paths += fe_stages.rom_plots(result, want)
+        paths += rom_plots(result, want)
     return paths

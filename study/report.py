@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from hbm.stability import KINDS
-from study.plots import contact_intervals
+from study.fields import velocity_level_db
+from study.plots import contact_intervals, order_label
 
 __all__ = ["summary", "write_report"]
 
@@ -92,7 +93,6 @@ def write_report(result) -> Path:
         lines.append(f"- {_CLASS[c]}: {txt}")
     nvh = getattr(result, "nvh", None)
     if nvh is not None and nvh.erp is not None and len(result.branch):
-        from study.plots import order_label
 
         br = result.branch
         tot = nvh.erp_total_db
@@ -105,7 +105,6 @@ def write_report(result) -> Path:
                   f"{order_label(nvh.orders[j], sc.gear.teeth)} ({nvh.erp_db[i, j]:.1f} dB)",
                   "- curves per point: `curves.csv`; per order: `/nvh` in results.h5"]
         if nvh.accel_velocity is not None:
-            from study.fields import velocity_level_db
             lv = velocity_level_db(nvh.accel_velocity)
             lines += [f"- accelerometer `{n}`: velocity level up to {lv[a].max():.1f} dB re "
                       f"1 nm/s (at {br.rpm[int(np.argmax(lv[a]))]:.1f} rpm)"
@@ -121,9 +120,6 @@ def write_report(result) -> Path:
         else:
             lines += [f"- [{p.name}]({os.path.relpath(p, out)})"]
     path = out / "report.md"
-    fd, tmp = tempfile.mkstemp(prefix=".report.", suffix=".md", dir=out)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
+    with atomic_write(path, "w") as f:
         f.write("\n".join(lines) + "\n")
-    from study.results import replace_file
-    replace_file(tmp, path)
     return path

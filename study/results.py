@@ -7,28 +7,27 @@ coefficients, backlash, static load, teeth), ``/system`` (lumped M, C, K, G) or
 ``/excitation`` (orders/harmonics and forces), ``/continuation`` (every point),
 ``/grazing`` and ``/folds``.
 
-Every write goes to a temporary file in the destination folder, then
-``os.replace`` — a reader (or a killed run) never sees a half-written file. During
-the continuation the whole file is rewritten every ``checkpoint_every`` points with
-``continuation.attrs["status"] = "running"``; ``--resume`` rebuilds the
-:class:`hbm.Branch` from it and continues from the last saved point.
+Every write goes to a temporary file in the destination folder, then ``os.replace``
+(:func:`geometry.files.atomic_write`) — a reader (or a killed run) never sees a
+half-written file. During the continuation the whole file is rewritten every
+``checkpoint_every`` points with ``continuation.attrs["status"] = "running"``;
+``--resume`` rebuilds the :class:`hbm.Branch` from it and continues from the last saved point.
 """
 from __future__ import annotations
 
 import logging
-import os
 import platform
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from geometry.files import atomic_write
+
 logger = logging.getLogger(__name__)
 
-__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "Checkpointer", "atomic_h5",
-           "versions", "replace_file"]
+__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "Checkpointer", "versions"]
 
 #: Version of the results.h5 layout (attribute ``/format_version``).
 FORMAT_VERSION = 1
@@ -66,37 +65,6 @@ def versions() -> dict[str, str]:
 
     return {"geardyn": __version__, "python": platform.python_version(),
             "numpy": np.__version__, "scipy": scipy.__version__, "h5py": h5py.__version__}
-
-
-def replace_file(tmp: str | Path, path: str | Path) -> None:
-    """Give ``tmp`` the usual permissions (0666 & ~umask) and rename it onto ``path``."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
-
-
-class atomic_h5:
-    """Context manager: an ``h5py.File`` on a temp name, renamed onto ``path`` on success."""
-
-    def __init__(self, path: str | Path) -> None:
-        self.path = Path(path)
-
-    def __enter__(self) -> h5py.File:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
-                                   dir=self.path.parent)
-        os.close(fd)
-        self.tmp = tmp
-        self.f = h5py.File(tmp, "w")
-        return self.f
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        self.f.close()
-        if exc_type is None:
-            replace_file(self.tmp, self.path)
-        else:
-            Path(self.tmp).unlink(missing_ok=True)
 
 
 def _complex_pairs(d: dict[int, complex]) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +163,7 @@ def write_results(path: str | Path, scene, problem, branch, *, settings: dict | 
                   extra: Callable[[h5py.File], None] | None = None,
                   stage_keys: dict[str, str] | None = None) -> None:
     """Write a complete ``results.h5`` atomically."""
-    with atomic_h5(path) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, "w") as f:
         write_static(f, scene, problem, extra, stage_keys)
         write_branch(f, branch, settings)
 

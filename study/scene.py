@@ -25,6 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from study.errors import SceneError, StageUnavailable
+from study.fe_params import fe_parameters
+from study.units import TO_SI
+
 __all__ = [
     "SceneError", "Scene", "SceneInfo", "GearData", "MeshStiffness", "TransmissionError",
     "LoadData", "AeroLoad", "Unbalance", "ExternalData", "DampingData", "LumpedData",
@@ -35,21 +39,7 @@ __all__ = [
 ]
 
 
-class SceneError(ValueError):
-    """Invalid scene: the message names the field, its value and what is allowed."""
-
-
-class StageUnavailable(RuntimeError):
-    """A stage cannot run here (missing FE package); ``geardyn`` exit code 4."""
-
-
 # --------------------------------------------------------------------------- schema
-
-_UNIT = {  # suffix -> factor to SI
-    "mm": 1e-3, "um": 1e-6, "deg": math.pi / 180.0, "rpm": 1.0, "Nm": 1.0, "N": 1.0,
-    "GPa": 1e9, "MPa": 1e6, "N_per_um": 1e6, "N_per_m": 1.0, "kgm": 1.0, "kg": 1.0,
-    "kgm2": 1.0, "kg_per_m3": 1.0, "Hz": 1.0, "m_per_s": 1.0, "": 1.0,
-}
 
 
 @dataclass(frozen=True)
@@ -241,7 +231,7 @@ _TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "
 
 def _attr(key: str) -> str:
     """File key -> attribute name (unit suffix dropped)."""
-    for suf in sorted(_UNIT, key=len, reverse=True):
+    for suf in sorted(TO_SI, key=len, reverse=True):
         if suf and key.endswith("_" + suf):
             return key[: -len(suf) - 1]
     return key
@@ -531,7 +521,7 @@ def _check_number(where: str, v: Any, spec: Spec) -> float | int:
 def _check_value(where: str, v: Any, spec: Spec) -> Any:
     """Type/range check one value; returns it converted to SI."""
     k = spec.kind
-    factor = _UNIT[spec.unit]
+    factor = TO_SI[spec.unit]
     if k in ("float", "int"):
         n = _check_number(where, v, spec)
         return n if k == "int" else float(n) * factor
@@ -900,8 +890,7 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
             raise SceneError(f"[{s}] = {_fmt(t)}: must be a table")
         fe[s] = copy.deepcopy(t)
     if info.kind == "fe":
-        from study.fe_stages import fe_parameters  # FE imports only for FE scenes
-        try:
+        try:  # geometry and fem are imported only here, for FE scenes
             fe_parameters(fe, gear)
         except ImportError as exc:
             raise StageUnavailable(f"scene.kind = 'fe' needs geometry/fem (gmsh, DOLFINx): "

@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 import logging
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.plots import contact_intervals, forced_response_overlay
 
 logger = logging.getLogger(__name__)
@@ -48,12 +47,9 @@ def write_variants(out: Path, results: list) -> tuple[Path, Path]:
     text = "# Parameter study\n\n" + variants_table(results) + \
         "\n\nSS: single-sided impacts, DS: double-sided impacts.\n\n" \
         "![variants](variants_forced_response.png)\n"
-    fd, tmp = tempfile.mkstemp(prefix=".variants.", suffix=".md", dir=out)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
-        f.write(text)
-    from study.results import replace_file
     md = out / "variants.md"
-    replace_file(tmp, md)
+    with atomic_write(md, "w") as f:
+        f.write(text)
     logger.info("wrote %s and %s", png, md)
     return png, md
 

@@ -9,12 +9,12 @@ order (``Tetrahedron_10``: vertices, then edges 01, 12, 02, 03, 13, 23;
 """
 from __future__ import annotations
 
-import shutil
-import tempfile
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from geometry.files import atomic_write
 
 __all__ = ["write_xdmf", "TOPOLOGY"]
 
@@ -70,54 +70,48 @@ def write_xdmf(path: str | Path, points: np.ndarray, cell_type: str, cells: np.n
         raise ValueError("cells: node index out of range")
     point_data, cell_data = point_data or {}, cell_data or {}
     h5name = path.with_suffix(".h5").name
-    tmpdir = Path(tempfile.mkdtemp(prefix=f".{path.stem}.", dir=path.parent))
-    try:
-        grids = []
-        with h5py.File(tmpdir / h5name, "w") as f:
-            f["mesh/geometry"] = points
-            f["mesh/topology"] = cells
+    grids = []
+    with atomic_write(path.with_suffix(".h5")) as tmp, h5py.File(tmp, "w") as f:
+        f["mesh/geometry"] = points
+        f["mesh/topology"] = cells
 
-            def attrs(prefix: str, pdata: dict, cdata: dict) -> list[str]:
-                out = []
-                for center, data in (("Node", pdata), ("Cell", cdata)):
-                    for name, arr in data.items():
-                        arr = np.asarray(arr)
-                        n = len(points) if center == "Node" else len(cells)
-                        if arr.shape[0] != n:
-                            raise ValueError(f"{center.lower()} data {name!r}: "
-                                             f"{arr.shape[0]} rows, expected {n}")
-                        key = f"{prefix}/{center.lower()}/{name}"
-                        if key not in f:
-                            f[key] = arr
-                        out.append(f'<Attribute Name="{name}" AttributeType="{_attr_type(arr)}" '
-                                   f'Center="{center}">{_item(h5name, "/" + key, arr)}'
-                                   "</Attribute>")
-                return out
+        def attrs(prefix: str, pdata: dict, cdata: dict) -> list[str]:
+            out = []
+            for center, data in (("Node", pdata), ("Cell", cdata)):
+                for name, arr in data.items():
+                    arr = np.asarray(arr)
+                    n = len(points) if center == "Node" else len(cells)
+                    if arr.shape[0] != n:
+                        raise ValueError(f"{center.lower()} data {name!r}: "
+                                         f"{arr.shape[0]} rows, expected {n}")
+                    key = f"{prefix}/{center.lower()}/{name}"
+                    if key not in f:
+                        f[key] = arr
+                    out.append(f'<Attribute Name="{name}" AttributeType="{_attr_type(arr)}" '
+                               f'Center="{center}">{_item(h5name, "/" + key, arr)}'
+                               "</Attribute>")
+            return out
 
-            mesh_xml = (f'<Topology TopologyType="{topo}" NumberOfElements="{len(cells)}">'
-                        f'{_item(h5name, "/mesh/topology", cells)}</Topology>'
-                        f'<Geometry GeometryType="XYZ">'
-                        f'{_item(h5name, "/mesh/geometry", points)}</Geometry>')
-            static = attrs("static", point_data, cell_data)
-            if frames is None:
-                grids.append(f'<Grid Name="mesh" GridType="Uniform">{mesh_xml}'
-                             + "".join(static) + "</Grid>")
-            else:
-                inner = []
-                for i, (t, data) in enumerate(frames):
-                    a = attrs(f"frame_{i}", data, {})
-                    inner.append(f'<Grid Name="mesh" GridType="Uniform">{mesh_xml}'
-                                 f'<Time Value="{float(t)!r}"/>' + "".join(static + a)
-                                 + "</Grid>")
-                grids.append('<Grid Name="TimeSeries" GridType="Collection" '
-                             'CollectionType="Temporal">' + "\n".join(inner) + "</Grid>")
-        text = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
-                'xmlns:xi="http://www.w3.org/2001/XInclude">\n<Domain>\n'
-                + "\n".join(grids) + "\n</Domain>\n</Xdmf>\n")
-        (tmpdir / path.name).write_text(text)
-        from study.results import replace_file
-        replace_file(tmpdir / h5name, path.with_suffix(".h5"))
-        replace_file(tmpdir / path.name, path)
-    finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
+        mesh_xml = (f'<Topology TopologyType="{topo}" NumberOfElements="{len(cells)}">'
+                    f'{_item(h5name, "/mesh/topology", cells)}</Topology>'
+                    f'<Geometry GeometryType="XYZ">'
+                    f'{_item(h5name, "/mesh/geometry", points)}</Geometry>')
+        static = attrs("static", point_data, cell_data)
+        if frames is None:
+            grids.append(f'<Grid Name="mesh" GridType="Uniform">{mesh_xml}'
+                         + "".join(static) + "</Grid>")
+        else:
+            inner = []
+            for i, (t, data) in enumerate(frames):
+                a = attrs(f"frame_{i}", data, {})
+                inner.append(f'<Grid Name="mesh" GridType="Uniform">{mesh_xml}'
+                             f'<Time Value="{float(t)!r}"/>' + "".join(static + a)
+                             + "</Grid>")
+            grids.append('<Grid Name="TimeSeries" GridType="Collection" '
+                         'CollectionType="Temporal">' + "\n".join(inner) + "</Grid>")
+    text = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
+            'xmlns:xi="http://www.w3.org/2001/XInclude">\n<Domain>\n'
+            + "\n".join(grids) + "\n</Domain>\n</Xdmf>\n")
+    with atomic_write(path, "w") as fx:  # after the .h5 it points into
+        fx.write(text)
     return path

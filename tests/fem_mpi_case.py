@@ -4,7 +4,6 @@ every fem feature and writes its frequencies and a reconstruction norm as JSON."
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -20,6 +19,7 @@ def main(out: str) -> None:
     from mpi4py import MPI
 
     import fem
+    from geometry.files import atomic_write
 
     comm = MPI.COMM_WORLD
     with fs.gmsh_session() as model:
@@ -44,9 +44,8 @@ def main(out: str) -> None:
            "kq": float(kq.norm()), "n_red": int(m.n_red),
            "gear_node": [int(i) for i in m.node_dofs["b"]]}  # fmt: skip
     if comm.rank == 0:
-        tmp = out + ".tmp"
-        Path(tmp).write_text(json.dumps(res))
-        os.replace(tmp, out)
+        with atomic_write(out, "w") as fh:
+            fh.write(json.dumps(res))
     np.testing.assert_array_less(0, f)
 
 

@@ -50,6 +50,102 @@ def test_dependencies_point_one_way(package: str) -> None:
         assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
 
 
+def _module_name(root: Path, package: str, path: Path) -> str:
+    rel = path.relative_to(root / package).with_suffix("")
+    parts = [package, *rel.parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def module_graph(root: Path, package: str) -> dict[str, dict[str, int]]:
+    """Imports between the modules of ``package``: module -> {imported module: line}.
+
+    Every import counts, function-local ones included (``ast.walk``). The package's
+    ``__init__`` is left out: it is the facade that re-exports the modules, and
+    ``from package import __version__`` is no layering edge.
+    """
+    files = {_module_name(root, package, p): p for p in sorted((root / package).rglob("*.py"))}
+    modules = {m for m, p in files.items() if p.name != "__init__.py"}
+    graph: dict[str, dict[str, int]] = {}
+    for name in sorted(modules):
+        path = files[name]
+        here = name.rsplit(".", 1)[0]       # the (sub)package holding the module
+        edges: dict[str, int] = {}
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = here.split(".")
+                    base = base[: len(base) - node.level + 1]
+                    stem = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    stem = node.module or ""
+                targets = [stem] + [f"{stem}.{a.name}" for a in node.names]
+            else:
+                continue
+            for target in targets:
+                parts = target.split(".")  # the longest prefix that is a module
+                for n in range(len(parts), 1, -1):
+                    mod = ".".join(parts[:n])
+                    if mod in modules:
+                        if mod != name:
+                            edges.setdefault(mod, node.lineno)
+                        break
+        graph[name] = edges
+    return graph
+
+
+def find_cycle(graph: dict[str, dict[str, int]]) -> list[str] | None:
+    """One import cycle ``[a, b, ..., a]`` of ``graph`` (depth-first search), or None."""
+    state: dict[str, int] = {}      # 1 on the current path, 2 done
+    path: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        path.append(m)
+        for n in sorted(graph.get(m, {})):
+            if state.get(n) == 1:
+                return path[path.index(n):] + [n]
+            if n not in state:
+                found = visit(n)
+                if found:
+                    return found
+        path.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            found = visit(m)
+            if found:
+                return found
+    return None
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_import_cycle_between_modules_of_a_package(package: str) -> None:
+    graph = module_graph(ROOT, package)
+    cycle = find_cycle(graph)
+    if cycle:
+        steps = [f"{a} (line {graph[a][b]}) -> {b}"
+                 for a, b in zip(cycle[:-1], cycle[1:], strict=True)]
+        pytest.fail(f"import cycle in {package}/: " + "; ".join(steps))
+
+
+def test_cycle_finder_sees_function_local_and_relative_imports(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from pkg.a import f\n")
+    (pkg / "a.py").write_text("from .b import g\n\ndef f():\n    return g()\n")
+    (pkg / "b.py").write_text("def g():\n    from pkg import c\n    return c.h()\n")
+    (pkg / "c.py").write_text("import os\n\ndef h():\n    import pkg.a\n    return pkg.a\n")
+    graph = module_graph(tmp_path, "pkg")
+    assert graph == {"pkg.a": {"pkg.b": 1}, "pkg.b": {"pkg.c": 2}, "pkg.c": {"pkg.a": 4}}
+    assert find_cycle(graph) == ["pkg.a", "pkg.b", "pkg.c", "pkg.a"]
+    (pkg / "c.py").write_text("def h():\n    from pkg import __version__\n")
+    assert find_cycle(module_graph(tmp_path, "pkg")) is None
+
+
 def test_pyproject_declares_packages_and_entry_point() -> None:
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     include = meta["tool"]["setuptools"]["packages"]["find"]["include"]

@@ -165,6 +165,30 @@ def main(argv: list[str] | None = None) -> dict:
                "unresolved": int(np.sum(~consistent)),
                "kinds": {k: int(np.sum(kinds == j)) for j, k in enumerate(KINDS)},
                "checks": checks}
+    payload["command"] = ".venv/bin/python -m benchmarks.bench_stability --periods " \
+        f"{args.periods}"
+    payload["summary"] = (
+        f"Coarse pump, shipped harmonic set, {len(br)} points: Newton "
+        f"{payload['newton_ms_per_point']:.1f} ms/point, stability (T.10, every mode) "
+        f"{payload['stability_ms_per_point']:.0f} ms/point "
+        f"({payload['stability_over_newton']:.1f}x), the former mode-truncated Hill "
+        f"{payload['truncated_hill_ms_per_point']:.0f} ms/point; {payload['unresolved']} points "
+        "between folds of the HBM branch where the variational equation finds the orbit "
+        "stable (harmonic set not converged). Averages over the curve, one run.")
+    payload["tables"] = [
+        {"title": "cost per point (average over the curve)",
+         "columns": ["Newton ms", "stability ms", "ratio", "truncated Hill ms",
+                     "curve without stability s", "stability of the curve s"],
+         "rows": [[payload["newton_ms_per_point"], payload["stability_ms_per_point"],
+                   payload["stability_over_newton"], payload["truncated_hill_ms_per_point"],
+                   payload["curve_newton_s"], payload["curve_stability_s"]]]},
+        {"title": "largest real part (1/s): HBM orbit, time integration",
+         "columns": ["case", "rpm", "verdict", "T.9 parity", "consistent",
+                     "T.10 on HBM orbit", "decay seen in time", "T.10 on settled orbit",
+                     "orbit difference"],
+         "rows": [[c["case"], c["rpm"], c["kind"], c["fold_parity"], c["consistent"],
+                   c["variational_max_real"], c["time_integration_rate"],
+                   c["ti_orbit_max_real"], c["ti_orbit_vs_hbm_orbit"]] for c in checks]}]
     write_json("stability", payload)
     return payload
 

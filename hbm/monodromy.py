@@ -40,7 +40,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from numpy.lib.stride_tricks import sliding_window_view
 
 from .problem import HBMProblem, Point
 
@@ -111,71 +110,48 @@ def step_stiffness(problem: HBMProblem, gap: np.ndarray) -> np.ndarray:
 
 
 class _ModalPeriod:
-    """One period of the (T.10) splitting in the eq. (17) modes, in closed form.
-
-    Unrolled, the splitting (half step, then per step a kick ``v -= kappa_i g y_i``
-    with ``y_i = g^T q`` and a full step, the last one a half step) is
-
-        y_i + sum_{l<i} h_{i-l} kappa_l y_l = g^T E(t_i) x_0,    t_i = (i + 1/2) dt,
-        x_N = E(T) x_0 - sum_l kappa_l E((N - l - 1/2) dt) b y_l,
-
-    ``E(t)`` the exact modal propagator, ``b = (0, g)``, ``h_k = g^T E_qv(k dt) g``
-    the impulse response along the line of action: a unit lower-triangular Toeplitz
-    system for the samples ``y``, solved by blocks with matrix products (the same
-    numbers as stepping, without a Python loop over the steps).
-    """
-
-    block = 256
+    """One period of (T.10) in the eq. (17) modes: 2x2 exact blocks, kick along g."""
 
     def __init__(self, problem: HBMProblem, jbar: np.ndarray, period: float) -> None:
         keep = ~problem.rigid
-        g = problem.gj[keep]
+        self.g = problem.gj[keep]
         c, w2 = problem.cj[keep], problem.w2[keep]
-        n = jbar.size
-        dt = period / n
-        self.n, self.m, self.size = n, g.size, 2 * g.size
-        self.kappa = dt * jbar
-        ti = self._blocks(c, w2, ((np.arange(n) + 0.5) * dt)[:, None])
-        self.p = np.hstack([ti[0] * g, ti[1] * g])                      # (n, 2m)
-        self.h = self._blocks(c, w2, (np.arange(n) * dt)[:, None])[1] @ (g * g)
-        tl = self._blocks(c, w2, ((n - np.arange(n) - 0.5) * dt)[:, None])
-        self.q = np.vstack([(tl[1] * g).T, (tl[3] * g).T])             # (2m, n)
-        self.whole = [b[:, None] for b in self._blocks(c, w2, period)]
+        self.n = jbar.size
+        self.dt = period / self.n
+        self.kick = self.dt * jbar
+        self.full = self._blocks(c, w2, self.dt)
+        self.half = self._blocks(c, w2, 0.5 * self.dt)
+        self.size = 2 * self.g.size
 
     @staticmethod
-    def _blocks(c: np.ndarray, w2: np.ndarray, h) -> tuple[np.ndarray, ...]:
+    def _blocks(c: np.ndarray, w2: np.ndarray, h: float) -> tuple[np.ndarray, ...]:
         """exp(h [[0, 1], [-w2, -c]]) per mode as its four entries (exact, any damping)."""
         s = -0.5 * c
         d = np.sqrt(s * s - w2 + 0j)
-        safe = np.where(d != 0, d, 1.0)
-        sinc = np.where(d != 0, np.sinh(d * h) / safe, h)
+        sinc = np.where(d != 0, np.sinh(d * h) / np.where(d != 0, d, 1.0), h)
         ch, ex = np.cosh(d * h), np.exp(s * h)
         return ((ex * (ch - s * sinc)).real, (ex * sinc).real,
                 (ex * (-w2 * sinc)).real, (ex * (ch + s * sinc)).real)
 
-    def _samples(self, rhs: np.ndarray) -> np.ndarray:
-        """``kappa_l y_l`` from the Toeplitz system above, block by block."""
-        n, h, kappa = self.n, self.h, self.kappa
-        ky = np.empty_like(rhs)
-        for s in range(0, n, self.block):
-            e = min(s + self.block, n)
-            r = rhs[s:e]
-            if s:
-                # rows h[i - s + 1 .. i] (l = s - 1 .. 0), copied for BLAS
-                past = np.ascontiguousarray(sliding_window_view(h[1:e], s)[: e - s])
-                r = r - past @ ky[s - 1::-1]
-            idx = np.arange(e - s)
-            lower = np.tril(h[np.abs(idx[:, None] - idx[None, :])], -1) * kappa[s:e]
-            y = sla.solve_triangular(np.eye(e - s) + lower, r, lower=True,
-                                     unit_diagonal=True, check_finite=False)
-            ky[s:e] = kappa[s:e, None] * y
-        return ky
-
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        m, e = self.m, self.whole
-        ky = self._samples(self.p @ x)
-        out = np.vstack([e[0] * x[:m] + e[1] * x[m:], e[2] * x[:m] + e[3] * x[m:]])
-        return out - self.q @ ky                                          # (T.10)
+        m = self.g.size
+        full = [b[:, None] for b in self.full]
+        half = [b[:, None] for b in self.half]
+        q = half[0] * x[:m] + half[1] * x[m:]
+        v = half[2] * x[:m] + half[3] * x[m:]
+        qn, tmp = np.empty_like(q), np.empty_like(q)
+        kg = self.kick[:, None] * self.g[None, :]                   # (n, m)
+        g = self.g
+        last = self.n - 1
+        for i in range(self.n):
+            v -= np.multiply.outer(kg[i], g @ q, out=tmp)           # (T.10) mesh kick
+            e = full if i < last else half
+            np.multiply(e[0], q, out=qn)
+            qn += np.multiply(e[1], v, out=tmp)
+            v *= e[3]
+            v += np.multiply(e[2], q, out=tmp)
+            q, qn = qn, q
+        return np.vstack([q, v])
 
 
 class _DensePeriod:

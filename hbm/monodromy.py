@@ -265,7 +265,7 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     problem, point
         The HBM problem and a converged solution.
     n_steps
-        Time steps per period to start from (default: the AFT grid, at least 256).
+        Time steps per period to start from (default: the AFT grid, within 256-2048).
     columns
         Initial block size of the subspace iteration; the full monodromy is formed
         when ``2 m <= 2 * columns``.
@@ -286,7 +286,9 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     MonodromyResult
     """
     period = 2 * np.pi / problem.harmonics.fundamental_rad_s(point.omega)
-    n = 2 * int(np.ceil(int(n_steps or max(256, problem.harmonics.n_time)) / 2))
+    # the monodromy's resolution follows the dynamics, not the harmonic count: the
+    # AFT grid up to 2048 steps per period, refined below when the sign needs it
+    n = 2 * int(np.ceil(int(n_steps or min(max(256, problem.harmonics.n_time), 2048)) / 2))
     rng = np.random.default_rng(12345)
     size = 2 * (int(np.sum(~problem.rigid)) if problem.modal else problem.n_dof)
     cols = size if size <= 2 * columns else columns

@@ -171,6 +171,10 @@ def _effect_rows(inp: PaperInputs) -> list[str]:
                  f"{pa.rpm:.0f} rpm)"
     else:
         run_pk = "not computed" if si is None or sa is None else "no peak found"
+    if si is not None and sa is not None:
+        run_pk += f"; largest std of each curve {si.max_std:.1f} → {sa.max_std:.1f} N " \
+                  f"({_pct(sa.max_std, si.max_std)}; at {si.max_std_rpm:.0f} → " \
+                  f"{sa.max_std_rpm:.0f} rpm)"
     if si is not None and sa is not None and not (si.complete and sa.complete):
         run_sp = f"{si.span:.0f} → {sa.span:.0f} rpm (incomplete curve: not comparable)"
         run_pk += " (incomplete curve: not comparable)"

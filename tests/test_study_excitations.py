@@ -175,6 +175,11 @@ def test_changes_against_internal(run):
         assert float(rows[c]["span_change"]) == pytest.approx(span[c] / span["internal"] - 1)
         assert float(rows[c]["primary_peak_change"]) == pytest.approx(
             peak[c] / peak["internal"] - 1)
+        with h5py.File(out / c / "results.h5", "r") as f:
+            std = f["continuation/mesh_load_std"][()]
+            rpm = f["continuation/rpm"][()]
+        assert float(rows[c]["max_std_N"]) == pytest.approx(std.max())
+        assert float(rows[c]["max_std_rpm"]) == pytest.approx(rpm[np.argmax(std)])
     # the primary peak is the largest std of the internal-only curve
     with h5py.File(out / "internal" / "results.h5", "r") as f:
         std = f["continuation/mesh_load_std"][()]

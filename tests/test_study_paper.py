@@ -57,7 +57,7 @@ def test_peaks_are_the_local_maxima_refined():
     assert len(peaks) == 3
     for p, (r, y) in zip(peaks, _true_maxima(), strict=True):
         assert p.rpm == pytest.approx(r, abs=1.0)      # 20 rpm grid, parabola vertex
-        assert p.std == pytest.approx(y, rel=5e-4)
+        assert p.std == pytest.approx(y, abs=0.06)  # wiggle amplitude 0.05
     s = summarize_curve(RPM, _std(RPM), _contact(REGIONS), [1000.0], (600.0, 4000.0))
     assert [round(p.rpm, 6) for p in s.strongest(2)] == \
         sorted(round(p.rpm, 6) for p in s.peaks if p.rpm > 1200)
@@ -129,6 +129,8 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert "93 → 88 N (-5.4 %)" in pk
     top = _true_maxima()[2][1]
     assert f"{1.1 * top:.1f} → {top:.1f} N (-9.1 %" in pk
+    big = float(_std(RPM).max())
+    assert f"largest std of each curve {1.1 * big:.1f} → {big:.1f} N (-9.1 %" in pk
     span = next(ln for ln in md.splitlines() if ln.startswith("| vibro-impact span"))
     assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
     ipp = next(ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1700"))

@@ -11,6 +11,9 @@
     geardyn report SCENE --out DIR      # plots + report.md from DIR/results.h5
     geardyn convergence SCENE --out DIR [--knob harmonics=4,8,16] [--only n_cm]
                                         [--tol 1e-2]   # error against run time per knob
+    geardyn excitations SCENE --out DIR # the paper's three excitation cases (internal
+                                        # only, all but TVMS, all) into DIR/<case>/ on
+                                        # one ROM; comparison and paper.md in DIR
 
 ``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
 (:mod:`study.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
@@ -48,7 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Vibro-impact dynamics of geared machines: scene -> forced response.",
         epilog="Exit codes: 0 ok, 2 invalid input, 3 solver failure, 4 stage unavailable, "
                "5 file error, 130 interrupted.")
-    p.add_argument("command", choices=["run", "mesh", "reduce", "export", "report", "convergence"],
+    p.add_argument("command", choices=["run", "mesh", "reduce", "export", "report", "convergence",
+                                        "excitations"],
                    help="what to do")
     p.add_argument("scene", help="scene file (TOML, see docs/scenes.md)")
     p.add_argument("--out", required=True, help="output folder")
@@ -185,6 +189,21 @@ def _report(args, scene_path: Path, overrides: dict) -> int:
     return EXIT_OK
 
 
+def _excitations(args, scene_path: Path, overrides: dict) -> int:
+    """``geardyn excitations``: three cases, comparison and paper.md (study.excitations)."""
+    from study.excitations import run_cases, write_comparison
+    from study.parallel import world
+    from study.scene import load_scene
+
+    scene = load_scene(scene_path, overrides)
+    results, failed = run_cases(scene, args.out, cache_dir=args.cache or
+                                os.environ.get("GEARDYN_CACHE") or None, resume=args.resume,
+                                refresh=args.no_cache, progress=not args.no_progress)
+    if results:
+        world().root_call(write_comparison, Path(args.out), scene, results)
+    return EXIT_SOLVER if failed else EXIT_OK
+
+
 def _convergence(args, scene_path: Path) -> int:
     """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
     from study.convergence import KNOB_KEYS, run_convergence
@@ -231,6 +250,10 @@ def _dispatch(args) -> int:
         if len(variants) != 1:
             raise SceneError("report: --set takes a single value per key")
         return _report(args, scene_path, variants[0])
+    if cmd == "excitations":
+        if len(variants) != 1:
+            raise SceneError("excitations: --set takes a single value per key")
+        return _excitations(args, scene_path, variants[0])
     if cmd == "convergence":
         if world().size > 1:
             raise SceneError(f"convergence under mpirun -n {world().size}: not supported; "

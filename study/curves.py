@@ -1,0 +1,205 @@
+"""Features of a forced-response curve: resonance peaks, impact intervals, the
+vibro-impact span and the permanent-contact windows between impact regions.
+
+Plain functions of the per-point arrays of a branch (speed in rpm, std of the
+dynamic mesh load in N, contact class 0/1/2), so that they can be checked on
+synthetic curves. Used by :mod:`study.excitations` and :mod:`study.paper`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Peak", "CurveSummary", "resonance_peaks", "impact_intervals", "impact_span",
+           "contact_windows", "summarize_curve", "summarize_branch", "primary_peak", "ipp_runs",
+           "ipp_fractions"]
+
+#: Local maxima less prominent than this fraction of the curve's largest std are
+#: numerical wiggles, not resonances.
+MIN_PROMINENCE = 0.01
+
+
+@dataclass(frozen=True)
+class Peak:
+    """A local maximum of the mesh-load std along the branch."""
+
+    rpm: float
+    std: float
+    prominence: float
+
+
+@dataclass(frozen=True)
+class CurveSummary:
+    """What the paper compares between runs (Sect. 4.2–4.3), SI / rpm.
+
+    Attributes
+    ----------
+    speed_range
+        (start, end) of the continuation (rpm).
+    reached
+        Highest speed reached (rpm); below ``speed_range[1]`` if the run stopped early.
+    peaks
+        Every local maximum of the std with prominence >= :data:`MIN_PROMINENCE` × max,
+        sorted by speed.
+    grazing
+        Grazing speeds (rpm), sorted.
+    impacts
+        Merged speed intervals (rpm) where the branch has impacts (either flank).
+    windows
+        Permanent-contact windows: gaps between two impact intervals (rpm).
+    span
+        Total length of the impact intervals (rpm).
+    max_std, max_std_rpm
+        Largest std of the dynamic mesh load (N) and its speed (rpm).
+    complete
+        The continuation reached the end of its range.
+    """
+
+    speed_range: tuple[float, float]
+    reached: float
+    peaks: list[Peak]
+    grazing: list[float]
+    impacts: list[tuple[float, float]]
+    windows: list[tuple[float, float]]
+    span: float
+    max_std: float
+    max_std_rpm: float
+    complete: bool = True
+
+    def strongest(self, n: int) -> list[Peak]:
+        """The ``n`` most prominent peaks, sorted by speed."""
+        best = sorted(self.peaks, key=lambda p: p.prominence, reverse=True)[:n]
+        return sorted(best, key=lambda p: p.rpm)
+
+
+def resonance_peaks(rpm: np.ndarray, std: np.ndarray,
+                    min_prominence: float = MIN_PROMINENCE) -> list[Peak]:
+    """Local maxima of the std along the branch (in point order, so that the top of a
+    fold counts once), with their topographic prominence; sorted by speed.
+
+    End points are not peaks (a range end is not a resonance). The maximum is refined
+    by a parabola through the three points around it when the speeds are monotonic
+    there.
+    """
+    from scipy.signal import find_peaks
+
+    rpm = np.asarray(rpm, dtype=float)
+    std = np.asarray(std, dtype=float)
+    if rpm.shape != std.shape or rpm.ndim != 1:
+        raise ValueError(f"rpm {rpm.shape} and std {std.shape}: must be 1-D of equal length")
+    if rpm.size < 3:
+        return []
+    top = float(np.max(std))
+    idx, props = find_peaks(std, prominence=min_prominence * top if top > 0 else None)
+    out = []
+    for i, prom in zip(idx, props["prominences"], strict=True):
+        r, s = _refine(rpm[i - 1:i + 2], std[i - 1:i + 2])
+        out.append(Peak(r, s, float(prom)))
+    return sorted(out, key=lambda p: p.rpm)
+
+
+def _refine(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Vertex of the parabola through three points around a maximum (x strictly
+    monotonic), else the middle point."""
+    x0, x1, x2 = (float(v) for v in x)
+    y0, y1, y2 = (float(v) for v in y)
+    if not ((x0 < x1 < x2) or (x0 > x1 > x2)):
+        return x1, y1
+    a = np.polyfit([x0, x1, x2], [y0, y1, y2], 2)
+    if a[0] >= 0:
+        return x1, y1
+    xv = -a[1] / (2 * a[0])
+    if not min(x0, x2) <= xv <= max(x0, x2):
+        return x1, y1
+    return float(xv), float(max(np.polyval(a, xv), y1))
+
+
+def impact_intervals(rpm: np.ndarray, contact: np.ndarray) -> list[tuple[float, float]]:
+    """Merged speed intervals (rpm) covered by branch segments with impacts on either
+    flank (a segment counts when one of its ends has impacts)."""
+    rpm = np.asarray(rpm, dtype=float)
+    contact = np.asarray(contact)
+    segs = sorted((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1])))
+                  for i in range(len(rpm) - 1) if max(contact[i], contact[i + 1]) > 0)
+    merged: list[list[float]] = []
+    for a, b in segs:
+        if merged and a <= merged[-1][1] + 1e-9:
+            merged[-1][1] = max(merged[-1][1], b)
+        else:
+            merged.append([a, b])
+    return [(a, b) for a, b in merged]
+
+
+def impact_span(intervals: list[tuple[float, float]]) -> float:
+    """Total length (rpm) of merged impact intervals (the vibro-impact span, Sect. 4.2)."""
+    return float(sum(b - a for a, b in intervals))
+
+
+def contact_windows(intervals: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Permanent-contact windows: the gaps between consecutive impact intervals."""
+    return [(intervals[i][1], intervals[i + 1][0]) for i in range(len(intervals) - 1)]
+
+
+def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = True
+                    ) -> CurveSummary:
+    """:class:`CurveSummary` of per-point arrays and grazing speeds (rpm)."""
+    rpm = np.asarray(rpm, dtype=float)
+    std = np.asarray(std, dtype=float)
+    iv = impact_intervals(rpm, contact)
+    i = int(np.argmax(std)) if std.size else 0
+    return CurveSummary(
+        speed_range=(float(speed_range[0]), float(speed_range[1])),
+        reached=float(np.max(rpm)) if rpm.size else float(speed_range[0]),
+        peaks=resonance_peaks(rpm, std), grazing=sorted(float(g) for g in grazing),
+        impacts=iv, windows=contact_windows(iv), span=impact_span(iv),
+        max_std=float(std[i]) if std.size else float("nan"),
+        max_std_rpm=float(rpm[i]) if rpm.size else float("nan"), complete=complete)
+
+
+def summarize_branch(branch) -> CurveSummary:
+    """:class:`CurveSummary` of an :class:`hbm.Branch`."""
+    return summarize_curve(branch.rpm, branch.mesh_load_std, branch.contact,
+                           [g.rpm for g in branch.grazing],
+                           (branch.rpm_start, branch.rpm_end),
+                           complete=branch.status == "completed")
+
+
+def ipp_runs(ipp: np.ndarray) -> list[tuple[int, float]]:
+    """Cyclic run-length code of an IPP sequence (impacts in each mesh period along the
+    fundamental period): ``[(impacts, fraction of the period), ...]`` starting at the
+    first change after the wrap-around, so that a run crossing the period end is one."""
+    a = np.asarray(ipp, dtype=int).ravel()
+    n = a.size
+    if n == 0:
+        return []
+    change = np.flatnonzero(a != np.roll(a, 1))
+    if change.size == 0:
+        return [(int(a[0]), 1.0)]
+    a = np.roll(a, -int(change[0]))
+    runs: list[tuple[int, float]] = []
+    start = 0
+    for i in range(1, n + 1):
+        if i == n or a[i] != a[start]:
+            runs.append((int(a[start]), (i - start) / n))
+            start = i
+    return runs
+
+
+def ipp_fractions(ipp: np.ndarray) -> dict[int, float]:
+    """Fraction of the fundamental period spent at each impact count per mesh period."""
+    a = np.asarray(ipp, dtype=int).ravel()
+    if a.size == 0:
+        return {}
+    vals, counts = np.unique(a, return_counts=True)
+    return {int(v): float(c) / a.size for v, c in zip(vals, counts, strict=True)}
+
+
+def primary_peak(summary: CurveSummary, near: float | None = None,
+                 rel: float = 0.15) -> Peak | None:
+    """The primary resonance peak: the peak with the largest std, or (``near`` given)
+    the largest peak within ``near·(1 ± rel)`` rpm (the same resonance on another
+    curve). ``None`` when there is none."""
+    cand = summary.peaks if near is None else \
+        [p for p in summary.peaks if abs(p.rpm - near) <= rel * near]
+    return max(cand, key=lambda p: p.std) if cand else None

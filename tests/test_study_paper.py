@@ -1,0 +1,144 @@
+"""Curve features (study.curves) and the paper table (study.paper) on synthetic curves
+whose peaks, impact intervals and IPP sequences are known in closed form."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from study.curves import (
+    contact_windows,
+    impact_intervals,
+    impact_span,
+    ipp_fractions,
+    ipp_runs,
+    primary_peak,
+    resonance_peaks,
+    summarize_curve,
+)
+from study.paper import IppAt, PaperInputs, SpectrumAt, paper_markdown, write_paper
+
+CENTRES = (1000.0, 1480.0, 2800.0)
+WIDTHS = (60.0, 80.0, 150.0)
+HEIGHTS = (40.0, 55.0, 90.0)
+
+
+def _std(r):
+    r = np.asarray(r, dtype=float)
+    y = 5.0 + 1e-3 * r  # a rising background, so that the maxima are off the centres
+    for c, w, a in zip(CENTRES, WIDTHS, HEIGHTS, strict=True):
+        y = y + a / np.sqrt(1.0 + ((r - c) / w) ** 2)
+    return y
+
+
+def _true_maxima():
+    """Maxima of _std on a 0.001 rpm grid around each centre (independent of the code)."""
+    out = []
+    for c in CENTRES:
+        r = np.arange(c - 50.0, c + 50.0, 1e-3)
+        y = _std(r)
+        out.append((float(r[np.argmax(y)]), float(y.max())))
+    return out
+
+
+RPM = np.arange(600.0, 4000.0 + 1e-9, 20.0)
+REGIONS = ((1000.0, 1240.0), (1320.0, 2180.0), (2400.0, 4000.0))
+
+
+def _contact(regions):
+    c = np.zeros(RPM.size, dtype=int)
+    for a, b in regions:
+        c[(RPM >= a) & (RPM <= b)] = 1
+    return c
+
+
+def test_peaks_are_the_local_maxima_refined():
+    std = _std(RPM) + 0.05 * np.sin(RPM / 7.0)  # wiggles below the prominence threshold
+    peaks = resonance_peaks(RPM, std)
+    assert len(peaks) == 3
+    for p, (r, y) in zip(peaks, _true_maxima(), strict=True):
+        assert p.rpm == pytest.approx(r, abs=1.0)      # 20 rpm grid, parabola vertex
+        assert p.std == pytest.approx(y, abs=0.06)  # wiggle amplitude 0.05
+    s = summarize_curve(RPM, _std(RPM), _contact(REGIONS), [1000.0], (600.0, 4000.0))
+    assert [round(p.rpm, 6) for p in s.strongest(2)] == \
+        sorted(round(p.rpm, 6) for p in s.peaks if p.rpm > 1200)
+    assert primary_peak(s).rpm == pytest.approx(_true_maxima()[2][0], abs=2.0)
+    assert primary_peak(s, near=1500.0).rpm == pytest.approx(_true_maxima()[1][0], abs=2.0)
+    assert primary_peak(s, near=2000.0) is None
+
+
+def test_peak_on_a_fold_counted_once():
+    # a branch that turns back (fold): speeds go up, back, up again; one maximum
+    r = np.r_[np.linspace(900, 1100, 21), np.linspace(1095, 1050, 10), np.linspace(1055, 1300, 25)]
+    y = np.r_[np.linspace(10, 50, 21), np.linspace(48, 20, 10), np.linspace(19, 5, 25)]
+    peaks = resonance_peaks(r, y)
+    assert len(peaks) == 1 and peaks[0].std == pytest.approx(50.0)
+
+
+def test_impact_intervals_span_and_windows():
+    iv = impact_intervals(RPM, _contact(REGIONS))
+    # a segment with impacts at one end counts: one grid step on each side
+    assert iv == [(980.0, 1260.0), (1300.0, 2200.0), (2380.0, 4000.0)]
+    assert impact_span(iv) == pytest.approx(280.0 + 900.0 + 1620.0)
+    assert contact_windows(iv) == [(1260.0, 1300.0), (2200.0, 2380.0)]
+
+
+def test_ipp_runs_cyclic():
+    seq = np.roll(np.array([2] * 30 + [1] * 8 + [2] * 30 + [1] * 8), 5)
+    runs = ipp_runs(seq)
+    assert [n for n, _ in runs] == [2, 1, 2, 1] or [n for n, _ in runs] == [1, 2, 1, 2]
+    assert sorted(f for _, f in runs) == pytest.approx(sorted([30 / 76, 8 / 76] * 2))
+    assert ipp_fractions(seq) == pytest.approx({1: 16 / 76, 2: 60 / 76})
+    assert ipp_runs(np.full(76, 3)) == [(3, 1.0)]
+
+
+def _inputs():
+    s_all = summarize_curve(RPM, _std(RPM), _contact(REGIONS), [990, 1250, 1310, 2190, 2390],
+                            (600.0, 4000.0))
+    s_int = summarize_curve(RPM, 1.1 * _std(RPM), _contact(REGIONS[:2]), [990, 1250, 1310, 2190],
+                            (600.0, 4000.0))
+    inp = PaperInputs("synthetic", 2.5, 53.21, cases={"internal": s_int, "all": s_all})
+    inp.primary = {"internal": primary_peak(s_int),
+                   "all": primary_peak(s_all, near=primary_peak(s_int).rpm)}
+    seq = np.roll(np.array([2] * 30 + [1] * 8 + [2] * 30 + [1] * 8), 5)
+    inp.ipp = {1700.0: IppAt(1700.0, 1700.0, seq, "branch point"),
+               1070.0: "outside the computed range"}
+    orders = np.array([0, 2, 4, 76, 152])
+    inp.spectrum = SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76)
+    return inp
+
+
+def test_paper_table_rows_from_the_curves(tmp_path):
+    inp = _inputs()
+    md = paper_markdown(inp)
+    true = [r for r, _ in _true_maxima()]
+    found = [p.rpm for p in inp.cases["all"].strongest(3)]
+    assert found == pytest.approx(true, abs=2.0)
+    row = next(ln for ln in md.splitlines() if ln.startswith("| resonance speeds"))
+    assert ", ".join(f"{x:.0f}" for x in found) in row
+    errs = [(a - b) / b for a, b in zip(found, (1070.0, 1570.0, 3000.0), strict=True)]
+    assert ", ".join(f"{100 * e:+.1f} %" for e in errs) in row
+    assert "within 3 %: no" in row          # 1000 vs 1070 is -6.5 %
+    ratio = next(ln for ln in md.splitlines() if ln.startswith("| resonance ratios"))
+    assert f"1.00 : {found[1] / found[0]:.2f} : {found[2] / found[0]:.2f}" in ratio
+    assert "1.00 : 1.47 : 2.80" in ratio
+    g = next(ln for ln in md.splitlines() if ln.startswith("| grazing speeds"))
+    assert "5: 990, 1250, 1310, 2190, 2390 (within 3 %: yes)" in g
+    w = next(ln for ln in md.splitlines() if ln.startswith("| permanent-contact"))
+    assert "| 1260–1300, 2200–2380 |" in w
+    pk = next(ln for ln in md.splitlines() if ln.startswith("| primary peak"))
+    assert "93 → 88 N (-5.4 %)" in pk
+    top = _true_maxima()[2][1]
+    assert f"{1.1 * top:.1f} → {top:.1f} N (-9.1 %" in pk
+    big = float(_std(RPM).max())
+    assert f"largest std of each curve {1.1 * big:.1f} → {big:.1f} N (-9.1 %" in pk
+    span = next(ln for ln in md.splitlines() if ln.startswith("| vibro-impact span"))
+    assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
+    ipp = next(ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1700"))
+    assert "1-IPP 21.1 %, 2-IPP 78.9 %" in ipp and "2-IPP 39.5 %" in ipp
+    assert "outside the computed range" in next(
+        ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1070"))
+    h2 = next(ln for ln in md.splitlines() if ln.startswith("| response at 6875"))
+    assert "largest harmonic H_2;" in h2 and "H_2/H_Z = 2.00" in h2
+    assert "53.2 N at T = 2.5 N·m" in md
+    p = write_paper(tmp_path, inp)
+    assert p.read_text() == md

@@ -20,12 +20,11 @@ from __future__ import annotations
 import copy
 import csv
 import logging
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.curves import Peak, primary_peak, summarize_branch
 from study.scene import Scene, SceneError, scene_from_dict
 
@@ -258,16 +257,8 @@ def comparison_table(inp) -> str:
 
 
 def _atomic_text(path: Path, write) -> Path:
-    from study.results import replace_file
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            write(f)
-        replace_file(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path, "w") as f:
+        write(f)
     return path
 
 

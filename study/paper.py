@@ -10,13 +10,12 @@ three excitation cases the Sect. 4.2 comparison needs.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs
 
 __all__ = ["Reference", "PAPER", "IppAt", "SpectrumAt", "PaperInputs", "paper_markdown",
@@ -271,13 +270,7 @@ def _details(inp: PaperInputs) -> list[str]:
 
 def write_paper(out: str | Path, inp: PaperInputs) -> Path:
     """Write ``<out>/paper.md`` atomically and return its path."""
-    from study.results import replace_file
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".paper.", suffix=".md", dir=out)
-    with os.fdopen(fd, "w", encoding="utf-8") as f:
+    path = Path(out) / "paper.md"
+    with atomic_write(path, "w") as f:
         f.write(paper_markdown(inp))
-    path = out / "paper.md"
-    replace_file(tmp, path)
     return path

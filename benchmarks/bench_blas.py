@@ -25,7 +25,7 @@ step) on the SDOF scene and on the coarse pump ROM (n_CM=100) with 3 and 12 mesh
 harmonics; ``hbm.stability.stability`` (monodromy, T.10) at three pump speeds;
 a small Craig-Bampton reduction (PETSc/SLEPc, elastic box).
 
-Run: ``.venv/bin/python -m benchmarks.bench_blas [--quick] [--rounds N] [--repeats N]``.
+Run: ``.venv/bin/python -m benchmarks.bench_blas [--quick] [--rounds 3] [--repeats 5]``.
 Writes ``benchmarks/results/blas.json`` (atomically). The pump ROMs come from the
 pipeline's stage cache (built on first use, about a minute).
 """
@@ -288,7 +288,7 @@ def alternatives() -> dict[str, str]:
 def main(argv: list[str] | None = None) -> dict | None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}; 1 round")
-    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--only", default="", help="comma-separated workload names")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
@@ -316,7 +316,8 @@ def main(argv: list[str] | None = None) -> dict | None:
             _pump(h)
     recs = measure(names, rounds, args.repeats)
     load1 = os.getloadavg()
-    cmd = ".venv/bin/python -m benchmarks.bench_blas" + (" --quick" if args.quick else "")
+    cmd = (".venv/bin/python -m benchmarks.bench_blas" + (" --quick" if args.quick else "")
+           + f" --rounds {rounds} --repeats {args.repeats}")
     d1 = [r["default 1t"]["speedup"] for r in recs]
     d2 = [r["default 2t"]["speedup"] for r in recs]
     summary = (f"Debian's reference BLAS/LAPACK (forced with LD_LIBRARY_PATH) against the "

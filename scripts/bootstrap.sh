@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Install what is missing for geardyn on Debian 12 (bookworm), idempotently:
-#   1. Debian's FEniCSx stack (DOLFINx 0.5.2, gmsh 4.8, PETSc/SLEPc 3.18, MPI, CalculiX);
+#   1. Debian's FEniCSx stack (DOLFINx 0.5.2, gmsh 4.8, PETSc/SLEPc 3.18, MPI, CalculiX)
+#      and OpenBLAS, which takes over libblas.so.3/liblapack.so.3 (update-alternatives)
+#      for NumPy, SciPy and PETSc (docs/blas.md);
 #   2. a virtual environment .venv from /usr/bin/python3 with --system-site-packages,
 #      pip-installed extras pinned by constraints.txt (Debian's NumPy 1.24 stays).
 # Quick when everything is there: it checks dpkg and a stamp file and exits.
@@ -10,7 +12,7 @@ cd "$(dirname "$0")/.."
 APT_PACKAGES=(
   python3-dolfinx-real python3-gmsh python3-petsc4py-real python3-slepc4py-real
   python3-h5py python3-scipy python3-venv python3-pip python3-setuptools
-  openmpi-bin calculix-ccx
+  openmpi-bin calculix-ccx libopenblas0-pthread
 )
 
 missing=()

@@ -45,7 +45,7 @@ def reduce_models(h5_path=None) -> dict:
 @pytest.mark.fem
 def test_serial_and_two_ranks_agree(tmp_path):
     npz, h5 = tmp_path / "par.npz", tmp_path / "par.h5"
-    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT))
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(ROOT))
     cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", "2",
            sys.executable, __file__, str(npz), str(h5)]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)

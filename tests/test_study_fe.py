@@ -314,6 +314,12 @@ def test_pump_demo_end_to_end(tmp_path):
         i = int(np.argmax(f["rom/mesh_energy"][()]))
         assert 3500 < f["rom/frequencies_hz"][i] < 4500  # most mesh energy near 4 kHz
         assert np.any(f["continuation/contact"][()] > 0)  # vibro-impacts appear
+        # every point inside a speed-decreasing segment (between two folds) is unstable
+        rpm, stable = f["continuation/rpm"][()], f["continuation/stable"][()]
+        d = np.diff(rpm)
+        inner = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
+        assert inner.size and not np.any(stable[inner])
+        assert np.all(f["continuation/floquet_kind"][()][inner] > 0)
     p2 = subprocess.run([sys.executable, "-m", "study", "run", str(PUMP), "--out",
                          str(tmp_path / "pump2"), "--set", "load.torque_Nm=3.0",
                          "--set", "outputs.housing_field_rpm=[]", "--no-progress"],

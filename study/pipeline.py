@@ -38,8 +38,8 @@ from study.scene import Scene, SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RunResult", "SolverError", "StageUnavailable", "Pipeline", "run_scene",
-           "hbm_inputs"]
+__all__ = ["RunResult", "SolverError", "StageUnavailable", "StageStatus", "Pipeline",
+           "run_scene", "hbm_inputs"]
 
 
 class SolverError(RuntimeError):
@@ -51,6 +51,39 @@ class SolverError(RuntimeError):
     def __init__(self, message: str, result=None) -> None:
         super().__init__(message)
         self.result = result
+
+
+@dataclass(frozen=True)
+class StageStatus:
+    """How one stage was served in a run (``Pipeline.status``).
+
+    Attributes
+    ----------
+    state : str
+        ``"ran"``, ``"resumed"``, ``"cached"``, ``"skipped"`` or (export of a failed
+        continuation) ``"partial"``.
+    note : str
+        Why it was skipped / what was written (free text, for the log and report.md).
+    seconds : float or None
+        Wall time spent computing it in this run (``ran``/``resumed``), else None.
+    from_cache : bool
+        Its product came from the stage cache (its own entry, or inside the cached
+        entry of a later stage: mesh and fe of a cached ROM).
+    applies : bool
+        False for the stages the scene has none of (mesh, fe, rom of a lumped scene).
+    """
+
+    state: str
+    note: str = ""
+    seconds: float | None = None
+    from_cache: bool = False
+    applies: bool = True
+
+    @property
+    def text(self) -> str:
+        """The text of ``Pipeline.stages`` / ``RunResult.stages``: ``"ran"``,
+        ``"skipped (rom cached)"``, ..."""
+        return f"{self.state} ({self.note})" if self.note else self.state
 
 
 @dataclass
@@ -154,18 +187,28 @@ class Pipeline:
         self.resume = resume
         self.comm = world()
         self.progress = progress and self.comm.rank == 0
-        self.stages: dict[str, str] = {}
+        self.stages: dict[str, str] = {}            # stage -> StageStatus.text
+        self.status: dict[str, StageStatus] = {}    # stage -> how it was served
         self.keys: dict[str, str] = {}
         self._fe_model = None
 
     # ------------------------------------------------------------------ helpers
-    def _log_stage(self, name: str, how: str, seconds: float | None = None) -> None:
-        if self.stages.get(name) == "ran" and how != "ran":
-            return  # a stage that ran in this run and is looked up again stays "ran"
-        self.stages[name] = how
-        extra = f" in {seconds:.2f} s" if seconds is not None else ""
+    def _log_stage(self, name: str, st: StageStatus, log: bool = True) -> None:
+        """Record (and log) how stage ``name`` was served; times of repeated runs add up."""
+        old = self.status.get(name)
+        if old is not None and old.state == "ran":
+            if st.state != "ran":
+                return  # a stage that ran in this run and is looked up again stays "ran"
+            if old.seconds is not None:
+                st = dataclasses.replace(st, seconds=old.seconds + (st.seconds or 0.0))
+        self.status[name] = st
+        self.stages[name] = st.text
+        if not log:
+            return
+        extra = f" in {st.seconds:.2f} s" if st.seconds is not None else ""
         key = self.keys.get(name, "")
-        logger.info("stage %-6s %s%s%s", name, how, extra, f" [{key[:12]}]" if key else "")
+        logger.info("stage %-6s %s%s%s", name, st.text, extra,
+                    f" [{key[:12]}]" if key else "")
 
     # ------------------------------------------------------------------ FE stages
     def mesh_key(self) -> str:
@@ -199,13 +242,13 @@ class Pipeline:
         key = self.keys["mesh"] = self.mesh_key()
         hit = self.comm.root_call(self.cache.lookup, "mesh", key)
         if hit is not None:
-            self._log_stage("mesh", "cached")
+            self._log_stage("mesh", StageStatus("cached", from_cache=True))
             return hit
         t = time.perf_counter()
         with _StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
             d = self.comm.root_call(self.cache.store, "mesh", key,
                                     lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
-        self._log_stage("mesh", "ran", time.perf_counter() - t)
+        self._log_stage("mesh", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
     def _publish(self, src: Path, name: str) -> Path:
@@ -248,20 +291,20 @@ class Pipeline:
         hit = self.comm.root_call(self.cache.lookup, "rom", key)
         if hit is not None:
             self.keys["mesh"] = self.mesh_key()
-            self._log_stage("mesh", "skipped (rom cached)")
-            self._log_stage("fe", "skipped (rom cached)")
-            self._log_stage("rom", "cached")
+            for st in ("mesh", "fe"):
+                self._log_stage(st, StageStatus("skipped", "rom cached", from_cache=True))
+            self._log_stage("rom", StageStatus("cached", from_cache=True))
             return hit
         mesh_dir = self.run_mesh()
         t = time.perf_counter()
         with _StageBar("fe (assembly)", self.progress):
             model = fe_stages.fe_stage(self.scene, mesh_dir)
-        self._log_stage("fe", "ran", time.perf_counter() - t)
+        self._log_stage("fe", StageStatus("ran", seconds=time.perf_counter() - t))
         t = time.perf_counter()
         with _StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
             d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
                 self.scene, model, tmp, self.progress, mesh_dir=mesh_dir), comm=self.comm)
-        self._log_stage("rom", "ran", time.perf_counter() - t)
+        self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
     # ------------------------------------------------------------------ hbm
@@ -306,7 +349,7 @@ class Pipeline:
         if hit is not None:
             br = read_branch(hit / "branch.h5", problem)
             if br is not None and br.status == "completed":
-                self._log_stage("hbm", "cached")
+                self._log_stage("hbm", StageStatus("cached", from_cache=True))
                 return br, "cached"
         c = self.scene.continuation
         lo, hi = c.speed
@@ -339,7 +382,7 @@ class Pipeline:
             bar.close()
         dt = time.perf_counter() - t
         how = "resumed" if resume is not None else "ran"
-        self._log_stage("hbm", how, dt)
+        self._log_stage("hbm", StageStatus(how, seconds=dt))
         logger.info("continuation: %d points, %s (%s); %d checkpoints", len(br), br.status,
                     br.message, ck.n_written)
         if br.status == "completed" and len(br) > 0:
@@ -370,7 +413,7 @@ class Pipeline:
                 raise SceneError(f"scene.kind = 'lumped': there is no {until} stage "
                                  "(only hbm and export)")
             for st in ("mesh", "fe", "rom"):
-                self._log_stage(st, "skipped (lumped scene)")
+                self._log_stage(st, StageStatus("skipped", "lumped scene", applies=False))
         elif until == "mesh":
             self.publish_mesh(self.run_mesh())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
@@ -392,17 +435,19 @@ class Pipeline:
         # the continuation is serial and cheap: rank 0 runs it (and writes the checkpoints),
         # every rank gets the branch
         branch, how = self.comm.root_call(self.run_hbm, problem, checkpoint)
-        self.stages["hbm"] = how
+        if "hbm" not in self.status:  # ranks other than 0 (the continuation ran on rank 0)
+            self._log_stage("hbm", StageStatus(how, from_cache=how == "cached"), log=False)
         result.branch = branch
         if branch.status != "completed":
             self.comm.root_call(write_partial, result, branch)
             self.comm.root_call(_partial_curves, result)
-            how = "partial results.h5 and curves.csv only"
+            how = StageStatus("partial", "results.h5 and curves.csv only")
             if until == "export" and len(branch) >= 2:
                 # keep and plot what was computed: plots and report.md say it is incomplete
                 try:
                     export(result, figures=True, housing=False)
-                    how = "partial (results.h5, curves.csv, plots, report.md: incomplete curve)"
+                    how = StageStatus("partial", "results.h5, curves.csv, plots, report.md: "
+                                      "incomplete curve")
                 except Exception as exc:  # noqa: BLE001 - the solver failure is what matters
                     logger.warning("plots of the partial curve failed: %s", exc)
             self._log_stage("export", how)
@@ -415,9 +460,10 @@ class Pipeline:
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()
         t = time.perf_counter()
-        self.stages["export"] = "ran"  # listed in report.md, written during export
+        # listed in report.md, written during export
+        self._log_stage("export", StageStatus("ran"), log=False)
         export(result, figures=(until == "export"))
-        self._log_stage("export", "ran", time.perf_counter() - t)
+        self._log_stage("export", StageStatus("ran", seconds=time.perf_counter() - t))
         result.seconds = time.perf_counter() - t0
         ran = [k for k, v in self.stages.items() if v in ("ran", "resumed")]
         cached = [k for k, v in self.stages.items() if v == "cached"]

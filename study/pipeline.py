@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -34,94 +33,14 @@ import numpy as np
 from geometry.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
 from study.parallel import mark_collective, world
+from study.progress import ProgressBar, StageBar
+from study.runs import RunResult, SolverError, StageStatus
 from study.scene import Scene, SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["RunResult", "SolverError", "StageUnavailable", "StageStatus", "Pipeline",
            "run_scene", "hbm_inputs"]
-
-
-class SolverError(RuntimeError):
-    """The continuation or a solve failed (exit code 3); partial results are saved.
-
-    ``result`` holds the partial :class:`RunResult` when there is one.
-    """
-
-    def __init__(self, message: str, result=None) -> None:
-        super().__init__(message)
-        self.result = result
-
-
-@dataclass(frozen=True)
-class StageStatus:
-    """How one stage was served in a run (``Pipeline.status``).
-
-    Attributes
-    ----------
-    state : str
-        ``"ran"``, ``"resumed"``, ``"cached"``, ``"skipped"`` or (export of a failed
-        continuation) ``"partial"``.
-    note : str
-        Why it was skipped / what was written (free text, for the log and report.md).
-    seconds : float or None
-        Wall time spent computing it in this run (``ran``/``resumed``), else None.
-    from_cache : bool
-        Its product came from the stage cache (its own entry, or inside the cached
-        entry of a later stage: mesh and fe of a cached ROM).
-    applies : bool
-        False for the stages the scene has none of (mesh, fe, rom of a lumped scene).
-    """
-
-    state: str
-    note: str = ""
-    seconds: float | None = None
-    from_cache: bool = False
-    applies: bool = True
-
-    @property
-    def text(self) -> str:
-        """The text of ``Pipeline.stages`` / ``RunResult.stages``: ``"ran"``,
-        ``"skipped (rom cached)"``, ..."""
-        return f"{self.state} ({self.note})" if self.note else self.state
-
-
-@dataclass
-class RunResult:
-    """What a run produced.
-
-    Attributes
-    ----------
-    out : Path
-        Output folder.
-    results : Path
-        ``results.h5``.
-    branch
-        The :class:`hbm.Branch`.
-    problem
-        The :class:`hbm.HBMProblem` (for time series, spectra, recovery).
-    stages : dict
-        Stage name -> ``"ran"``, ``"cached"``, ``"resumed"`` or ``"skipped"``.
-    keys : dict
-        Stage name -> cache key.
-    figures : list of Path
-        PNG files written.
-    seconds : float
-        Wall time of the run.
-    """
-
-    out: Path
-    results: Path
-    branch: Any
-    problem: Any
-    scene: Scene
-    stages: dict[str, str] = field(default_factory=dict)
-    keys: dict[str, str] = field(default_factory=dict)
-    figures: list[Path] = field(default_factory=list)
-    seconds: float = 0.0
-    rom: Any = None
-    mesh_dir: Path | None = None
-    nvh: Any = None
 
 
 def _require(*modules: str) -> None:
@@ -245,7 +164,7 @@ class Pipeline:
             self._log_stage("mesh", StageStatus("cached", from_cache=True))
             return hit
         t = time.perf_counter()
-        with _StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
+        with StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
             d = self.comm.root_call(self.cache.store, "mesh", key,
                                     lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
         self._log_stage("mesh", StageStatus("ran", seconds=time.perf_counter() - t))
@@ -297,11 +216,11 @@ class Pipeline:
             return hit
         mesh_dir = self.run_mesh()
         t = time.perf_counter()
-        with _StageBar("fe (assembly)", self.progress):
+        with StageBar("fe (assembly)", self.progress):
             model = fe_stages.fe_stage(self.scene, mesh_dir)
         self._log_stage("fe", StageStatus("ran", seconds=time.perf_counter() - t))
         t = time.perf_counter()
-        with _StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
+        with StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
             d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
                 self.scene, model, tmp, self.progress, mesh_dir=mesh_dir), comm=self.comm)
         self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
@@ -371,7 +290,7 @@ class Pipeline:
             else:
                 logger.info("resuming from point %d at %.6g rpm (%s)", len(resume),
                             resume.rpm[-1], resume.status)
-        bar = _ProgressBar(lo, hi, self.progress)
+        bar = ProgressBar(lo, hi, self.progress)
         ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
         t = time.perf_counter()
         try:
@@ -483,64 +402,6 @@ def _partial_curves(result) -> None:
         write_curves_csv(result.out / "curves.csv", result.branch, compute_nvh(result))
     except Exception as exc:  # noqa: BLE001 - the solver error is what the user needs
         logger.warning("curves.csv of the partial branch not written: %s", exc)
-
-
-class _StageBar:
-    """Context manager: a tqdm line with the elapsed time of a long stage (mesh, FE
-    assembly, eigen-solve), refreshed twice a second by a thread."""
-
-    def __init__(self, desc: str, enabled: bool) -> None:
-        self.desc, self.enabled = desc, enabled
-
-    def __enter__(self):
-        if not self.enabled:
-            return self
-        import threading
-
-        from tqdm import tqdm
-        self.bar = tqdm(total=1, desc=self.desc, leave=False,
-                        bar_format="{desc}: running {elapsed}")
-        self.stop = threading.Event()
-
-        def tick() -> None:
-            while not self.stop.wait(0.5):
-                self.bar.refresh()
-        self.thread = threading.Thread(target=tick, daemon=True)
-        self.thread.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.enabled:
-            self.stop.set()
-            self.thread.join()
-            self.bar.close()
-
-
-class _ProgressBar:
-    """tqdm bar over the speed range (furthest speed reached)."""
-
-    def __init__(self, lo: float, hi: float, enabled: bool) -> None:
-        self.lo, self.hi = lo, hi
-        self.bar = None
-        self.best = 0
-        if enabled:
-            from tqdm import tqdm
-            self.bar = tqdm(total=1000, desc="continuation", unit="‰", leave=False,
-                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
-
-    def update(self, branch) -> None:
-        if self.bar is None or len(branch) == 0:
-            return
-        rpm = float(branch.rpm[-1])
-        pos = int(1000 * (rpm - self.lo) / (self.hi - self.lo))
-        if pos > self.best:
-            self.bar.update(pos - self.best)
-            self.best = pos
-        self.bar.set_postfix_str(f"{rpm:.0f} rpm, {len(branch)} pts", refresh=False)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
 
 
 def run_scene(scene: Scene, out: str | Path, **kwargs) -> RunResult:

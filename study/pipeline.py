@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -34,61 +33,14 @@ import numpy as np
 from geometry.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
 from study.parallel import mark_collective, world
+from study.progress import ProgressBar, StageBar
+from study.runs import RunResult, SolverError, StageStatus
 from study.scene import Scene, SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RunResult", "SolverError", "StageUnavailable", "Pipeline", "run_scene",
-           "hbm_inputs"]
-
-
-class SolverError(RuntimeError):
-    """The continuation or a solve failed (exit code 3); partial results are saved.
-
-    ``result`` holds the partial :class:`RunResult` when there is one.
-    """
-
-    def __init__(self, message: str, result=None) -> None:
-        super().__init__(message)
-        self.result = result
-
-
-@dataclass
-class RunResult:
-    """What a run produced.
-
-    Attributes
-    ----------
-    out : Path
-        Output folder.
-    results : Path
-        ``results.h5``.
-    branch
-        The :class:`hbm.Branch`.
-    problem
-        The :class:`hbm.HBMProblem` (for time series, spectra, recovery).
-    stages : dict
-        Stage name -> ``"ran"``, ``"cached"``, ``"resumed"`` or ``"skipped"``.
-    keys : dict
-        Stage name -> cache key.
-    figures : list of Path
-        PNG files written.
-    seconds : float
-        Wall time of the run.
-    """
-
-    out: Path
-    results: Path
-    branch: Any
-    problem: Any
-    scene: Scene
-    stages: dict[str, str] = field(default_factory=dict)
-    keys: dict[str, str] = field(default_factory=dict)
-    figures: list[Path] = field(default_factory=list)
-    seconds: float = 0.0
-    rom: Any = None
-    mesh_dir: Path | None = None
-    nvh: Any = None
+__all__ = ["RunResult", "SolverError", "StageUnavailable", "StageStatus", "Pipeline",
+           "run_scene", "hbm_inputs"]
 
 
 def _require(*modules: str) -> None:
@@ -154,18 +106,28 @@ class Pipeline:
         self.resume = resume
         self.comm = world()
         self.progress = progress and self.comm.rank == 0
-        self.stages: dict[str, str] = {}
+        self.stages: dict[str, str] = {}            # stage -> StageStatus.text
+        self.status: dict[str, StageStatus] = {}    # stage -> how it was served
         self.keys: dict[str, str] = {}
         self._fe_model = None
 
     # ------------------------------------------------------------------ helpers
-    def _log_stage(self, name: str, how: str, seconds: float | None = None) -> None:
-        if self.stages.get(name) == "ran" and how != "ran":
-            return  # a stage that ran in this run and is looked up again stays "ran"
-        self.stages[name] = how
-        extra = f" in {seconds:.2f} s" if seconds is not None else ""
+    def _log_stage(self, name: str, st: StageStatus, log: bool = True) -> None:
+        """Record (and log) how stage ``name`` was served; times of repeated runs add up."""
+        old = self.status.get(name)
+        if old is not None and old.state == "ran":
+            if st.state != "ran":
+                return  # a stage that ran in this run and is looked up again stays "ran"
+            if old.seconds is not None:
+                st = dataclasses.replace(st, seconds=old.seconds + (st.seconds or 0.0))
+        self.status[name] = st
+        self.stages[name] = st.text
+        if not log:
+            return
+        extra = f" in {st.seconds:.2f} s" if st.seconds is not None else ""
         key = self.keys.get(name, "")
-        logger.info("stage %-6s %s%s%s", name, how, extra, f" [{key[:12]}]" if key else "")
+        logger.info("stage %-6s %s%s%s", name, st.text, extra,
+                    f" [{key[:12]}]" if key else "")
 
     # ------------------------------------------------------------------ FE stages
     def mesh_key(self) -> str:
@@ -199,13 +161,13 @@ class Pipeline:
         key = self.keys["mesh"] = self.mesh_key()
         hit = self.comm.root_call(self.cache.lookup, "mesh", key)
         if hit is not None:
-            self._log_stage("mesh", "cached")
+            self._log_stage("mesh", StageStatus("cached", from_cache=True))
             return hit
         t = time.perf_counter()
-        with _StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
+        with StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
             d = self.comm.root_call(self.cache.store, "mesh", key,
                                     lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
-        self._log_stage("mesh", "ran", time.perf_counter() - t)
+        self._log_stage("mesh", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
     def _publish(self, src: Path, name: str) -> Path:
@@ -248,20 +210,20 @@ class Pipeline:
         hit = self.comm.root_call(self.cache.lookup, "rom", key)
         if hit is not None:
             self.keys["mesh"] = self.mesh_key()
-            self._log_stage("mesh", "skipped (rom cached)")
-            self._log_stage("fe", "skipped (rom cached)")
-            self._log_stage("rom", "cached")
+            for st in ("mesh", "fe"):
+                self._log_stage(st, StageStatus("skipped", "rom cached", from_cache=True))
+            self._log_stage("rom", StageStatus("cached", from_cache=True))
             return hit
         mesh_dir = self.run_mesh()
         t = time.perf_counter()
-        with _StageBar("fe (assembly)", self.progress):
+        with StageBar("fe (assembly)", self.progress):
             model = fe_stages.fe_stage(self.scene, mesh_dir)
-        self._log_stage("fe", "ran", time.perf_counter() - t)
+        self._log_stage("fe", StageStatus("ran", seconds=time.perf_counter() - t))
         t = time.perf_counter()
-        with _StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
+        with StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
             d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
                 self.scene, model, tmp, self.progress, mesh_dir=mesh_dir), comm=self.comm)
-        self._log_stage("rom", "ran", time.perf_counter() - t)
+        self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
     # ------------------------------------------------------------------ hbm
@@ -306,7 +268,7 @@ class Pipeline:
         if hit is not None:
             br = read_branch(hit / "branch.h5", problem)
             if br is not None and br.status == "completed":
-                self._log_stage("hbm", "cached")
+                self._log_stage("hbm", StageStatus("cached", from_cache=True))
                 return br, "cached"
         c = self.scene.continuation
         lo, hi = c.speed
@@ -328,7 +290,7 @@ class Pipeline:
             else:
                 logger.info("resuming from point %d at %.6g rpm (%s)", len(resume),
                             resume.rpm[-1], resume.status)
-        bar = _ProgressBar(lo, hi, self.progress)
+        bar = ProgressBar(lo, hi, self.progress)
         ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
         t = time.perf_counter()
         try:
@@ -339,7 +301,7 @@ class Pipeline:
             bar.close()
         dt = time.perf_counter() - t
         how = "resumed" if resume is not None else "ran"
-        self._log_stage("hbm", how, dt)
+        self._log_stage("hbm", StageStatus(how, seconds=dt))
         logger.info("continuation: %d points, %s (%s); %d checkpoints", len(br), br.status,
                     br.message, ck.n_written)
         if br.status == "completed" and len(br) > 0:
@@ -370,7 +332,7 @@ class Pipeline:
                 raise SceneError(f"scene.kind = 'lumped': there is no {until} stage "
                                  "(only hbm and export)")
             for st in ("mesh", "fe", "rom"):
-                self._log_stage(st, "skipped (lumped scene)")
+                self._log_stage(st, StageStatus("skipped", "lumped scene", applies=False))
         elif until == "mesh":
             self.publish_mesh(self.run_mesh())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
@@ -392,17 +354,19 @@ class Pipeline:
         # the continuation is serial and cheap: rank 0 runs it (and writes the checkpoints),
         # every rank gets the branch
         branch, how = self.comm.root_call(self.run_hbm, problem, checkpoint)
-        self.stages["hbm"] = how
+        if "hbm" not in self.status:  # ranks other than 0 (the continuation ran on rank 0)
+            self._log_stage("hbm", StageStatus(how, from_cache=how == "cached"), log=False)
         result.branch = branch
         if branch.status != "completed":
             self.comm.root_call(write_partial, result, branch)
             self.comm.root_call(_partial_curves, result)
-            how = "partial results.h5 and curves.csv only"
+            how = StageStatus("partial", "results.h5 and curves.csv only")
             if until == "export" and len(branch) >= 2:
                 # keep and plot what was computed: plots and report.md say it is incomplete
                 try:
                     export(result, figures=True, housing=False)
-                    how = "partial (results.h5, curves.csv, plots, report.md: incomplete curve)"
+                    how = StageStatus("partial", "results.h5, curves.csv, plots, report.md: "
+                                      "incomplete curve")
                 except Exception as exc:  # noqa: BLE001 - the solver failure is what matters
                     logger.warning("plots of the partial curve failed: %s", exc)
             self._log_stage("export", how)
@@ -415,9 +379,10 @@ class Pipeline:
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()
         t = time.perf_counter()
-        self.stages["export"] = "ran"  # listed in report.md, written during export
+        # listed in report.md, written during export
+        self._log_stage("export", StageStatus("ran"), log=False)
         export(result, figures=(until == "export"))
-        self._log_stage("export", "ran", time.perf_counter() - t)
+        self._log_stage("export", StageStatus("ran", seconds=time.perf_counter() - t))
         result.seconds = time.perf_counter() - t0
         ran = [k for k, v in self.stages.items() if v in ("ran", "resumed")]
         cached = [k for k, v in self.stages.items() if v == "cached"]
@@ -437,64 +402,6 @@ def _partial_curves(result) -> None:
         write_curves_csv(result.out / "curves.csv", result.branch, compute_nvh(result))
     except Exception as exc:  # noqa: BLE001 - the solver error is what the user needs
         logger.warning("curves.csv of the partial branch not written: %s", exc)
-
-
-class _StageBar:
-    """Context manager: a tqdm line with the elapsed time of a long stage (mesh, FE
-    assembly, eigen-solve), refreshed twice a second by a thread."""
-
-    def __init__(self, desc: str, enabled: bool) -> None:
-        self.desc, self.enabled = desc, enabled
-
-    def __enter__(self):
-        if not self.enabled:
-            return self
-        import threading
-
-        from tqdm import tqdm
-        self.bar = tqdm(total=1, desc=self.desc, leave=False,
-                        bar_format="{desc}: running {elapsed}")
-        self.stop = threading.Event()
-
-        def tick() -> None:
-            while not self.stop.wait(0.5):
-                self.bar.refresh()
-        self.thread = threading.Thread(target=tick, daemon=True)
-        self.thread.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.enabled:
-            self.stop.set()
-            self.thread.join()
-            self.bar.close()
-
-
-class _ProgressBar:
-    """tqdm bar over the speed range (furthest speed reached)."""
-
-    def __init__(self, lo: float, hi: float, enabled: bool) -> None:
-        self.lo, self.hi = lo, hi
-        self.bar = None
-        self.best = 0
-        if enabled:
-            from tqdm import tqdm
-            self.bar = tqdm(total=1000, desc="continuation", unit="‰", leave=False,
-                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
-
-    def update(self, branch) -> None:
-        if self.bar is None or len(branch) == 0:
-            return
-        rpm = float(branch.rpm[-1])
-        pos = int(1000 * (rpm - self.lo) / (self.hi - self.lo))
-        if pos > self.best:
-            self.bar.update(pos - self.best)
-            self.best = pos
-        self.bar.set_postfix_str(f"{rpm:.0f} rpm, {len(branch)} pts", refresh=False)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
 
 
 def run_scene(scene: Scene, out: str | Path, **kwargs) -> RunResult:

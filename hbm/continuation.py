@@ -601,10 +601,11 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                 rec.truncate(k + 1)
                 break
             logger.warning("continuation reversal: the new point at rpm %.6g revisits the "
-                           "branch near rpm %.6g; back to %s at rpm %.6g (point %d) with "
-                           "the old orientation", yn[-1] * wscale / RPM_TO_RAD_S,
-                           rec.lists["rpm"][hit], "the last point past the fold" if past_fold
-                           else "the turn", rec.lists["rpm"][k], k)
+                           "branch near rpm %.6g; back to %s at rpm %.6g (point %d of %d) "
+                           "with the old orientation (%d without progress)",
+                           yn[-1] * wscale / RPM_TO_RAD_S, rec.lists["rpm"][hit],
+                           "the last point past the fold" if past_fold else "the turn",
+                           rec.lists["rpm"][k], k, len(rec), rec.stuck)
             rec.releap = k if rec.last_turn == k else None
             rec.last_turn = k
             rec.truncate(k + 1)

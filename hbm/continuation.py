@@ -52,7 +52,16 @@ FOLD_MERGE_POINTS = 3   # sign changes of dOmega/ds closer than this (points) ca
 # pump the retraced points lie 1e-3..5e-2 chords from the old polyline, distinct pieces
 # that meet at a fold or corner 0.7..2 chords (docs/hbm.md, "Reversals").
 REVISIT_RATIO = 0.1
-MAX_REVERSALS = 8       # roll-backs after a reversal before the trace gives up
+# A point flagged by REVISIT_RATIO is a revisit only if the old branch at its speed is the
+# same solution: Newton at that speed from the old polyline lands within this distance
+# (scaled unknowns, relative to max(|y|, 1)) of it. Past a sharp fold whose two pieces
+# differ little in state (the pump at 12 mesh harmonics, 1220-1236 rpm: 1e-4..1e-3 apart
+# while the chords are ~1e-2, mostly speed) the piece coming back is a distinct solution.
+SAME_SOLUTION = 1e-5
+MAX_REVERSALS = 8       # roll-backs without progress before the trace gives up
+# progress: the branch has grown by more than this many points past its length at the
+# furthest reversal so far (a pump curve at converged settings turns at dozens of folds)
+REVERSAL_PROGRESS = 5
 LEAP_FACTORS = (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)   # corner leap: lengths in last chords
 
 _ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
@@ -179,6 +188,10 @@ class _Recorder:
         self.warned = False
         self.n_grazing: list[int] = []   # len(grazing) after each point (for roll-back)
         self.guard: tuple[int, np.ndarray] | None = None   # (point, travel) after a reversal
+        self.last_turn: int | None = None   # point the last reversal went back to
+        self.releap: int | None = None      # leap from this point (second reversal to it)
+        self.stuck = 0          # reversals since the branch grew past stuck_at points,
+        self.stuck_at = 0       # its largest length when a reversal was detected
         if resume is not None:
             self.counters = {"step_cuts": int(resume.step_cuts),
                              "secant_retries": int(resume.secant_retries),
@@ -483,6 +496,13 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         t = rec.last("tangents")
         fails = 0
         accepted = None
+        predictor = "tangent"
+        if rec.releap == len(rec) - 1:
+            # the trace came back to the same turn twice: the steps from it keep landing
+            # on the piece traced (a fold sharper than the step); leap across the fold
+            rec.releap = None
+            accepted = _leap(evaluate, rec, state, tol, max_iter, max_step)
+            predictor = "leap after repeated reversals"
         while accepted is None:
             # retries cycle through: tangent, spherical corrector past a corner,
             # secant, tangent with a patient corrector
@@ -557,13 +577,23 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                             "reversal, undone) and no step forward converged")
             break
         yn, it, res, tn = accepted
-        hit = _revisit(rec, state, yn)
+        logger.debug("accepted rpm %.6g from rpm %.6g (%s, step %.3g, %d iterations)",
+                     yn[-1] * wscale / RPM_TO_RAD_S, rec.last("rpm"), predictor, ds, it)
+        hit = _revisit(rec, state, yn, evaluate, tol, max_iter)
         if hit is not None:
             # the branch walks back over points already traced: drop the points after
             # the turn, re-predict from it with the old orientation and a smaller step
-            k = _reversal_point(rec, state, yn, hit)
+            past_fold = _past_fold(rec, state, hit, evaluate, tol, max_iter)
+            # past a genuine fold, the step from its far side jumped back onto the piece
+            # that led to the fold: keep the fold and retry from the last point, shorter
+            k = len(rec) - 1 if past_fold else _reversal_point(rec, state, yn, hit)
             rec.counters["reversals"] += 1
-            if rec.counters["reversals"] > MAX_REVERSALS:
+            # reversals count until the branch grows well past its length at the last one
+            if len(rec) > rec.stuck_at + REVERSAL_PROGRESS:
+                rec.stuck = 0
+            rec.stuck += 1
+            rec.stuck_at = max(rec.stuck_at, len(rec))
+            if rec.stuck > MAX_REVERSALS:
                 status = "reversal"
                 message = (f"the branch walked back over its own points (near rpm "
                            f"{rec.lists['rpm'][hit]:.6g}) after {MAX_REVERSALS} recoveries from "
@@ -572,16 +602,21 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                 rec.truncate(k + 1)
                 break
             logger.warning("continuation reversal: the new point at rpm %.6g revisits the "
-                           "branch near rpm %.6g; back to the turn at rpm %.6g (point %d) with "
-                           "the old orientation", yn[-1] * wscale / RPM_TO_RAD_S,
-                           rec.lists["rpm"][hit], rec.lists["rpm"][k], k)
+                           "branch near rpm %.6g; back to %s at rpm %.6g (point %d of %d) "
+                           "with the old orientation (%d without progress)",
+                           yn[-1] * wscale / RPM_TO_RAD_S, rec.lists["rpm"][hit],
+                           "the last point past the fold" if past_fold else "the turn",
+                           rec.lists["rpm"][k], k, len(rec), rec.stuck)
+            rec.releap = k if rec.last_turn == k else None
+            rec.last_turn = k
             rec.truncate(k + 1)
             travel = state(k) - state(k - 1)
             rec.guard = (k, travel / np.linalg.norm(travel))
             tk = rec.lists["tangents"][k]
             if tk @ travel < 0:      # re-predict with the orientation the branch came in
                 rec.lists["tangents"][k] = -tk
-            ds = max(min_step, 0.5 * min(ds, float(np.linalg.norm(travel))))
+            ds = max(min_step, (0.25 if past_fold else 0.5)
+                     * min(ds, float(np.linalg.norm(travel))))
             if on_point:
                 on_point(rec.branch("running", "", ds))
             continue
@@ -686,11 +721,14 @@ def _states(rec, state) -> np.ndarray:
     return np.array([state(i) for i in range(len(rec))])
 
 
-def _revisit(rec, state, yn) -> int | None:
+def _revisit(rec, state, yn, evaluate=None, tol=1e-8, max_iter=12) -> int | None:
     """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
 
-    Every segment but the last is checked; ``yn`` revisits the branch when its distance
-    to the segment is below ``REVISIT_RATIO`` times its chord from the last point.
+    Every segment but the last is checked; ``yn`` is near the branch when its distance
+    to the segment is below ``REVISIT_RATIO`` times its chord from the last point. With
+    ``evaluate``, a near point is a revisit only if it is the same solution as the old
+    branch at its speed (:func:`_distinct_solution`); otherwise it is another piece of
+    the branch lying close by (past a sharp fold) and None is returned.
     """
     n = len(rec)
     if n < 3:
@@ -700,10 +738,65 @@ def _revisit(rec, state, yn) -> int | None:
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
                                                                 1e-300), 0.0, 1.0)
-    d = np.linalg.norm(a + t[:, None] * ab - yn, axis=1)
+    foot = a + t[:, None] * ab
+    d = np.linalg.norm(foot - yn, axis=1)
     i = int(np.argmin(d))
     chord = float(np.linalg.norm(yn - ys[-1]))
-    return i if d[i] < REVISIT_RATIO * chord else None
+    if not d[i] < REVISIT_RATIO * chord:
+        return None
+    if evaluate is not None and _distinct_solution(evaluate, foot[i], yn, tol, max_iter):
+        logger.info("point at scaled speed %.9g lies %.2g chords from the branch traced but "
+                    "is another solution there (a sharp fold): not a revisit", yn[-1],
+                    d[i] / chord)
+        return None
+    return i
+
+
+def _distinct_solution(evaluate, foot, yn, tol, max_iter) -> bool:
+    """True if the branch traced, at the speed of ``yn``, is a solution other than ``yn``.
+
+    Newton at the fixed speed of ``yn`` from ``foot`` (the nearest point of the old
+    polyline, its speed replaced by that of ``yn``). Distinct when it converges to a point
+    ``y*`` farther than ``SAME_SOLUTION`` from ``yn`` and closer to ``foot`` than to
+    ``yn`` (the old piece, not ``yn``'s or a third one). A failed solve counts as the
+    same solution (the revisit is then undone as before).
+    """
+    y0 = foot.copy()
+    y0[-1] = yn[-1]
+    e_w = np.zeros_like(yn)
+    e_w[-1] = 1.0
+    try:
+        ys, *_ = _correct(evaluate, y0, e_w, tol, max_iter)
+    except (ConvergenceError, np.linalg.LinAlgError) as exc:
+        logger.debug("revisit check: no solution at the new point's speed from the old "
+                     "branch (%s)", exc)
+        return False
+    gap = float(np.linalg.norm(ys - yn))
+    logger.debug("revisit check: old branch at the new point's speed %.3g from it, %.3g from "
+                 "the old polyline", gap, float(np.linalg.norm(ys - y0)))
+    return gap > SAME_SOLUTION * max(float(np.linalg.norm(yn[:-1])), 1.0) and \
+        float(np.linalg.norm(ys - y0)) < 0.5 * gap
+
+
+def _past_fold(rec, state, hit, evaluate, tol, max_iter) -> bool:
+    """True if the branch turned at a fold after the revisited segment ``hit`` and its
+    last point lies on the fold's far piece: another solution than the piece that led to
+    the fold, at the same speed (:func:`_distinct_solution`), not that piece walked back.
+    """
+    if not rec.fold_index:
+        return False
+    f, n = rec.fold_index[-1], len(rec)
+    if not (hit < f < n - 1 and f >= 1):
+        return False
+    ys = _states(rec, state)
+    a, b = ys[:f], ys[1:f + 1]
+    ab = b - a
+    y = ys[-1]
+    t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                               1e-300), 0.0, 1.0)
+    foot = a + t[:, None] * ab
+    i = int(np.argmin(np.linalg.norm(foot - y, axis=1)))
+    return _distinct_solution(evaluate, foot[i], y, tol, max_iter)
 
 
 def _reversal_point(rec, state, yn, hit: int) -> int:
@@ -745,7 +838,7 @@ def _leap(evaluate, rec, state, tol, max_iter, max_step):
                 tn = _tangent(jx, jw, d)
             except (ConvergenceError, np.linalg.LinAlgError):
                 continue
-            if (yn - y) @ d > 0 and _revisit(rec, state, yn) is None:
+            if (yn - y) @ d > 0 and _revisit(rec, state, yn, evaluate, tol, max_iter) is None:
                 rec.counters["leaps"] += 1
                 logger.info("corner leap past rpm %.6g (%.0f chords ahead%s)", rec.last("rpm"),
                             f, ", speed turned back" if d[-1] * travel[-1] < 0 else "")

@@ -8,15 +8,37 @@ unknown layout of one signal is ``[x_0, Re x_k1, Im x_k1, Re x_k2, Im x_k2, ...]
 
 from __future__ import annotations
 
-import itertools
 import logging
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["HarmonicSet", "default_n_time"]
+__all__ = ["SET_KINDS", "HarmonicSet", "combination_offsets", "default_n_time"]
+
+# How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
+SET_KINDS = ("combinations", "bands", "contiguous")
+
+
+def combination_offsets(orders, order: int) -> set[int]:
+    """Positive shaft orders ``|sum c_i e_i|`` with ``1 <= sum |c_i| <= order``.
+
+    Every frequency the external orders ``e_i`` create together through a nonlinearity
+    of polynomial degree ``order``: sums and differences, each order used up to
+    ``order`` times (e.g. e = {2, 4}, order 2: 2, 4, 6, 8 and 4 - 2 = 2). Built by
+    adding one ``+-e_i`` at a time to the offsets of the previous degree (reachable
+    sums, not coefficient vectors: O(order * n_orders * |offsets|)).
+    """
+    ext = sorted({int(e) for e in orders})
+    if int(order) != order or order < 0:
+        raise ValueError(f"harmonics.sideband_order = {order!r}: must be an integer >= 0")
+    frontier, seen = {0}, {0}
+    for _ in range(int(order)):
+        frontier = {v + sgn * e for v in frontier for e in ext for sgn in (1, -1)}
+        seen |= frontier
+    return {abs(v) for v in seen if v != 0}
 
 
 def default_n_time(max_index: int) -> int:
@@ -87,8 +109,8 @@ class HarmonicSet:
     @classmethod
     def build(cls, n_teeth: int, mesh_harmonics: int, external_orders=(),
               sideband_order: int = 1, max_index: int | None = None,
-              n_time: int | None = None) -> HarmonicSet:
-        """Smallest set carrying the mesh harmonics, external orders and sidebands.
+              n_time: int | None = None, kind: str = "combinations") -> HarmonicSet:
+        """Harmonic set carrying the mesh harmonics, external orders and sidebands.
 
         Parameters
         ----------
@@ -98,14 +120,26 @@ class HarmonicSet:
             Number of mesh harmonics kZ kept (k = 1 .. mesh_harmonics).
         external_orders
             Shaft orders of the external excitation (positive integers). Empty:
-            the fundamental is the mesh frequency and the set is {0, 1, ..., H}.
+            the fundamental is the mesh frequency and the set is {0, 1, ..., H}
+            whatever ``kind``.
         sideband_order
-            Highest combination order of the external orders: all sums
-            ``sum c_i e_i`` with ``sum |c_i| <= sideband_order`` are included, alone
-            and as sidebands ``kZ +- c``.
+            Highest combination order s of the external orders (see ``kind``).
         max_index
             Indices above it are dropped.
+        kind
+            ``"combinations"``: every index the excitation creates up to order s,
+            ``kZ + sum c_i e_i`` with ``0 <= k <= mesh_harmonics`` and
+            ``sum |c_i| <= s`` (:func:`combination_offsets`), the fewest unknowns.
+            ``"bands"``: every index of the excitation's lattice (multiples of
+            ``g = gcd(e_i)`` away from a mesh harmonic) within the reach of order s,
+            ``|kZ - n| <= s max(e_i)``: the order-s combinations and the indices
+            between them that take more combinations (on the pump, Z = 76,
+            e = {1, 2, 4}: Z - 15 needs order 5, Z - 16 order 4). ``"contiguous"``:
+            ``{0, 1, ..., H Z + s max(e_i)}``, every index up to the largest of the
+            other two (docs/convergence.md, "Harmonic sets", for when each is cheaper).
         """
+        if kind not in SET_KINDS:
+            raise ValueError(f"harmonics.kind = {kind!r}: must be one of {', '.join(SET_KINDS)}")
         if int(n_teeth) != n_teeth or n_teeth < 1:
             raise ValueError(f"harmonics.n_teeth = {n_teeth!r}: must be an integer >= 1")
         if int(mesh_harmonics) != mesh_harmonics or mesh_harmonics < 0:
@@ -118,27 +152,26 @@ class HarmonicSet:
         if any(e != f or e < 1 for e, f in zip(ext, external_orders, strict=True)):
             raise ValueError(
                 f"harmonics.external_orders = {list(external_orders)!r}: must be integers >= 1")
-        z = int(n_teeth)
+        z, h, s = int(n_teeth), int(mesh_harmonics), int(sideband_order)
         if not ext:
-            idx = set(range(int(mesh_harmonics) + 1))
+            idx = set(range(h + 1))
             fundamental, divisor = "mesh", z
         else:
-            combos: set[int] = set()
             ext = sorted(set(ext))
-            for order in range(1, int(sideband_order) + 1):
-                for coeffs in itertools.product(range(-order, order + 1), repeat=len(ext)):
-                    if sum(abs(c) for c in coeffs) != order:
-                        continue
-                    v = abs(sum(c * e for c, e in zip(coeffs, ext, strict=True)))
-                    if v > 0:
-                        combos.add(v)
-            combos.update(ext)
-            idx = {0} | combos
-            for k in range(1, int(mesh_harmonics) + 1):
+            if kind == "combinations":
+                offsets = combination_offsets(ext, s) | set(ext)
+            else:
+                g = math.gcd(*ext)
+                reach = max(s * ext[-1], ext[-1])       # the external orders themselves
+                offsets = set(range(g, reach + 1, g))
+            idx = {0} | offsets
+            for k in range(1, h + 1):
                 idx.add(k * z)
-                for c in combos:
+                for c in offsets:
                     idx.add(abs(k * z + c))
                     idx.add(abs(k * z - c))
+            if kind == "contiguous":
+                idx = set(range(max(idx) + 1))
             fundamental, divisor = "shaft", 1
         if max_index is not None:
             if int(max_index) != max_index or max_index < 0:

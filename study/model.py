@@ -46,7 +46,7 @@ def harmonic_set(scene: Scene):
         return HarmonicSet(h.harmonics, fundamental="mesh", divisor=scene.gear.teeth,
                            n_time=n_time)
     return HarmonicSet.build(scene.gear.teeth, h.mesh_harmonics, ext, h.sideband_order,
-                             n_time=n_time)
+                             n_time=n_time, kind=h.harmonic_set)
 
 
 def build_problem(scene: Scene, M, C, K, G, constant: dict, omega_squared: dict | None = None):

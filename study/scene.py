@@ -168,6 +168,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     "hbm": {
         "mesh_harmonics": _f(3, "", 1, 200, kind="int", doc="mesh harmonics kZ, k = 1…n"),
         "sideband_order": _f(0, "", 0, 50, kind="int", doc="sidebands kZ ± e combination order"),
+        "harmonic_set": _c("combinations", ("combinations", "bands", "contiguous"),
+                           "how the builder fills the sidebands: the order-s combinations, "
+                           "every index within their reach, or all indices (docs/convergence.md)"),
         "harmonics": _f(None, "", 0, 100_000, kind="ints",
                         doc="explicit harmonic set (must contain 0); overrides the builder"),
         "aft_samples": _f(0, "", 0, 1 << 20, kind="int", doc="AFT time samples (0: automatic)"),
@@ -405,6 +408,7 @@ class HbmData:
     mesh_harmonics: int
     sideband_order: int
     harmonics: tuple[int, ...] | None
+    harmonic_set: str
     aft_samples: int
     condensation: str
     stability: bool = True

@@ -105,3 +105,51 @@ def test_resume_after_a_step_change_continues_from_the_last_point(reference):
     assert rest.rpm[15] - rest.rpm[14] < ref.rpm[15] - ref.rpm[14]    # the new, smaller step
     np.testing.assert_allclose(np.interp(ref.rpm[:20], rest.rpm, rest.mesh_load_std),
                                ref.mesh_load_std[:20], rtol=1e-3)
+
+
+# ------------------------------------------------ distinct pieces past a sharp fold (issue 13)
+
+def _s_curve(y, jacobian=True):
+    """x^3 - 3x = w: three solutions for |w| < 2, folds at x = +-1 (w = -+2)."""
+    x, w = y[0], y[1]
+    r = np.array([x ** 3 - 3 * x - w])
+    if not jacobian:
+        return r
+    return r, np.array([[3 * x ** 2 - 3]]), np.array([-1.0])
+
+
+def test_a_near_point_on_another_piece_is_not_a_revisit():
+    foot = np.array([0.05, 0.3])          # on the old polyline, near the piece x ~ 0
+    other = np.array([np.sqrt(3.0), 0.0])      # the piece x = +sqrt(3) at w = 0
+    assert cont._distinct_solution(_s_curve, foot, other, 1e-12, 20)
+    same = np.array([1e-9, 0.0])          # the old piece itself at w = 0 (x = -w/3 ~ 0)
+    assert not cont._distinct_solution(_s_curve, foot, same, 1e-12, 20)
+
+
+def test_a_failed_check_keeps_the_revisit():
+    def fails(y, jacobian=True):
+        raise hbm.ConvergenceError("no solution")
+    assert not cont._distinct_solution(fails, np.array([0.05, 0.3]), np.array([1.7, 0.0]),
+                                       1e-12, 20)
+
+
+def test_reversals_far_apart_do_not_add_up(reference, monkeypatch):
+    """A reversal budget of one per place: two flips many points apart both recover."""
+    pb, ref = reference
+    orig = cont._check_events
+    at = [len(ref) // 4, len(ref) // 2]
+    done: list[int] = []
+
+    def flipped(problem, rec, evaluate, yn, tn, *args):
+        if len(rec) in at and len(rec) not in done:
+            done.append(len(rec))
+            tn = -tn
+        return orig(problem, rec, evaluate, yn, tn, *args)
+
+    monkeypatch.setattr(cont, "_check_events", flipped)
+    monkeypatch.setattr(cont, "MAX_REVERSALS", 1)
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
+    assert done == at
+    assert br.status == "completed", br.message
+    assert br.reversals == 2
+    np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)

@@ -120,6 +120,9 @@ BROKEN = [
       "external": {"aero": [{"shaft": "in", "order": 2, "torque_Nm": [0, 0, 0.1]}]}},
      "lacks the external shaft orders [2]"),
     ({"hbm": {"condensation": "LOA"}}, "hbm.condensation = 'LOA'"),
+    ({"hbm": {"harmonic_set": "band"}},
+     "hbm.harmonic_set = 'band': must be one of 'combinations', 'bands', 'contiguous'"),
+    ({"hbm": {"harmonic_set": 3}}, "hbm.harmonic_set = 3"),
     ({"mesh_stiffness": {"mean_N_per_um": -5}}, "mesh_stiffness.mean_N_per_um = -5"),
     ({"mesh_stiffness": {"amplitudes_N_per_um": [150, 100]}}, "mesh_stiffness.amplitudes_N_per_um"),
     ({"mesh_stiffness": {"phases_deg": [0, 0]}}, "mesh_stiffness.phases_deg"),
@@ -256,3 +259,22 @@ def test_docs_list_every_key():
     for sec, specs in SCHEMA.items():
         for key in specs:
             assert f"`{key}`" in text, (sec, key)
+
+
+def test_harmonic_set_option_reaches_the_builder():
+    """hbm.harmonic_set picks the builder's kind; the default keeps the combinations."""
+    from study.model import harmonic_set
+
+    sizes = {}
+    for kind in ("combinations", "bands", "contiguous"):
+        sc = load_scene(ROOT / "scenes" / "pump.toml",
+                        {"hbm.harmonic_set": kind, "hbm.mesh_harmonics": 12,
+                         "hbm.sideband_order": 4})
+        assert sc.hbm.harmonic_set == kind
+        hs = harmonic_set(sc)
+        sizes[kind] = hs.n_real
+        if kind == "contiguous":
+            assert hs.indices == tuple(range(12 * 76 + 16 + 1))
+    # Z = 76, orders 1, 2, 4, s = 4: bands 76 +- 16 hold 61 = 76 - 15 (order 5)
+    assert sizes == {"combinations": 775, "bands": 825, "contiguous": 1857}
+    assert load_scene(ROOT / "scenes" / "pump.toml").hbm.harmonic_set == "combinations"

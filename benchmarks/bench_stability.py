@@ -27,7 +27,14 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from benchmarks.bench_verify import _rhs, _state_norm, initial_state, modal_model, steady_state
+from benchmarks.bench_verify import (
+    _rhs,
+    _state_norm,
+    initial_state,
+    modal_model,
+    state_atol,
+    steady_state,
+)
 from benchmarks.common import machine, write_json
 
 logger = logging.getLogger("bench_stability")
@@ -40,11 +47,8 @@ def measured_rate(problem, point, periods: int, rtol: float = 1e-10) -> dict:
     mm = modal_model(problem, point.rpm)
     y = initial_state(problem, point, mm)
     fun = _rhs(mm)
-    m = mm.n_modes
     T = mm.period
-    scale_x = max(np.max(np.abs(y[:m])), 1e-300)
-    scale_v = max(np.max(np.abs(y[m:])), scale_x * 2 * np.pi / T)
-    atol = np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
+    atol = state_atol(mm, y, rtol)
     norm0 = np.linalg.norm(_state_norm(mm, y))
     changes = []
     t0 = time.perf_counter()

@@ -188,6 +188,15 @@ def _state_norm(mm: ModalModel, y: np.ndarray) -> np.ndarray:
     return np.concatenate([y[:m], y[m:] * mm.period / (2 * np.pi)])
 
 
+def state_atol(mm: ModalModel, y0: np.ndarray, rtol: float) -> np.ndarray:
+    """Absolute tolerances of ``solve_ivp``: ``rtol`` times the largest modal amplitude
+    of ``y0`` per block (velocities at least that of the positions times w0)."""
+    m = mm.n_modes
+    scale_x = max(np.max(np.abs(y0[:m])), 1e-300)
+    scale_v = max(np.max(np.abs(y0[m:])), scale_x * 2 * np.pi / mm.period)
+    return np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
+
+
 def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
                  tol_periodic: float = 1e-9, max_periods: int = 2000, samples: int = 4096,
                  method: str = "DOP853", tol_state: float | None = None) -> SteadyState:
@@ -223,9 +232,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
     fun = _rhs(mm)
     m = mm.n_modes
     T = mm.period
-    scale_x = max(np.max(np.abs(y0[:m])), 1e-300)
-    scale_v = max(np.max(np.abs(y0[m:])), scale_x * 2 * np.pi / T)
-    atol = np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
+    atol = state_atol(mm, y0, rtol)
     t_eval = T * np.arange(samples) / samples
     y = np.array(y0, dtype=float)
     n_rhs, change, periods, metrics, load_change = 0, np.inf, 0, None, np.inf

@@ -21,7 +21,8 @@ def test_pump_scene_loads():
 
     s = load_scene(PUMP)
     assert s.scene.kind == "fe"
-    assert s.load.torque == 2.5 and s.gear.backlash == pytest.approx(40e-6)
+    assert s.load.torque == 3.29 and s.gear.backlash == pytest.approx(40e-6)
+    assert s.static_load == pytest.approx(70.0, rel=1e-3)     # the paper's F_s (Sect. 4.2)
     assert {u.m_unb for u in s.external.unbalance} == {30e-6, 20e-6}
     assert s.external.orders == (1, 2, 4)
     assert s.damping.modal_ratio == 0.05

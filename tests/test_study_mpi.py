@@ -27,7 +27,8 @@ ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
        "PYTHONPATH": str(ROOT)}
 # coarse pump, 20 fixed-interface modes, a speed range with a grazing and two folds
 SETS = ["--set", "rom.n_cm=20", "--set", "rom.n_check=6",
-        "--set", "continuation.speed_rpm=[600,1000]",
+        "--set", "continuation.speed_rpm=[600,1100]", "--set", "continuation.step_rpm=10",
+        "--set", "continuation.max_step_rpm=10",
         "--set", "outputs.housing_field_rpm=[800]", "--no-progress"]
 CURVES = ("rpm", "omega", "mesh_load_std", "mesh_load_max", "coefficients", "unknowns",
           "margin_active", "margin_reverse", "contact_loss_fraction", "floquet_max_real")

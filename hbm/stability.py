@@ -124,7 +124,10 @@ def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None
                      "equation has max Re %.4g 1/s", point.rpm, root, max_real)
         exps = np.concatenate([[complex(root, 0.0)], exps])
         max_real = float(root)
-    kind = "stable" if max_real <= 0 else classify_exponent(complex(exps[0]), w0)
+    # round-off of the multipliers (|mu| = 1 +- 1e-15 for a rigid mode) is not growth
+    w_top = float(np.sqrt(np.max(np.abs(problem.w2))))
+    tiny = 1e-9 * (w0 + w_top)
+    kind = "stable" if max_real <= tiny else classify_exponent(complex(exps[0]), w0)
     return Stability(max_real, exps, kind, bool(parity), bool(consistent), res.error, res.basis)
 
 

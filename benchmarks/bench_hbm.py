@@ -9,7 +9,7 @@ on first use) with 3 and 6 mesh harmonics plus the scene's sidebands.
 * per point: Newton solve at one speed started from the solution at 0.99 x the
   speed (what a continuation step costs), median of repeats;
 * per curve: ``hbm.trace`` over the scene's speed range with the scene's
-  continuation settings (the pipeline's call), without and with Hill stability;
+  continuation settings (the pipeline's call), without and with stability (T.10);
 * time integration: ``solve_ivp`` DOP853 (rtol 1e-7, all coupled modes, see
   benchmarks/bench_verify.py) from the orbit at 0.99 x the speed until the
   period-to-period change of the state is < 1e-5 — what one point of a time-integration sweep
@@ -89,7 +89,7 @@ def ti_point_time(pb, rpm: float, prev, repeats: int) -> dict[str, Any]:
 
 
 def bench_model(label: str, pb, scene, rpm: float, repeats: int, curves: bool,
-                hill: bool, ti: bool) -> dict[str, Any]:
+                stability: bool, ti: bool) -> dict[str, Any]:
     pt = point_time(pb, rpm, repeats)
     rec: dict[str, Any] = {"model": label, "dof": pb.system.n_dof,
                            "harmonic_indices": pb.harmonics.n_harmonics,
@@ -101,9 +101,10 @@ def bench_model(label: str, pb, scene, rpm: float, repeats: int, curves: bool,
         cv = curve_time(pb, scene, False)
         rec.update(curve_s=cv["seconds"], curve_points=cv["points"],
                    curve_per_point_s=cv["per_point"], curve_status=cv["status"])
-        if hill:
+        if stability:
             ch = curve_time(pb, scene, True)
-            rec.update(curve_hill_s=ch["seconds"], curve_hill_per_point_s=ch["per_point"])
+            rec.update(curve_stability_s=ch["seconds"],
+                       curve_stability_per_point_s=ch["per_point"])
     if ti:
         tr = ti_point_time(pb, rpm, pt["prev"], 1 if pb.system.n_dof > 1 else repeats)
         rec.update(ti_point_s=tr["seconds"], ti_periods=tr["periods"], ti_n_rhs=tr["n_rhs"],
@@ -115,7 +116,7 @@ def bench_model(label: str, pb, scene, rpm: float, repeats: int, curves: bool,
 def tables(recs: list[dict]) -> list[dict]:
     cols = ["model", "dof", "harmonic_indices", "unknowns", "n_time", "rpm", "point_s",
             "newton_iterations", "curve_points", "curve_s", "curve_per_point_s",
-            "curve_hill_per_point_s", "ti_point_s", "ti_periods", "speedup_point"]
+            "curve_stability_per_point_s", "ti_point_s", "ti_periods", "speedup_point"]
     sd = [r for r in recs if r["dof"] == 1]
     pu = [r for r in recs if r["dof"] > 1]
 
@@ -157,7 +158,7 @@ def main(argv: list[str] | None = None) -> dict:
     sp = [r["speedup_point"] for r in recs if "speedup_point" in r]
     cmd = ".venv/bin/python -m benchmarks.bench_hbm" + (" --quick" if args.quick else "")
     summary = ("HBM (condensation 'loa') time per Newton point (from the 0.99 x speed "
-               "solution, median) and per continuation curve (scene settings; without Hill "
+               "solution, median) and per continuation curve (scene settings; without "
                "stability, and with it where a column is filled) against harmonics and DOF; "
                "time integration of the same point from the 0.99 x speed orbit (DOP853 rtol 1e-7 "
                "to a period-to-period state change < 1e-5, all coupled modes) measured in the "

@@ -20,8 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .newton import COND_WARN, ConvergenceError, newton, solve_checked
 from .postprocess import point_stats
-from .problem import COND_WARN, RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton, solve_checked
+from .problem import RPM_TO_RAD_S, HBMProblem
 from .stability import stability as point_stability
 
 logger = logging.getLogger(__name__)
@@ -254,8 +255,8 @@ def _augmented(problem: HBMProblem, omega_scale: float):
         if not omega > 0:
             raise ConvergenceError(f"corrector reached Omega = {omega:.3g} <= 0")
         if not jacobian:
-            return problem._scaled(y[:-1], omega, False)
-        r, jx, jw = problem._scaled(y[:-1], omega)
+            return problem.scaled(y[:-1], omega, False)
+        r, jx, jw = problem.scaled(y[:-1], omega)
         return r, jx, jw * omega_scale
     return evaluate
 
@@ -628,7 +629,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
             lam = (wb - y[-1] * wscale) / (wn - y[-1] * wscale)
             guess = y[:-1] + lam * (yn[:-1] - y[:-1])
             try:
-                xb, itb, resb = newton(lambda x, j=True, wb=wb: problem._scaled(x, wb, j), guess,
+                xb, itb, resb = newton(lambda x, j=True, wb=wb: problem.scaled(x, wb, j), guess,
                                        tol, 30)
                 yb = np.concatenate([xb, [wb / wscale]])
                 _, jx, jw = evaluate(yb)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .newton import COND_WARN, ConvergenceError, newton, solve_checked
+from .newton import COND_WARN, ConvergenceError, backtrack, newton, solve_checked
 from .postprocess import point_stats
 from .problem import RPM_TO_RAD_S, HBMProblem
 from .stability import stability as point_stability
@@ -301,22 +301,19 @@ def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None
         if it >= 2:
             # Newton may cycle on the piecewise-linear force: backtrack on ||R||
             # (the constraint is linear, so every partial step keeps it)
-            alpha = 1.0
-            for _ in range(6):
-                yt = y + alpha * dy
-                try:
-                    rt = evaluate(yt, False)
-                except ConvergenceError:
-                    rt = None
-                if rt is not None:
-                    rest = np.linalg.norm(rt) / max(np.linalg.norm(yt[:-1]), 1.0)
-                    if rest < (1 - 1e-4 * alpha) * res:
-                        break
-                alpha *= 0.5
-            dy = alpha * dy
+            dy = backtrack(lambda yt: _relative_residual(evaluate, yt), y, dy, res, 6) * dy
         y = y + dy
     raise ConvergenceError(f"corrector: relative residual {res:.3g} > tol {tol:.1g} after {it} "
                            f"iterations (condition estimate {cond:.2g})", res, cond)
+
+
+def _relative_residual(evaluate, y) -> float:
+    """``||R_hat(y)|| / max(||x_hat||, 1)``, inf where the residual cannot be evaluated."""
+    try:
+        r = evaluate(y, False)
+    except ConvergenceError:
+        return np.inf
+    return np.linalg.norm(r) / max(np.linalg.norm(y[:-1]), 1.0)
 
 
 def _constraint(y, y_pred, direction, sphere):

@@ -14,7 +14,7 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["COND_WARN", "ConvergenceError", "newton", "solve_checked"]
+__all__ = ["COND_WARN", "ConvergenceError", "backtrack", "newton", "solve_checked"]
 
 COND_WARN = 1e10   # 1-norm condition estimate of a Newton matrix above which we warn
 
@@ -75,6 +75,24 @@ def solve_checked(j: np.ndarray, rhs: np.ndarray, where: str = "Newton",
     return sla.lu_solve((lu, piv), rhs, check_finite=False), cond
 
 
+def backtrack(relative_residual, x: np.ndarray, dx: np.ndarray, res: float,
+              tries: int) -> float:
+    """Step length of a damped Newton step: the first of 1, 1/2, ..., 2^-(tries-1)
+    whose relative residual ``relative_residual(x + alpha dx)`` is below
+    ``(1 - 1e-4 alpha) res`` (Armijo on the residual norm), else ``2^-tries``.
+
+    Shared by :func:`newton` and the continuation corrector, whose residual is
+    only piecewise smooth (the dead-zone force).
+    """
+    alpha = 1.0
+    for _ in range(tries):
+        rest = relative_residual(x + alpha * dx)
+        if np.isfinite(rest) and rest < (1.0 - 1e-4 * alpha) * res:
+            break
+        alpha *= 0.5
+    return alpha
+
+
 def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
            line_search: bool = False):
     """Damped Newton on scaled unknowns: ``fun(x) -> (r, J, ...)``, ``fun(x, False) -> r``.
@@ -114,16 +132,9 @@ def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
                                    exc.condition) from exc
         warned = warned or cond > COND_WARN
         # backtracking on the residual norm (the force is only piecewise smooth)
-        alpha = 1.0
-        for _ in range(8):
-            xt = x + alpha * dx
-            rt = fun(xt, False) if line_search else None
-            if rt is None:
-                break
-            rest = float(np.linalg.norm(rt) / max(np.linalg.norm(xt), 1.0))
-            if np.isfinite(rest) and rest < (1.0 - 1e-4 * alpha) * res:
-                break
-            alpha *= 0.5
+        alpha = backtrack(lambda xt: float(np.linalg.norm(fun(xt, False))
+                                           / max(np.linalg.norm(xt), 1.0)),
+                          x, dx, res, 8) if line_search else 1.0
         x = x + alpha * dx
     why = "diverged: relative residual" if res > diverge * max(r0, tol) else "relative residual"
     raise ConvergenceError(f"Newton {why} {res:.3g} > tol {tol:.1g} after {it} iterations "

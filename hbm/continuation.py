@@ -121,7 +121,7 @@ class Branch:
         ahead along the direction of travel past a non-smooth point).
     max_condition
         Largest 1-norm condition estimate of a corrector matrix (scaled); a
-        warning is logged once when it exceeds ``hbm.problem.COND_WARN``.
+        warning is logged once when it exceeds ``hbm.newton.COND_WARN``.
     status, message
         ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
         through rpm_start), ``"max_points"``, ``"step_failed"``,

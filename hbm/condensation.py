@@ -25,19 +25,50 @@ small interface, as sfepy's linear-combination boundary conditions do
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
-from .harmonics import complex_mul, mul_rows
-
-if TYPE_CHECKING:
-    from .problem import HBMProblem
+from .harmonics import HarmonicSet, complex_mul, mul_rows
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["CONDENSATIONS", "Condensation", "FullCoordinates", "GearCondensation",
-           "LoaCondensation", "make_condensation"]
+           "LinearData", "LoaCondensation", "make_condensation"]
+
+
+class LinearData(Protocol):
+    """What a condensation reads of :class:`hbm.problem.HBMProblem` (its shared data).
+
+    Declared here so that this module does not import hbm.problem (one-way imports).
+    """
+
+    harmonics: HarmonicSet
+    n_dof: int
+    nS: int
+    nr: int
+    G: np.ndarray
+    Kp: np.ndarray
+    dof_eq: np.ndarray
+    kbar: float
+    length_scale: float
+    modal: bool
+    rigid: np.ndarray
+    gj: np.ndarray
+    phi: np.ndarray
+    pfc: np.ndarray
+    pfu: np.ndarray
+
+    def dynamic_stiffness(self, omega: float) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def forcing(self, omega: float) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def modal_inverse(self, omega: float) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def equilibrated_solve(self, z: np.ndarray, rhs: np.ndarray,
+                           idx: np.ndarray | None = None) -> np.ndarray: ...
+
+    def mesh_force(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0): ...
 
 
 class Condensation(Protocol):
@@ -70,7 +101,7 @@ class Condensation(Protocol):
         """Complex Fourier coefficients of every coordinate, (n_dof, n_harmonics)."""
 
 
-def _require_restrained(problem: HBMProblem) -> None:
+def _require_restrained(problem: LinearData) -> None:
     """A condensation that solves with Z'_k needs it regular or modal at k = 0."""
     if np.any(problem.rigid) and not problem.modal:
         raise ValueError(
@@ -84,7 +115,7 @@ class LoaCondensation:
 
     name = "loa"
 
-    def __init__(self, problem: HBMProblem) -> None:
+    def __init__(self, problem: LinearData) -> None:
         _require_restrained(problem)
         if not problem.modal:
             logger.info("damping is not modal in the eq. (17) modes: dense solve per harmonic")
@@ -168,7 +199,7 @@ class _DofCondensation:
 
     name = ""
 
-    def __init__(self, problem: HBMProblem, g: np.ndarray, kr: np.ndarray,
+    def __init__(self, problem: LinearData, g: np.ndarray, kr: np.ndarray,
                  dr: np.ndarray) -> None:
         self.problem = problem
         self.g = g
@@ -226,7 +257,7 @@ class FullCoordinates(_DofCondensation):
 
     name = "none"
 
-    def __init__(self, problem: HBMProblem) -> None:
+    def __init__(self, problem: LinearData) -> None:
         super().__init__(problem, problem.G, problem.Kp, problem.dof_eq)
 
     def linear(self, omega: float):
@@ -253,7 +284,7 @@ class GearCondensation(_DofCondensation):
 
     name = "gear"
 
-    def __init__(self, problem: HBMProblem) -> None:
+    def __init__(self, problem: LinearData) -> None:
         _require_restrained(problem)
         self.problem = pb = problem
         self.nl = np.flatnonzero(pb.G != 0.0)
@@ -332,7 +363,7 @@ class GearCondensation(_DofCondensation):
 CONDENSATIONS = {"loa": LoaCondensation, "gear": GearCondensation, "none": FullCoordinates}
 
 
-def make_condensation(name: str, problem: HBMProblem) -> Condensation:
+def make_condensation(name: str, problem: LinearData) -> Condensation:
     """The condensation object named ``name`` for ``problem`` (validates and scales)."""
     if name not in CONDENSATIONS:
         raise ValueError(f"problem.condensation = {name!r}: must be 'none', 'gear' or 'loa'")

@@ -242,9 +242,9 @@ def case_rom(quick: bool) -> list:
             def dense(pb, br):
                 errs = []
                 for i in np.linspace(0, len(br) - 1, 4).astype(int):
-                    (h, d), _ = pb._lin_loa_compute(br.omega[i])
-                    z, _ = pb._dyn(br.omega[i])
-                    f, _ = pb._forcing(br.omega[i])
+                    (h, d), _ = pb.scheme.receptance(br.omega[i])
+                    z, _ = pb.dynamic_stiffness(br.omega[i])
+                    f, _ = pb.forcing(br.omega[i])
                     x = np.linalg.solve(z, np.stack([np.broadcast_to(pb.G, f.shape), f], -1))
                     hd, dd = x[..., 0] @ pb.G, x[..., 1] @ pb.G
                     errs.append(max(np.max(np.abs(h - hd)) / np.max(np.abs(hd)),
@@ -296,7 +296,7 @@ def case_continuation(quick: bool) -> list:
                                mdl.problem(), 0.6 * r, 1.4 * r, None, max_iter=it))
     # a solver breakdown past 9000 rpm (non-finite residual): stop, keep the points
     pb = mdl.problem()
-    scaled = pb._scaled
+    scaled = pb.scaled
 
     def broken(x, omega, jacobian=True, law=1.0):
         out = scaled(x, omega, jacobian, law)
@@ -304,10 +304,10 @@ def case_continuation(quick: bool) -> list:
             return (out[0] * np.nan, *out[1:]) if jacobian else out * np.nan
         return out
 
-    pb._scaled = broken
+    pb.scaled = broken
     rows.append(branch_row("continuation, solver breakdown", "NaN residual > 9000 rpm", pb,
                            0.6 * r, 1.4 * r, None))
-    pb._scaled = scaled
+    pb.scaled = scaled
     for fallback in (False, True):
         rows.append(branch_row("start point where Newton fails", f"start_fallback = {fallback}",
                                Geared3(torque=47.0, te=20e-6).problem(), 0.6 * r, 1.4 * r,

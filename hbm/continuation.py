@@ -20,8 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .newton import COND_WARN, ConvergenceError, backtrack, newton, solve_checked
 from .postprocess import point_stats
-from .problem import COND_WARN, RPM_TO_RAD_S, ConvergenceError, HBMProblem, newton, solve_checked
+from .problem import RPM_TO_RAD_S, HBMProblem
 from .stability import stability as point_stability
 
 logger = logging.getLogger(__name__)
@@ -120,7 +121,7 @@ class Branch:
         ahead along the direction of travel past a non-smooth point).
     max_condition
         Largest 1-norm condition estimate of a corrector matrix (scaled); a
-        warning is logged once when it exceeds ``hbm.problem.COND_WARN``.
+        warning is logged once when it exceeds ``hbm.newton.COND_WARN``.
     status, message
         ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
         through rpm_start), ``"max_points"``, ``"step_failed"``,
@@ -254,8 +255,8 @@ def _augmented(problem: HBMProblem, omega_scale: float):
         if not omega > 0:
             raise ConvergenceError(f"corrector reached Omega = {omega:.3g} <= 0")
         if not jacobian:
-            return problem._scaled(y[:-1], omega, False)
-        r, jx, jw = problem._scaled(y[:-1], omega)
+            return problem.scaled(y[:-1], omega, False)
+        r, jx, jw = problem.scaled(y[:-1], omega)
         return r, jx, jw * omega_scale
     return evaluate
 
@@ -300,22 +301,19 @@ def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None
         if it >= 2:
             # Newton may cycle on the piecewise-linear force: backtrack on ||R||
             # (the constraint is linear, so every partial step keeps it)
-            alpha = 1.0
-            for _ in range(6):
-                yt = y + alpha * dy
-                try:
-                    rt = evaluate(yt, False)
-                except ConvergenceError:
-                    rt = None
-                if rt is not None:
-                    rest = np.linalg.norm(rt) / max(np.linalg.norm(yt[:-1]), 1.0)
-                    if rest < (1 - 1e-4 * alpha) * res:
-                        break
-                alpha *= 0.5
-            dy = alpha * dy
+            dy = backtrack(lambda yt: _relative_residual(evaluate, yt), y, dy, res, 6) * dy
         y = y + dy
     raise ConvergenceError(f"corrector: relative residual {res:.3g} > tol {tol:.1g} after {it} "
                            f"iterations (condition estimate {cond:.2g})", res, cond)
+
+
+def _relative_residual(evaluate, y) -> float:
+    """``||R_hat(y)|| / max(||x_hat||, 1)``, inf where the residual cannot be evaluated."""
+    try:
+        r = evaluate(y, False)
+    except ConvergenceError:
+        return np.inf
+    return np.linalg.norm(r) / max(np.linalg.norm(y[:-1]), 1.0)
 
 
 def _constraint(y, y_pred, direction, sphere):
@@ -628,7 +626,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
             lam = (wb - y[-1] * wscale) / (wn - y[-1] * wscale)
             guess = y[:-1] + lam * (yn[:-1] - y[:-1])
             try:
-                xb, itb, resb = newton(lambda x, j=True, wb=wb: problem._scaled(x, wb, j), guess,
+                xb, itb, resb = newton(lambda x, j=True, wb=wb: problem.scaled(x, wb, j), guess,
                                        tol, 30)
                 yb = np.concatenate([xb, [wb / wscale]])
                 _, jx, jw = evaluate(yb)

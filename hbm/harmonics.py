@@ -16,7 +16,8 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SET_KINDS", "HarmonicSet", "combination_offsets", "default_n_time"]
+__all__ = ["SET_KINDS", "HarmonicSet", "combination_offsets", "complex_mul", "default_n_time",
+           "mul_rows"]
 
 # How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
 SET_KINDS = ("combinations", "bands", "contiguous")
@@ -247,3 +248,23 @@ class HarmonicSet:
         """Normalised time ``tau = w0 t`` of the AFT samples over one period (rad)."""
         n = self.n_time if n_time is None else int(n_time)
         return 2.0 * np.pi * np.arange(n) / n
+
+
+def mul_rows(h: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Rows of a real-layout matrix multiplied by the complex ``h_k`` (``h_0`` real).
+
+    ``j`` has the real layout ``[x_0, Re x_k1, Im x_k1, ...]`` along its first axis;
+    the result is the real layout of ``h_k x_k`` for every column.
+    """
+    out = np.empty_like(j)
+    hr, hi = h.real[1:, None], h.imag[1:, None]
+    jr, ji = j[1::2], j[2::2]
+    out[0] = h[0].real * j[0]
+    out[1::2] = hr * jr - hi * ji
+    out[2::2] = hi * jr + hr * ji
+    return out
+
+
+def complex_mul(h: np.ndarray, xr: np.ndarray) -> np.ndarray:
+    """Real layout of ``h_k x_k`` for a real-layout vector ``xr`` (see :func:`mul_rows`)."""
+    return mul_rows(h, xr[:, None])[:, 0]

@@ -50,6 +50,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .exponents import classify_exponent, det_sign, line_of_action_operator, positive_real_root
+from .harmonics import mul_rows
 from .monodromy import monodromy_exponents
 from .problem import HBMProblem, Point
 
@@ -159,7 +160,7 @@ def _coordinates(problem: HBMProblem, max_size: int, omega: float):
         h_rest = np.zeros(problem.nS, dtype=complex)
         rest_max = -np.inf
         if 2 * keep.size * nr > max_size:
-            inv, _ = problem._modal_inv(omega)
+            inv, _ = problem.modal_inverse(omega)
             contrib = (problem.gj ** 2)[:, None] * inv                 # (n_modes, nS)
             part = np.max(np.abs(contrib[keep]), axis=1)
             nkeep = max(1, max_size // (2 * nr))
@@ -215,7 +216,7 @@ def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
     jf_all = jf
     if np.any(h_rest != 0):
         # omitted modes: Delta = Delta_kept - H_rest J_f Delta  =>  J_eff = J_f (I + H_rest J_f)^-1
-        hr = problem._cmul_rows(h_rest, np.eye(nr))
+        hr = mul_rows(h_rest, np.eye(nr))
         jf = np.linalg.solve((np.eye(nr) + hr @ jf).T, jf.T).T
     z0 = km[None] - (w ** 2)[:, None, None] * mm[None] + 1j * w[:, None, None] * cm[None]
     z1 = cm[None] + 2j * w[:, None, None] * mm[None]

@@ -46,7 +46,7 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
     s = problem.system
     q = problem.recover(point)                                   # (n, nS)
     n_t = hs.n_time
-    k = problem._kint
+    k = problem.harmonic_indices
     spec = np.zeros((s.n_dof, n_t // 2 + 1), dtype=complex)
     spec[:, k] = q * np.where(k == 0, 1.0, 0.5) * n_t
     delta = problem.G @ np.fft.irfft(spec, n_t, axis=1)          # Delta(tau_j)

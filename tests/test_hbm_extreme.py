@@ -14,7 +14,7 @@ import pytest
 
 import hbm
 from hbm.examples import Geared3, synthetic_rom
-from hbm.problem import COND_WARN, solve_checked
+from hbm.newton import COND_WARN, solve_checked
 
 TOL = 1e-8
 FULL = 100 * TOL     # uncondensed, per-DOF residual of a point converged to TOL
@@ -169,9 +169,9 @@ def test_rom_with_hundreds_of_modes(clustered):
     assert br.status == "completed"
     assert _verified(pb, br, every=4) < FULL
     for i in (0, len(br) // 2, len(br) - 1):
-        (h, d), _ = pb._lin_loa_compute(br.omega[i])
-        z, _ = pb._dyn(br.omega[i])
-        f, _ = pb._forcing(br.omega[i])
+        (h, d), _ = pb.scheme.receptance(br.omega[i])
+        z, _ = pb.dynamic_stiffness(br.omega[i])
+        f, _ = pb.forcing(br.omega[i])
         x = np.linalg.solve(z, np.stack([np.broadcast_to(pb.G, f.shape), f], -1))
         assert np.max(np.abs(h - x[..., 0] @ pb.G)) < 1e-10 * np.max(np.abs(h))
         assert np.max(np.abs(d - x[..., 1] @ pb.G)) < 1e-10 * np.max(np.abs(d))
@@ -203,7 +203,7 @@ def test_condition_estimate_is_reported(caplog):
     n = 9
     hilb = 1.0 / (np.arange(n)[:, None] + np.arange(n)[None, :] + 1.0)
     x_true = np.ones(n)
-    with caplog.at_level(logging.WARNING, logger="hbm.problem"):
+    with caplog.at_level(logging.WARNING, logger="hbm.newton"):
         x, cond = solve_checked(hilb, hilb @ x_true, "test")
     exact = np.linalg.cond(hilb, 1)
     assert exact > COND_WARN
@@ -244,7 +244,7 @@ def test_continuation_that_must_stop_keeps_last_good_point(caplog):
     branch (and the last checkpoint) holds the converged points up to the failure."""
     mdl = Geared3(te=5e-6)
     pb = mdl.problem()
-    scaled = pb._scaled
+    scaled = pb.scaled
 
     def broken(x, omega, jacobian=True, law=1.0):
         out = scaled(x, omega, jacobian, law)
@@ -252,7 +252,7 @@ def test_continuation_that_must_stop_keeps_last_good_point(caplog):
             return (out[0] * np.nan, *out[1:]) if jacobian else out * np.nan
         return out
 
-    pb._scaled = broken
+    pb.scaled = broken
     snapshots = []
     r = mdl.mesh_rpm()
     with caplog.at_level(logging.WARNING, logger="hbm.continuation"):
@@ -265,7 +265,7 @@ def test_continuation_that_must_stop_keeps_last_good_point(caplog):
     assert np.all(br.residual < TOL)
     assert snapshots[-1].status == "step_failed" and len(snapshots[-1]) == len(br)
     assert np.array_equal(snapshots[-1].unknowns, br.unknowns)
-    pb._scaled = scaled
+    pb.scaled = scaled
     assert _verified(pb, br) < FULL
 
 

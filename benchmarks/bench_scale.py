@@ -88,6 +88,7 @@ def case(size: str, n_cm: int, out: Path) -> None:
     reduction.craig_bampton = cb                        # fe_stages imports it at call time
     tmp = Path(tempfile.mkdtemp(prefix="bench_scale.")) if comm.rank == 0 else None
     tmp = comm.bcast(tmp)
+    load_start = os.getloadavg()[0]
     t0 = time.perf_counter()
     study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm), cache_dir=tmp / "cache",
               refresh=True, until="rom")
@@ -105,7 +106,8 @@ def case(size: str, n_cm: int, out: Path) -> None:
                "static_modes_s": phases.get("static_modes"), "wall_s": wall,
                "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
                "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
-               "petsc_options": os.environ.get("PETSC_OPTIONS", "")}
+               "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
+               "load_avg_1min": [load_start, os.getloadavg()[0]]}
         out.write_text(json.dumps(rec))
         shutil.rmtree(tmp, ignore_errors=True)
 

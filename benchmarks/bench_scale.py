@@ -248,8 +248,10 @@ def main(argv: list[str] | None = None) -> int:
            "--n-cm N_CM --repeats R [--petsc-options OPTS] (per row)")
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "tables": tables(cases, fits),
-                                "not_run": "305k (fine) and >= 1M DOF: above this shared "
-                                           "machine's 8 GB / 15 min budget per run"})
+                                "not_run": ">= 1M DOF (million preset, ~1.47 M reduced DOF): "
+                                           "serial peak estimated 28-32 GiB from the measured "
+                                           "fit (docs/scale.md), above this shared machine's "
+                                           "budget per run"})
     log.info("wrote %s", path)
     return 0
 

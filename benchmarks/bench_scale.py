@@ -21,6 +21,7 @@ import json
 import logging
 import math
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -94,6 +95,9 @@ def case(size: str, n_cm: int, out: Path) -> None:
               refresh=True, until="rom")
     wall = time.perf_counter() - t0
     peaks = [_vm_hwm_mib()] if comm.size == 1 else comm.mpi.allgather(_vm_hwm_mib())
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = [ru.ru_utime + ru.ru_stime]
+    cpu = cpu if comm.size == 1 else comm.mpi.allgather(cpu[0])
     if comm.rank == 0:
         import h5py
         with h5py.File(tmp / "out" / "rom.h5", "r") as f:
@@ -107,7 +111,8 @@ def case(size: str, n_cm: int, out: Path) -> None:
                "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
                "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
                "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
-               "load_avg_1min": [load_start, os.getloadavg()[0]]}
+               "load_avg_1min": [load_start, os.getloadavg()[0]],
+               "cpu_s_per_rank": cpu}
         out.write_text(json.dumps(rec))
         shutil.rmtree(tmp, ignore_errors=True)
 

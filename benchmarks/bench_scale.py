@@ -199,12 +199,15 @@ def tables(cases: list[dict], fits: list[dict]) -> list[dict]:
             "eigensolve_s", "static_modes_s", "wall_s", "peak_rss_max_rank_mib"]
     rows = [[c.get(k, "") for k in cols] + [
         ", ".join(f"{p:.0f}" for p in c["peak_rss_per_rank_mib"]),
+        ", ".join(f"{p:.0f}" for p in c.get("cpu_s_per_rank", [])),
+        ", ".join(f"{p:.1f}" for p in c.get("load_avg_1min", [])),
         c.get("petsc_options", ""), _fmt_diff(freq_diff(c, cases))] for c in cases]
     fcols = ["ranks", "n_cm", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
              "exponent_eigensolve_s", "exponent_wall_s", "exponent_peak_rss_max_rank_mib"]
     return [{"title": "geardyn reduce (mesh → fe → rom) against DOF and MPI ranks "
                       "(times in s, memory in MiB; rom.n_check = 0)",
-             "columns": cols + ["peak_rss_per_rank_mib", "petsc_options",
+             "columns": cols + ["peak_rss_per_rank_mib", "cpu_s_per_rank",
+                                "load_avg_1min_start_end", "petsc_options",
                                 "max_rel_freq_diff_vs_default"], "rows": rows},
             {"title": "fitted exponents p of t ∝ n^p (least squares over the sizes run)",
              "columns": fcols, "rows": [[f.get(k, "") for k in fcols] for f in fits]}]

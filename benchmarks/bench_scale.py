@@ -2,13 +2,17 @@
 and the number of MPI ranks: time per stage, peak memory per rank, fitted exponent.
 
 Run: ``.venv/bin/python -m benchmarks.bench_scale [--sizes coarse,0.0115] [--ranks 1,2]
-[--n-cm 100] [--repeats 1]``. A size is a mesh preset name or a ``mesh.size`` in m
-(fine preset otherwise). Each case runs in its own process (``mpirun -n R`` for R > 1)
-through the same pipeline as ``geardyn reduce`` with a fresh cache, so every stage runs
-and the peak resident memory of each rank (VmHWM) is that case's own. The ROM
-validation against the full eigen-solve is switched off (``rom.n_check = 0``): the table
-is about the reduction. Writes ``benchmarks/results/scale.json`` (atomically); cases
-already in the file and not rerun are kept.
+[--n-cm 100] [--repeats 1] [--petsc-options OPTS]``. A size is a mesh preset name or a
+``mesh.size`` in m (fine preset otherwise). Each case runs in its own process
+(``mpirun -n R`` for R > 1) through the same pipeline as ``geardyn reduce`` with a fresh
+cache, so every stage runs and the peak resident memory of each rank (VmHWM) is that
+case's own. The ROM validation against the full eigen-solve is switched off
+(``rom.n_check = 0``): the table is about the reduction. ``--petsc-options`` passes
+PETSc/SLEPc/MUMPS options to the cases through ``PETSC_OPTIONS`` (Craig–Bampton prefix
+``cb_``, e.g. ``-cb_st_mat_mumps_icntl_35 1``); such a case is kept apart from the
+default one and compared with it (largest relative difference of the fixed-interface
+frequencies). Writes ``benchmarks/results/scale.json`` (atomically); cases already in
+the file and not rerun are kept.
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ import json
 import logging
 import math
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -84,28 +89,36 @@ def case(size: str, n_cm: int, out: Path) -> None:
     reduction.craig_bampton = cb                        # fe_stages imports it at call time
     tmp = Path(tempfile.mkdtemp(prefix="bench_scale.")) if comm.rank == 0 else None
     tmp = comm.bcast(tmp)
+    load_start = os.getloadavg()[0]
     t0 = time.perf_counter()
     study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm), cache_dir=tmp / "cache",
               refresh=True, until="rom")
     wall = time.perf_counter() - t0
     peaks = [_vm_hwm_mib()] if comm.size == 1 else comm.mpi.allgather(_vm_hwm_mib())
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = [ru.ru_utime + ru.ru_stime]
+    cpu = cpu if comm.size == 1 else comm.mpi.allgather(cpu[0])
     if comm.rank == 0:
         import h5py
         with h5py.File(tmp / "out" / "rom.h5", "r") as f:
             n_dof = int(f["rom/basis"].shape[0])
-            f_max = float(f["rom/fixed_interface_hz"][-1])
+            f_hz = [float(v) for v in f["rom/fixed_interface_hz"][:]]
         rec = {"size": size, "ranks": comm.size, "n_dof": n_dof, "n_cm": n_cm,
                "mesh_s": times.seconds.get("mesh"), "fe_s": times.seconds.get("fe"),
                "rom_s": times.seconds.get("rom"),
                "eigensolve_s": phases.get("eigensolve"),
                "static_modes_s": phases.get("static_modes"), "wall_s": wall,
                "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
-               "highest_fixed_interface_hz": f_max}
+               "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
+               "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
+               "load_avg_1min": [load_start, os.getloadavg()[0]],
+               "cpu_s_per_rank": cpu}
         out.write_text(json.dumps(rec))
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def run_case(size: str, n_cm: int, ranks: int, timeout: float) -> dict | None:
+def run_case(size: str, n_cm: int, ranks: int, timeout: float,
+             petsc_options: str = "") -> dict | None:
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "case.json"
         cmd = [sys.executable, "-m", "benchmarks.bench_scale", "--case", size,
@@ -114,7 +127,7 @@ def run_case(size: str, n_cm: int, ranks: int, timeout: float) -> dict | None:
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + cmd
         env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-               "PYTHONPATH": str(ROOT)}
+               "PYTHONPATH": str(ROOT), "PETSC_OPTIONS": petsc_options}
         try:
             p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
                                timeout=timeout)
@@ -141,16 +154,35 @@ def _median_record(recs: list[dict]) -> dict:
     return rec
 
 
+def _key(c: dict) -> tuple:
+    return c["size"], c["ranks"], c["n_cm"], c.get("petsc_options", "")
+
+
+def freq_diff(case: dict, cases: list[dict]) -> float | None:
+    """Largest relative difference of ``case``'s fixed-interface frequencies from those of
+    the default-options case of the same size and n_CM (same rank count first)."""
+    if not case.get("petsc_options") or "fixed_interface_hz" not in case:
+        return None
+    refs = [c for c in cases if not c.get("petsc_options") and "fixed_interface_hz" in c
+            and c["size"] == case["size"] and c["n_cm"] == case["n_cm"]]
+    refs.sort(key=lambda c: c["ranks"] != case["ranks"])
+    if not refs:
+        return None
+    return max(abs(a - b) / b for a, b in zip(case["fixed_interface_hz"],
+                                               refs[0]["fixed_interface_hz"], strict=True))
+
+
 def exponents(cases: list[dict]) -> list[dict]:
-    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count,
-    over the sizes measured."""
+    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count
+    and n_CM, over the sizes measured with default options."""
     out = []
-    for ranks in sorted({c["ranks"] for c in cases}):
-        cs = sorted((c for c in cases if c["ranks"] == ranks and c.get("rom_s")),
+    for ranks, n_cm in sorted({(c["ranks"], c["n_cm"]) for c in cases}):
+        cs = sorted((c for c in cases if c["ranks"] == ranks and c["n_cm"] == n_cm
+                     and not c.get("petsc_options") and c.get("rom_s")),
                     key=lambda c: c["n_dof"])
         if len(cs) < 2:
             continue
-        row = {"ranks": ranks, "sizes": len(cs), "n_dof_min": cs[0]["n_dof"],
+        row = {"ranks": ranks, "n_cm": n_cm, "sizes": len(cs), "n_dof_min": cs[0]["n_dof"],
                "n_dof_max": cs[-1]["n_dof"]}
         for key in ("rom_s", "eigensolve_s", "wall_s", "peak_rss_max_rank_mib"):
             xs = [math.log(c["n_dof"]) for c in cs]
@@ -166,14 +198,23 @@ def tables(cases: list[dict], fits: list[dict]) -> list[dict]:
     cols = ["size", "ranks", "n_dof", "n_cm", "repeats", "mesh_s", "fe_s", "rom_s",
             "eigensolve_s", "static_modes_s", "wall_s", "peak_rss_max_rank_mib"]
     rows = [[c.get(k, "") for k in cols] + [
-        ", ".join(f"{p:.0f}" for p in c["peak_rss_per_rank_mib"])] for c in cases]
-    fcols = ["ranks", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
+        ", ".join(f"{p:.0f}" for p in c["peak_rss_per_rank_mib"]),
+        ", ".join(f"{p:.0f}" for p in c.get("cpu_s_per_rank", [])),
+        ", ".join(f"{p:.1f}" for p in c.get("load_avg_1min", [])),
+        c.get("petsc_options", ""), _fmt_diff(freq_diff(c, cases))] for c in cases]
+    fcols = ["ranks", "n_cm", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
              "exponent_eigensolve_s", "exponent_wall_s", "exponent_peak_rss_max_rank_mib"]
     return [{"title": "geardyn reduce (mesh → fe → rom) against DOF and MPI ranks "
                       "(times in s, memory in MiB; rom.n_check = 0)",
-             "columns": cols + ["peak_rss_per_rank_mib"], "rows": rows},
+             "columns": cols + ["peak_rss_per_rank_mib", "cpu_s_per_rank",
+                                "load_avg_1min_start_end", "petsc_options",
+                                "max_rel_freq_diff_vs_default"], "rows": rows},
             {"title": "fitted exponents p of t ∝ n^p (least squares over the sizes run)",
              "columns": fcols, "rows": [[f.get(k, "") for k in fcols] for f in fits]}]
+
+
+def _fmt_diff(d: float | None) -> str:
+    return "" if d is None else f"{d:.1e}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -182,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--ranks", default="1,2")
     p.add_argument("--n-cm", type=int, default=100)
     p.add_argument("--repeats", type=int, default=1)
+    p.add_argument("--petsc-options", default="",
+                   help="PETSC_OPTIONS for every case, e.g. '-cb_st_mat_mumps_icntl_35 1'")
     p.add_argument("--timeout", type=float, default=900.0, help="per case (s)")
     p.add_argument("--case", default=None, help=argparse.SUPPRESS)
     p.add_argument("--case-out", type=Path, default=None, help=argparse.SUPPRESS)
@@ -196,7 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     cases = []
     for size in args.sizes.split(","):
         for ranks in (int(r) for r in args.ranks.split(",")):
-            recs = [r for r in (run_case(size, args.n_cm, ranks, args.timeout)
+            recs = [r for r in (run_case(size, args.n_cm, ranks, args.timeout,
+                                         args.petsc_options)
                                 for _ in range(args.repeats)) if r]
             if recs:
                 rec = _median_record(recs)
@@ -204,16 +248,18 @@ def main(argv: list[str] | None = None) -> int:
                          size, ranks, rec["n_dof"], rec["rom_s"], rec["wall_s"],
                          rec["peak_rss_per_rank_mib"])
                 cases.append(rec)
-    keep = [c for c in old if not any(c["size"] == n["size"] and c["ranks"] == n["ranks"]
-                                      and c["n_cm"] == n["n_cm"] for n in cases)]
-    cases = sorted(keep + cases, key=lambda c: (c["n_dof"], c["ranks"]))
+    keep = [c for c in old if not any(_key(c) == _key(n) for n in cases)]
+    cases = sorted(keep + cases, key=lambda c: (c["n_dof"], c["n_cm"],
+                                                c.get("petsc_options", ""), c["ranks"]))
     fits = exponents(cases)
     cmd = (".venv/bin/python -m benchmarks.bench_scale --sizes SIZES --ranks 1,2 "
-           f"--n-cm {args.n_cm} --repeats R (sizes and repeats per row)")
+           "--n-cm N_CM --repeats R [--petsc-options OPTS] (per row)")
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "tables": tables(cases, fits),
-                                "not_run": "305k (fine) and >= 1M DOF: above this shared "
-                                           "machine's 8 GB / 15 min budget per run"})
+                                "not_run": ">= 1M DOF (million preset, ~1.47 M reduced DOF): "
+                                           "serial peak estimated 28-32 GiB from the measured "
+                                           "fit (docs/scale.md), above this shared machine's "
+                                           "budget per run"})
     log.info("wrote %s", path)
     return 0
 

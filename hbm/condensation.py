@@ -29,7 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .harmonics import HarmonicSet, complex_mul, mul_rows
+from .harmonics import HarmonicSet, complex_mul, mul_rows, real_blocks
 
 logger = logging.getLogger(__name__)
 
@@ -240,14 +240,7 @@ class _DofCondensation:
         r = (hs.to_real(rc) + g[:, None] * ft[None, :]).ravel()
         if not jacobian:
             return r
-        j4 = np.zeros((m, nr, m, nr))
-        re = np.concatenate([[0], np.arange(1, nr, 2)])
-        im = np.arange(2, nr, 2)
-        j4[:, re, :, re] = z.real
-        j4[:, re[1:], :, im] = -z[1:].imag
-        j4[:, im, :, re[1:]] = z[1:].imag
-        j4[:, im, :, im] = z[1:].real
-        ju = j4.reshape(m * nr, m * nr) + np.kron(np.outer(g, g), jf)
+        ju = real_blocks(z, nr) + np.kron(np.outer(g, g), jf)
         jw = hs.to_real(np.einsum("kij,jk->ik", dz, uc) - df.T).ravel()
         return r, ju, jw
 

@@ -17,7 +17,7 @@ import numpy as np
 logger = logging.getLogger(__name__)
 
 __all__ = ["SET_KINDS", "HarmonicSet", "combination_offsets", "complex_mul", "default_n_time",
-           "mul_rows"]
+           "mul_rows", "real_blocks"]
 
 # How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
 SET_KINDS = ("combinations", "bands", "contiguous")
@@ -268,3 +268,17 @@ def mul_rows(h: np.ndarray, j: np.ndarray) -> np.ndarray:
 def complex_mul(h: np.ndarray, xr: np.ndarray) -> np.ndarray:
     """Real layout of ``h_k x_k`` for a real-layout vector ``xr`` (see :func:`mul_rows`)."""
     return mul_rows(h, xr[:, None])[:, 0]
+
+
+def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:
+    """Real DOF-major form (m n_real, m n_real) of a per-harmonic complex operator
+    ``z`` (nS, m, m), in the real layout of this module (index 0 real, then Re/Im)."""
+    m = z.shape[1]
+    j4 = np.zeros((m, nr, m, nr))
+    re = np.concatenate([[0], np.arange(1, nr, 2)])
+    im = np.arange(2, nr, 2)
+    j4[:, re, :, re] = z.real
+    j4[:, re[1:], :, im] = -z[1:].imag
+    j4[:, im, :, re[1:]] = z[1:].imag
+    j4[:, im, :, im] = z[1:].real
+    return j4.reshape(m * nr, m * nr)

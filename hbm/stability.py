@@ -50,7 +50,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .exponents import classify_exponent, det_sign, line_of_action_operator, positive_real_root
-from .harmonics import mul_rows
+from .harmonics import mul_rows, real_blocks
 from .monodromy import monodromy_exponents
 from .problem import HBMProblem, Point
 
@@ -130,19 +130,6 @@ def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None
     tiny = 1e-9 * (w0 + w_top)
     kind = "stable" if max_real <= tiny else classify_exponent(complex(exps[0]), w0)
     return Stability(max_real, exps, kind, bool(parity), bool(consistent), res.error, res.basis)
-
-
-def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:
-    """Real DOF-major form of a per-harmonic complex operator z (nS, m, m)."""
-    m = z.shape[1]
-    j4 = np.zeros((m, nr, m, nr))
-    re = np.concatenate([[0], np.arange(1, nr, 2)])
-    im = np.arange(2, nr, 2)
-    j4[:, re, :, re] = z.real
-    j4[:, re[1:], :, im] = -z[1:].imag
-    j4[:, im, :, re[1:]] = z[1:].imag
-    j4[:, im, :, im] = z[1:].real
-    return j4.reshape(m * nr, m * nr)
 
 
 def _coordinates(problem: HBMProblem, max_size: int, omega: float):

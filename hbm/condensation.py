@@ -30,6 +30,7 @@ from typing import Protocol
 import numpy as np
 
 from .harmonics import HarmonicSet, complex_mul, mul_rows, real_blocks
+from .krylov import LoaJacobian, Preconditioners
 
 logger = logging.getLogger(__name__)
 
@@ -58,6 +59,8 @@ class LinearData(Protocol):
     phi: np.ndarray
     pfc: np.ndarray
     pfu: np.ndarray
+    matrix_free: bool
+    preconditioners: Preconditioners
 
     def dynamic_stiffness(self, omega: float) -> tuple[np.ndarray, np.ndarray]: ...
 
@@ -69,6 +72,11 @@ class LinearData(Protocol):
                            idx: np.ndarray | None = None) -> np.ndarray: ...
 
     def mesh_force(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0): ...
+
+    def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
+                           law: float = 1.0): ...
+
+    def multiplication_matrix(self, s: np.ndarray) -> np.ndarray: ...
 
 
 class Condensation(Protocol):
@@ -170,11 +178,17 @@ class LoaCondensation:
         """Residual ``Delta_k - d_k + h_k f'_k`` (m) and, if asked, its Jacobians."""
         pb = self.problem
         (h, d), (dh, dd) = self.receptance(omega)
-        ft, jf = pb.mesh_force(u, jacobian, law)
+        if pb.matrix_free:
+            ft, sk = pb.mesh_force_samples(u, jacobian, law)
+        else:
+            ft, jf = pb.mesh_force(u, jacobian, law)
         r = u - pb.harmonics.to_real(d) + complex_mul(h, ft)
         if not jacobian:
             return r
-        ju = np.eye(pb.nr) + mul_rows(h, jf)
+        if pb.matrix_free:         # J = I + H S, applied by FFT (hbm/krylov.py)
+            ju = LoaJacobian(h, sk, pb.harmonics, pb.multiplication_matrix, pb.preconditioners)
+        else:
+            ju = np.eye(pb.nr) + mul_rows(h, jf)
         jw = -pb.harmonics.to_real(dd) + complex_mul(dh, ft)
         return r, ju, jw
 

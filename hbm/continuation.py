@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .krylov import bordered
 from .newton import COND_WARN, ConvergenceError, backtrack, newton, solve_checked
 from .postprocess import point_stats
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -289,7 +290,7 @@ def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None
         if it == max_iter or (it > 2 and res > 1e3 * res0):
             break
         row, con = _constraint(y, y_pred, direction, sphere)
-        j = np.vstack([np.hstack([jx, jw[:, None]]), row[None, :]])
+        j = bordered(jx, jw, row)
         rhs = -np.concatenate([r, [con]])
         try:
             dy, cond = solve_checked(j, rhs, "continuation corrector", warn=False)
@@ -326,7 +327,7 @@ def _constraint(y, y_pred, direction, sphere):
 def _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it0=0):
     """One Newton step from a point already within tol; kept if it lowers the residual."""
     row, con = _constraint(y, y_pred, direction, sphere)
-    j = np.vstack([np.hstack([jx, jw[:, None]]), row[None, :]])
+    j = bordered(jx, jw, row)
     try:
         dy = solve_checked(j, -np.concatenate([r, [con]]), "continuation corrector",
                            warn=False)[0]
@@ -339,8 +340,8 @@ def _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it0=0):
 
 
 def _tangent(jx, jw, previous):
-    j = np.vstack([np.hstack([jx, jw[:, None]]), previous[None, :]])
-    rhs = np.zeros(j.shape[0])
+    j = bordered(jx, jw, previous)
+    rhs = np.zeros(jw.size + 1)
     rhs[-1] = 1.0
     t = solve_checked(j, rhs, "continuation tangent", warn=False)[0]
     t /= np.linalg.norm(t)
@@ -418,6 +419,17 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     evaluate = _augmented(problem, wscale)
 
     basis = [None]          # dominant Floquet subspace of the last point (warm start)
+    # matrix-free: det T(0) (T.9) from the tangent, sign det J = sign det J_0 when the
+    # speed component keeps the sign it had at the first point (T.9a, docs/theory.md)
+    parity_ref: list = []
+
+    def parity_of(pt, tangent):
+        if not (stability and problem.matrix_free and problem.modal):
+            return None
+        if not parity_ref:
+            first = point_stability(problem, pt).fold_parity
+            parity_ref.extend([first, tangent[-1] > 0])
+        return parity_ref[0] != ((tangent[-1] > 0) != parity_ref[1])
 
     def record(rec, y, it, res, tangent):
         omega = y[-1] * wscale
@@ -425,7 +437,8 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         pt = problem.point(u, omega, it, res)
         st = point_stats(problem, pt)
         if stability:
-            stab = point_stability(problem, pt, start=basis[0])
+            stab = point_stability(problem, pt, start=basis[0],
+                                   parity=parity_of(pt, tangent))
             basis[0] = stab.basis
             fmax, kind, consistent = stab.max_real, stab.code, stab.consistent
             stable = stab.kind == "stable"

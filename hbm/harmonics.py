@@ -244,10 +244,49 @@ class HarmonicSet:
         a[2::2] = -2.0 / n * s.T
         return e, a
 
+    def synthesize(self, xr: np.ndarray, n_time: int | None = None) -> np.ndarray:
+        """Samples ``x(tau_j)`` on ``tau_j = 2 pi j / N`` from the real layout, by FFT.
+
+        Equal to ``E @ xr`` (:meth:`aft_matrices`) for any ``N``, aliasing included, in
+        ``O(N log N)``; ``xr`` may carry leading axes (..., n_real).
+        """
+        n = self.n_time if n_time is None else int(n_time)
+        xc = self.to_complex(xr)
+        k = np.asarray(self.indices)
+        spec = np.zeros(xc.shape[:-1] + (n,), dtype=complex)
+        spec[..., 0] += xc[..., 0]
+        half = 0.5 * xc[..., 1:]
+        _add_along_last(spec, k[1:] % n, half)
+        _add_along_last(spec, (-k[1:]) % n, half.conj())
+        return np.fft.ifft(spec, axis=-1).real * n
+
+    def analyse(self, x: np.ndarray) -> np.ndarray:
+        """Galerkin coefficients (real layout) of samples ``x`` (..., N), by FFT.
+
+        Equal to ``A @ x`` (:meth:`aft_matrices`): ``x_0 = mean``, ``x_k = 2/N sum_j
+        x_j exp(-i k tau_j)``.
+        """
+        x = np.asarray(x, dtype=float)
+        n = x.shape[-1]
+        spec = np.fft.fft(x, axis=-1)
+        k = np.asarray(self.indices)
+        xc = spec[..., k % n] * (2.0 / n)
+        xc[..., 0] = spec[..., 0].real / n
+        return self.to_real(xc)
+
     def time_grid(self, n_time: int | None = None) -> np.ndarray:
         """Normalised time ``tau = w0 t`` of the AFT samples over one period (rad)."""
         n = self.n_time if n_time is None else int(n_time)
         return 2.0 * np.pi * np.arange(n) / n
+
+
+def _add_along_last(a: np.ndarray, idx: np.ndarray, v: np.ndarray) -> None:
+    """``a[..., idx] += v`` with repeated indices accumulated (aliased harmonics)."""
+    if np.unique(idx).size == idx.size:
+        a[..., idx] += v
+        return
+    for i, col in zip(idx, np.moveaxis(v, -1, 0), strict=True):
+        a[..., i] += col
 
 
 def mul_rows(h: np.ndarray, j: np.ndarray) -> np.ndarray:

@@ -14,7 +14,8 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["COND_WARN", "ConvergenceError", "backtrack", "newton", "solve_checked"]
+__all__ = ["COND_WARN", "ConvergenceError", "backtrack", "factor_checked", "newton",
+           "solve_checked"]
 
 COND_WARN = 1e10   # 1-norm condition estimate of a Newton matrix above which we warn
 
@@ -30,9 +31,9 @@ class ConvergenceError(RuntimeError):
         self.condition = condition
 
 
-def solve_checked(j: np.ndarray, rhs: np.ndarray, where: str = "Newton",
-                  warn: bool = True) -> tuple[np.ndarray, float]:
-    """Solve ``j x = rhs`` by LU and estimate the 1-norm condition number of ``j``.
+def factor_checked(j: np.ndarray, where: str = "Newton",
+                   warn: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+    """LU factors of ``j`` and the estimate of its 1-norm condition number.
 
     The estimate is LAPACK's ``gecon`` on the LU factors (O(n^2) on top of the
     factorisation).  Above :data:`COND_WARN` a warning naming ``where`` and the
@@ -40,8 +41,8 @@ def solve_checked(j: np.ndarray, rhs: np.ndarray, where: str = "Newton",
 
     Returns
     -------
-    x, condition
-        The solution and the condition estimate.
+    lu, piv, condition
+        As ``scipy.linalg.lu_factor``, and the condition estimate.
 
     Raises
     ------
@@ -72,6 +73,27 @@ def solve_checked(j: np.ndarray, rhs: np.ndarray, where: str = "Newton",
         logger.warning("%s: ill-conditioned Jacobian, condition estimate %.2g (n = %d); "
                        "the solution may lose up to %d digits", where, cond, j.shape[0],
                        int(np.log10(cond)))
+    return lu, piv, cond
+
+
+def solve_checked(j, rhs: np.ndarray, where: str = "Newton",
+                  warn: bool = True) -> tuple[np.ndarray, float]:
+    """Solve ``j x = rhs``; return ``x`` and the condition estimate of ``j``.
+
+    A dense ``j`` is factorised by :func:`factor_checked` (which raises
+    :class:`ConvergenceError` when it is singular or not finite); a matrix-free
+    one (:mod:`hbm.krylov`) is solved by preconditioned GMRES, the estimate being
+    that of the factor used as preconditioner.
+    """
+    import scipy.linalg as sla
+
+    if not isinstance(j, np.ndarray) and hasattr(j, "solve"):      # hbm.krylov operator
+        rhs = np.asarray(rhs, dtype=float)
+        if rhs.ndim == 2:
+            cols = [j.solve(c, where, warn) for c in rhs.T]
+            return np.stack([c[0] for c in cols], axis=1), max(c[1] for c in cols)
+        return j.solve(rhs, where, warn)
+    lu, piv, cond = factor_checked(j, where, warn)
     return sla.lu_solve((lu, piv), rhs, check_finite=False), cond
 
 

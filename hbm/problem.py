@@ -25,6 +25,7 @@ import numpy as np
 from .condensation import CONDENSATIONS, Condensation, make_condensation
 from .contact import dead_zone, dead_zone_stiffness
 from .harmonics import HarmonicSet
+from .krylov import Preconditioners
 from .model import Excitation, GearMesh, LinearSystem
 from .newton import COND_WARN, ConvergenceError, newton, solve_checked
 
@@ -33,6 +34,23 @@ logger = logging.getLogger(__name__)
 __all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S", "COND_WARN", "solve_checked"]
 
 RPM_TO_RAD_S = 2.0 * np.pi / 60.0
+LINEAR_SOLVERS = ("auto", "dense", "krylov")
+# "auto": matrix-free from this many real unknowns on (loa); below, the dense LU is as
+# fast (docs/hbm.md, "Linear solver")
+KRYLOV_MIN = 400
+
+
+@dataclass(frozen=True)
+class Synthesis:
+    """``synth @ x_real``: samples on a grid of ``n_time`` instants of one period, by FFT
+    (:meth:`HarmonicSet.synthesize`; the dense ``aft_matrices(n_time)[0]`` without
+    storing it)."""
+
+    harmonics: HarmonicSet
+    n_time: int
+
+    def __matmul__(self, xr: np.ndarray) -> np.ndarray:
+        return self.harmonics.synthesize(xr, self.n_time)
 
 
 @dataclass
@@ -74,7 +92,8 @@ class HBMProblem:
     """
 
     def __init__(self, system: LinearSystem, mesh: GearMesh, excitation: Excitation,
-                 harmonics: HarmonicSet, condensation: str = "loa") -> None:
+                 harmonics: HarmonicSet, condensation: str = "loa",
+                 linear_solver: str = "auto") -> None:
         if not isinstance(system, LinearSystem):
             raise ValueError(f"problem.system = {type(system).__name__}: must be a LinearSystem")
         if not isinstance(mesh, GearMesh):
@@ -88,6 +107,11 @@ class HBMProblem:
         if condensation not in CONDENSATIONS:
             raise ValueError(
                 f"problem.condensation = {condensation!r}: must be 'none', 'gear' or 'loa'")
+        if linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"problem.linear_solver = {linear_solver!r}: must be one of "
+                             f"{', '.join(LINEAR_SOLVERS)}")
+        if linear_solver == "krylov" and condensation != "loa":
+            raise ValueError("problem.linear_solver = 'krylov': needs condensation = 'loa'")
         n = system.n_dof
         if excitation.n_dof != n:
             raise ValueError(f"excitation.n_dof = {excitation.n_dof}: must equal system size {n}")
@@ -132,8 +156,9 @@ class HBMProblem:
                         f"Omega, indices {list(hs.indices)[:12]}...)")
                 arr[pos[idx]] += vec
 
-        # AFT matrices and mesh signals on the grid tau = w0 t (Omega-independent)
-        self.E, self.A = hs.aft_matrices()
+        # mesh signals on the AFT grid tau = w0 t (Omega-independent); the AFT itself is
+        # by FFT (HarmonicSet.synthesize / analyse), E and A are built only on request
+        self._aft: tuple | None = None
         phase = hs.time_grid() * self.mesh_step
         self.k_t = mesh.stiffness_at(phase)
         self.e_t = mesh.error_at(phase)
@@ -149,6 +174,10 @@ class HBMProblem:
         self._setup_modes()
         self._setup_length_scale()
         self._fine_cache: dict[int, tuple] = {}
+        # matrix-free Newton matrices solved by GMRES (hbm/krylov.py) for large sets
+        self.matrix_free = condensation == "loa" and (
+            linear_solver == "krylov" or (linear_solver == "auto" and hs.n_real >= KRYLOV_MIN))
+        self.preconditioners = Preconditioners()
         self.scheme: Condensation = make_condensation(condensation, self)
 
     # ------------------------------------------------------------------ setup
@@ -258,6 +287,20 @@ class HBMProblem:
         return inv, dinv
 
     # ------------------------------------------------------------------ nonlinear force
+    @property
+    def E(self) -> np.ndarray:
+        """Dense synthesis matrix of the AFT grid (N, n_real); the solver uses the FFT."""
+        if self._aft is None:
+            self._aft = self.harmonics.aft_matrices()
+        return self._aft[0]
+
+    @property
+    def A(self) -> np.ndarray:
+        """Dense Galerkin analysis matrix of the AFT grid (n_real, N)."""
+        if self._aft is None:
+            self._aft = self.harmonics.aft_matrices()
+        return self._aft[1]
+
     def mesh_force(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0):
         """AFT of f' = f_LoA - k_bar Delta (eq. 13) from the real coefficients of Delta.
 
@@ -266,7 +309,14 @@ class HBMProblem:
         Returns the real coefficients of f' (N) and, if asked, d f'/d Delta
         (n_real, n_real) (N/m).
         """
-        delta = self.E @ delta_r
+        ft, s = self.mesh_force_samples(delta_r, jacobian, law)
+        return ft, (self.multiplication_matrix(s) if jacobian else None)
+
+    def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
+                           law: float = 1.0) -> tuple[np.ndarray, np.ndarray | None]:
+        """As :meth:`mesh_force`, with ``d f'/d Delta`` as its AFT samples ``s - k_bar``
+        (N/m, one per instant of the grid) instead of the dense matrix."""
+        delta = self.harmonics.synthesize(delta_r)
         p = delta - self.e_t
         if law == 0.0:
             f = self.k_t * (p - self.b)
@@ -277,10 +327,8 @@ class HBMProblem:
             if law != 1.0:
                 f = law * f + (1.0 - law) * self.k_t * (p - self.b)
                 s = law * s + (1.0 - law) * self.k_t
-        ft = self.A @ (f - self.kbar * delta)
-        if not jacobian:
-            return ft, None
-        return ft, self.multiplication_matrix(s - self.kbar)
+        ft = self.harmonics.analyse(f - self.kbar * delta)
+        return ft, (s - self.kbar if stiffness else None)
 
     def multiplication_matrix(self, s: np.ndarray) -> np.ndarray:
         """Real-layout matrix of ``x -> Galerkin(s(tau) x(tau))`` on the AFT grid.
@@ -347,8 +395,8 @@ class HBMProblem:
         """Linear response in permanent contact on the active flank (one Newton step)."""
         u0 = np.zeros(self.n_unknowns)
         r, ju, _ = self.evaluate(u0, omega, law=0.0)
-        dx = solve_checked(ju * self.x_scale[None, :] / self.eq_scale[:, None],
-                           r / self.eq_scale, "initial guess (linear contact)")[0]
+        dx = solve_checked(self._scaled_jacobian(ju), r / self.eq_scale,
+                           "initial guess (linear contact)")[0]
         return u0 - dx * self.x_scale
 
     def point(self, u: np.ndarray, omega: float, iterations: int = 0,
@@ -436,8 +484,14 @@ class HBMProblem:
         if not jacobian:
             return self.evaluate(u, omega, jacobian=False, law=law) / self.eq_scale
         r, ju, jw = self.evaluate(u, omega, law=law)
-        return (r / self.eq_scale, ju * (self.x_scale[None, :] / self.eq_scale[:, None]),
-                jw / self.eq_scale)
+        return r / self.eq_scale, self._scaled_jacobian(ju), jw / self.eq_scale
+
+    def _scaled_jacobian(self, ju):
+        """``dR/du`` in scaled unknowns and equations; a matrix-free one (loa: both
+        scales are the same length) is unchanged."""
+        if isinstance(ju, np.ndarray):
+            return ju * (self.x_scale[None, :] / self.eq_scale[:, None])
+        return ju
 
     # ------------------------------------------------------------------ recovery
     def recover(self, point: Point | np.ndarray, omega: float | None = None) -> np.ndarray:
@@ -450,12 +504,13 @@ class HBMProblem:
                 raise ValueError("recover: omega is required with raw unknowns")
         return self.scheme.recover(u, omega)
 
-    def fine_grid(self, n_time: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Synthesis matrix, k_m and e on a grid of ``n_time`` samples (cached)."""
+    def fine_grid(self, n_time: int) -> tuple[Synthesis, np.ndarray, np.ndarray]:
+        """Synthesis operator (``synth @ x_real``), k_m and e on a grid of ``n_time``
+        samples (cached)."""
         if n_time not in self._fine_cache:
             if len(self._fine_cache) > 8:
                 self._fine_cache.clear()
             phase = self.harmonics.time_grid(n_time) * self.mesh_step
-            self._fine_cache[n_time] = (self.harmonics.aft_matrices(n_time)[0],
+            self._fine_cache[n_time] = (Synthesis(self.harmonics, n_time),
                                         self.mesh.stiffness_at(phase), self.mesh.error_at(phase))
         return self._fine_cache[n_time]

@@ -105,21 +105,28 @@ class Stability:
         return KINDS.index(self.kind)
 
 
-def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None) -> Stability:
+def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None,
+              parity: bool | None = None) -> Stability:
     """Floquet exponents (T.10) and the fold parity (T.9) of a solution; see the module.
 
     ``start``: :attr:`Stability.basis` of a neighbouring point (faster, same result).
+    ``parity``: ``det T(0) < 0`` when the caller knows it (the continuation does, from
+    the sign of its tangent's speed component, T.9a in docs/theory.md); else it is
+    computed from the dense ``T(0)`` (an LU of the harmonic-balance size).
     """
     res = monodromy_exponents(problem, point, start=start)
     w0 = problem.harmonics.fundamental_rad_s(point.omega)
     exps, max_real = res.exponents, res.max_real
-    parity = False
     jf = None
-    if problem.modal:
+    if not problem.modal:
+        parity = False
+    elif parity is None:
         _, jf = problem.mesh_force(problem.delta_real(point.unknowns))
         parity = det_sign(line_of_action_operator(problem, jf, 0.0, w0).real) < 0
     consistent = not parity or max_real > 0
     if not consistent:
+        if jf is None:
+            _, jf = problem.mesh_force(problem.delta_real(point.unknowns))
         root = positive_real_root(problem, jf, w0)
         logger.debug("%.2f rpm: between two folds (T.9 root %.4g 1/s) but the variational "
                      "equation has max Re %.4g 1/s", point.rpm, root, max_real)

@@ -5,7 +5,8 @@ values beside study/tooth_contact.py's for perfect teeth and for ISO 1328-1:2013
 class-6 deviations, at T = 2.5 and 3.29 N·m) and, with ``--json FILE``, writes the
 numbers atomically. Not a timing benchmark (not picked up by ``run_all``).
 
-Run: ``.venv/bin/python -m benchmarks.ltca_pump [--json FILE] [--positions N] [--slices N]``
+Run: ``.venv/bin/python -m benchmarks.ltca_pump [--json FILE] [--positions N] [--slices N]
+[--sets]`` (``--sets`` prints each case's ``--set`` options for ``geardyn``).
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ CASES: dict[str, dict | None] = {
     "class 6, profile + helix (gear 1)": {"slope_signs": (1, 0), "form_signs": (1, 0)},
     "class 6 at half tolerance": {"slope_signs": (1, 0), "form_signs": (1, 0),
                                   "fraction": 0.5},
-    "class 6, slopes opposite (both gears)": {"slope_signs": (1, -1), "form_signs": (1, 1)},
+    "class 6, slopes opposite (both gears) + helix": {"slope_signs": (1, -1), "form_signs": (1, 1)},
 }
 
 
@@ -86,11 +87,25 @@ def table(data: dict) -> str:
     return "\n".join(rows)
 
 
+def set_args(coef: dict) -> str:
+    """The ``--set`` options that put one case's coefficients into a scene."""
+    out = []
+    for sec in ("mesh_stiffness", "transmission_error"):
+        for key, v in coef[sec].items():
+            if key == "kind":
+                continue
+            val = "[" + ",".join(f"{x:g}" for x in v) + "]" if isinstance(v, list) else f"{v:g}"
+            out.append(f"--set '{sec}.{key}={val}'")
+    return " ".join(out)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", type=Path, default=None, help="write the numbers here")
     ap.add_argument("--positions", type=int, default=1440, help="positions per mesh period")
     ap.add_argument("--slices", type=int, default=1280, help="slices across the face width")
+    ap.add_argument("--sets", action="store_true",
+                    help="also print each case's --set options for geardyn")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     data = measure((2.5, 3.29), args.positions, args.slices)
@@ -99,6 +114,9 @@ def main(argv: list[str] | None = None) -> int:
              data["iso6336_c_gamma_N_per_um"], data["contact_ratio"])
     log.info("ISO 1328-1:2013 class 6 tolerances (µm): %s", data["iso1328_class6_um"])
     log.info("\n%s", table(data))
+    if args.sets:
+        for name, coef in data["cases"].items():
+            log.info("%s:\n  %s", name, set_args(coef))
     if args.json is not None:
         with atomic_write(args.json, "w") as fh:
             json.dump(data, fh, indent=2)

@@ -26,7 +26,9 @@ import numpy as np
 
 from geometry.files import atomic_write
 from study.curves import Peak, primary_peak, summarize_branch
-from study.scene import Scene, SceneError, scene_from_dict
+from study.errors import SceneError
+from study.scene_data import Scene
+from study.scene_load import scene_from_dict
 
 logger = logging.getLogger(__name__)
 

@@ -268,7 +268,7 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
     """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md`` and
     ``paper.md`` in ``out`` (rank 0 under mpirun)."""
     from study.paper import write_paper
-    from study.plots import forced_response_overlay
+    from study.plots_speed import forced_response_overlay
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

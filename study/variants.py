@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from geometry.files import atomic_write
-from study.plots import contact_intervals, forced_response_overlay
+from study.plot_common import contact_intervals
+from study.plots_speed import forced_response_overlay
 
 logger = logging.getLogger(__name__)
 

@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from geometry.files import atomic_write  # noqa: E402
+from study.curves import merge_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
@@ -47,16 +48,7 @@ def contact_intervals(rpm: np.ndarray, contact: np.ndarray) -> dict[int, list[tu
         c = int(max(contact[i], contact[i + 1]))
         if c in out:
             out[c].append((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1]))))
-    for c, iv in out.items():
-        iv.sort()
-        merged: list[list[float]] = []
-        for a, b in iv:
-            if merged and a <= merged[-1][1] + 1e-9:
-                merged[-1][1] = max(merged[-1][1], b)
-            else:
-                merged.append([a, b])
-        out[c] = [(a, b) for a, b in merged]
-    return out
+    return {c: merge_intervals(iv) for c, iv in out.items()}
 
 
 

@@ -10,13 +10,14 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+from collections.abc import Callable, Collection, Iterable
 from typing import Any
 
 from study.errors import SceneError
 from study.scene_schema import Spec, attr_name
 from study.units import TO_SI
 
-__all__ = ["check_table", "check_value", "suggest", "fmt"]
+__all__ = ["check_table", "check_value", "check_known", "suggest", "fmt"]
 
 
 def fmt(v: Any) -> str:
@@ -96,14 +97,21 @@ def suggest(key: str, allowed) -> str:
     return f" (did you mean {m[0]!r}?)" if m else ""
 
 
+def check_known(keys: Iterable[str], allowed: Collection[str], name: Callable[[str], str],
+                what: str = "key", note: str = "") -> None:
+    """Refuse the first of ``keys`` not in ``allowed``; ``name(key)`` is how the message
+    names it, ``what`` what it is (key, section), ``note`` is appended to the message."""
+    for key in keys:
+        if key not in allowed:
+            raise SceneError(f"{name(key)}: unknown {what}{suggest(key, allowed)}; "
+                             f"allowed: {', '.join(allowed)}{note}")
+
+
 def check_table(where: str, table: Any, specs: dict[str, Spec]) -> dict[str, Any]:
     """Validate one table against its specs; returns {attr: SI value} incl. defaults."""
     if not isinstance(table, dict):
         raise SceneError(f"[{where}] = {fmt(table)}: must be a table")
-    for key in table:
-        if key not in specs:
-            raise SceneError(f"{where}.{key}: unknown key{suggest(key, specs)}; "
-                             f"allowed: {', '.join(specs)}")
+    check_known(table, specs, lambda key: f"{where}.{key}")
     out: dict[str, Any] = {}
     for key, spec in specs.items():
         if key in table:

@@ -17,7 +17,7 @@ from typing import Any
 from study.errors import SceneError, StageUnavailable
 from study.fe_params import fe_parameters
 from study.gears import estimate_mesh_stiffness, estimate_ste
-from study.scene_check import check_table, fmt, suggest
+from study.scene_check import check_known, check_table, fmt, suggest
 from study.scene_data import (
     Accelerometer,
     AcousticsData,
@@ -107,10 +107,8 @@ def _build_external(ext: Any, kind: str) -> ExternalData:
         return ExternalData()
     if not isinstance(ext, dict):
         raise SceneError(f"[external] = {fmt(ext)}: must be a table")
-    for key in ext:
-        if key not in ("aero", "unbalance"):
-            raise SceneError(f"external.{key}: unknown key{suggest(key, ('aero', 'unbalance'))}; "
-                             "allowed: aero, unbalance ([[external.aero]] tables)")
+    check_known(ext, ("aero", "unbalance"), lambda key: f"external.{key}",
+                note=" ([[external.aero]] tables)")
     aero, unb = [], []
     for name, target in (("aero", aero), ("unbalance", unb)):
         items = ext.get(name, [])
@@ -274,10 +272,7 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
     and the raw ``[[outputs.accelerometer]]`` list (checked with the outputs)."""
     if not isinstance(raw, dict):
         raise SceneError(f"scene = {fmt(raw)}: must be a TOML document (table)")
-    for key in raw:
-        if key not in TOP_LEVEL:
-            raise SceneError(f"[{key}]: unknown section{suggest(key, TOP_LEVEL)}; "
-                             f"allowed: {', '.join(TOP_LEVEL)}")
+    check_known(raw, TOP_LEVEL, lambda key: f"[{key}]", what="section")
     raw_out = raw.get("outputs", {})
     accel_raw = []
     if isinstance(raw_out, dict) and "accelerometer" in raw_out:

@@ -56,7 +56,8 @@ def build_problem(scene: Scene, M, C, K, G, constant: dict, omega_squared: dict 
     system = LinearSystem(np.asarray(M), np.asarray(C), np.asarray(K), np.asarray(G))
     exc = Excitation(system.n_dof, constant=constant, omega_squared=omega_squared or {})
     return HBMProblem(system, gear_mesh(scene), exc, harmonic_set(scene),
-                      condensation=scene.hbm.condensation)
+                      condensation=scene.hbm.condensation,
+                      linear_solver=scene.hbm.linear_solver)
 
 
 def lumped_problem(scene: Scene):

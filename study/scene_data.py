@@ -194,6 +194,7 @@ class HbmData:
     aft_samples: int
     condensation: str
     stability: bool = True
+    linear_solver: str = "auto"
 
 
 @dataclass(frozen=True)

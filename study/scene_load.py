@@ -204,6 +204,9 @@ def _hbm(h: dict, ms: MeshStiffness, te: TransmissionError, gear: GearData,
         if missing:
             raise SceneError(f"hbm.harmonics = {list(hs)}: lacks the excited mesh harmonics "
                              f"{missing} (fundamental {'Ω' if external.present else 'ZΩ'})")
+    if h["linear_solver"] == "krylov" and h["condensation"] != "loa":
+        raise SceneError(f"hbm.linear_solver = 'krylov': needs hbm.condensation = 'loa' "
+                         f"(got {h['condensation']!r})")
     return HbmData(**h)
 
 

@@ -150,6 +150,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="explicit harmonic set (must contain 0); overrides the builder"),
         "aft_samples": _f(0, "", 0, 1 << 20, kind="int", doc="AFT time samples (0: automatic)"),
         "condensation": _c("loa", ("loa", "gear", "none"), "exact condensation level"),
+        "linear_solver": _c("auto", ("auto", "dense", "krylov"),
+                            "Newton matrices: dense LU, or matrix-free GMRES (loa; 'auto' from "
+                            "400 real unknowns on; docs/hbm.md)"),
         "stability": Spec("bool", True, doc="stability of every point (variational "
                           "equation, every mode; docs/theory.md §11)"),
     },

@@ -307,8 +307,8 @@ def craig_bampton(
 
     # --- Galerkin projection, eq. (9)
     t0 = time.perf_counter()
-    M_r = _project(M, T, mpi)
-    K_r = _project(K, T, mpi)
+    M_r = dense_projection(M, T)
+    K_r = dense_projection(K, T)
     t_proj = time.perf_counter() - t0
 
     for obj in (R, X, B, K_ic, K_ii, M_ii, xr, y, is_i, is_c):
@@ -334,13 +334,22 @@ def _max_op():
     return MPI.MAX
 
 
-def _project(A: PETSc.Mat, T: PETSc.Mat, mpi) -> np.ndarray:
-    """Dense ``Tᵀ A T`` on every rank (local products summed with allreduce)."""
+def dense_projection(A: PETSc.Mat, T: PETSc.Mat) -> np.ndarray:
+    """Dense ``Tᵀ A T`` (symmetrised) on every rank: ``A·T`` by PETSc, then each rank's
+    rows ``T_locᵀ (AT)_loc`` summed with an allreduce (eq. 9).
+
+    Parameters
+    ----------
+    A : PETSc.Mat
+        Square AIJ matrix on ``T``'s row layout.
+    T : PETSc.Mat
+        Distributed dense matrix (n × m).
+    """
+    from mpi4py import MPI
+
     AT = A.matMult(T)
     local = T.getDenseArray().T @ AT.getDenseArray()
     AT.destroy()
     out = np.empty_like(local)
-    from mpi4py import MPI
-
-    mpi.Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
+    T.getComm().tompi4py().Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
     return 0.5 * (out + out.T)

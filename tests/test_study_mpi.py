@@ -140,6 +140,36 @@ def test_two_ranks_results_equal_serial(runs, cmd):
         assert _rel(fs["grazing/rpm"][()], fp["grazing/rpm"][()]) < 1e-10
         for name in ("frequencies_hz", "mesh_energy"):
             assert _rel(fs["rom/" + name][()], fp["rom/" + name][()]) < 1e-10, name
+        # ERP per harmonic from the radiation matrix W that two ranks computed
+        assert fs["nvh/erp"].shape == fp["nvh/erp"].shape and fs["nvh/erp"][()].max() > 0
+        assert _rel(fs["nvh/erp"][()], fp["nvh/erp"][()]) < 1e-10
+        assert _rel(fs["nvh/radiation"].attrs["area"], fp["nvh/radiation"].attrs["area"]) < 1e-12
+
+
+def test_radiation_data_of_two_ranks_equals_serial(runs, tmp_path):
+    """radiation.h5 of the ROM reduced by two ranks (each rank its facets and basis rows,
+    no serial FE model) equals the serial computation on the same basis, dataset by
+    dataset, in the same facet order."""
+    from reduction import load_basis
+    from study import acoustics, fe_stages
+    from study.scene import load_scene
+
+    tmp, _ = runs
+    entry = next(p for p in (tmp / "cache_par/rom").iterdir() if not p.name.startswith("."))
+    mesh = next(p for p in (tmp / "cache_par/mesh").iterdir() if not p.name.startswith("."))
+    model = fe_stages.fe_stage(load_scene(PUMP, {"rom.n_cm": 20}), mesh)
+    assert model.comm.size == 1
+    T = load_basis(entry / "rom.h5", row_range=model.K.getOwnershipRange(),
+                   row_keys=model.row_keys())
+    acoustics.radiation_data(model, T, tmp_path / "radiation.h5")
+    with h5py.File(entry / acoustics.RADIATION_FILE, "r") as fp, \
+            h5py.File(tmp_path / "radiation.h5", "r") as fs:
+        assert set(fp) == set(fs) and fs.attrs["n_facets"] == fp.attrs["n_facets"] > 500
+        for name in ("facet_nodes", "points", "facet_area", "facet_centroid", "facet_normal"):
+            np.testing.assert_array_equal(fp[name][()], fs[name][()], err_msg=name)
+        for name in ("W", "facet_rows", "facet_u_rows"):
+            assert _rel(fs[name][()], fp[name][()]) < 1e-10, name
+        assert _rel(fs.attrs["area"], fp.attrs["area"]) < 1e-12
 
 
 def _sorted_rows(*cols) -> np.ndarray:

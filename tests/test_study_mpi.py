@@ -30,6 +30,7 @@ SETS = ["--set", "rom.n_cm=20", "--set", "rom.n_check=6",
         "--set", "continuation.speed_rpm=[600,1100]", "--set", "continuation.step_rpm=10",
         "--set", "continuation.max_step_rpm=10",
         "--set", "outputs.housing_field_rpm=[800]", "--no-progress"]
+PAR_SETS = ["--set", "rom.factorization=cholesky"]
 CURVES = ("rpm", "omega", "mesh_load_std", "mesh_load_max", "coefficients", "unknowns",
           "margin_active", "margin_reverse", "contact_loss_fraction", "floquet_max_real")
 
@@ -51,7 +52,8 @@ def _geardyn(n: int, *args, check: bool = True, timeout: float = 300):
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """serial: reduce, then run (ROM from cache); mpirun -n 2: reduce, run, export on
-    its own cache (the ROM is reduced by two ranks)."""
+    its own cache (the ROM is reduced by two ranks, with the MUMPS LDLᵀ factorisation
+    ``rom.factorization = cholesky``: the comparisons also check it against serial LU)."""
     pytest.importorskip("dolfinx")
     tmp = tmp_path_factory.mktemp("mpi")
     logs = {}
@@ -61,12 +63,13 @@ def runs(tmp_path_factory):
             if n == 1 and cmd == "export":
                 continue
             p = _geardyn(n, cmd, str(PUMP), "--out", str(tmp / tag / cmd), "--cache", cache,
-                         *SETS)
+                         *SETS, *(PAR_SETS if n > 1 else []))
             logs[tag, cmd] = p.stderr
     # `report` under mpirun: the ROM from the cache on both ranks, files from rank 0
     (tmp / "par/run/report.md").unlink()
     logs["par", "report"] = _geardyn(2, "report", str(PUMP), "--out", str(tmp / "par/run"),
-                                     "--cache", str(tmp / "cache_par"), *SETS).stderr
+                                     "--cache", str(tmp / "cache_par"), *SETS,
+                                     *PAR_SETS).stderr
     return tmp, logs
 
 

@@ -198,26 +198,6 @@ class FEModel:
         return v
 
 
-def release_freed_memory() -> bool:
-    """Give the heap that freed objects left behind back to the operating system
-    (glibc ``malloc_trim``); False where there is no glibc.
-
-    The full P2 matrices and the projection's temporaries are freed when the model is
-    built, but glibc keeps most of that memory mapped: measured on the fine preset
-    (304k DOF), the resident memory after the FE model fell from 2 777 to 1 986 MiB
-    with the trim, and the rom stage's peak starts from there (docs/scale.md).
-    """
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        trim = ctypes.CDLL(name).malloc_trim
-    except (OSError, AttributeError, TypeError):
-        return False
-    return bool(trim(0))
-
-
 def project(A: Any, P: Any, Pt: Any = None) -> Any:
     """Galerkin projection P^T A P of a distributed AIJ matrix.
 
@@ -326,7 +306,6 @@ def build_model(
     M.destroy()
     pro.P_fe.destroy()  # P (all rows) is kept for reconstruction
     pro.P_fe = None
-    release_freed_memory()
     _add_lumped(Kr, Mr, spec, pro.node_red)
     t2 = time.perf_counter()
     gear_dofs = None

@@ -368,9 +368,10 @@ def main(argv: list[str] | None = None) -> int:
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "calculix": ccx, "tables": tables(cases, fits, ccx),
                                 "not_run": ">= 1M DOF (million preset, ~1.47 M reduced DOF): "
-                                           "serial peak estimated 28-32 GiB from the measured "
-                                           "fit (docs/scale.md), above this shared machine's "
-                                           "budget per run"})
+                                           "serial peak estimated ~29 GiB with LDLT in core, "
+                                           "~20 GiB out of core, from the measured components "
+                                           "(docs/scale.md), above the 14 GB per engineer on "
+                                           "this shared machine"})
     log.info("wrote %s", path)
     return 0
 

@@ -181,6 +181,7 @@ class SteadyState:
     seconds: float
     n_rhs: int
     state: np.ndarray = field(repr=False)   # state at the end
+    load_changes: list = field(default_factory=list, repr=False)   # per period, from the 2nd
 
 
 def _state_norm(mm: ModalModel, y: np.ndarray) -> np.ndarray:
@@ -242,6 +243,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
     t_eval = T * np.arange(samples) / samples
     y = np.array(y0, dtype=float)
     n_rhs, change, periods, metrics, load_change = 0, np.inf, 0, None, np.inf
+    history: list[float] = []
     t0 = time.perf_counter()
     sol = None
     while periods < max_periods:
@@ -259,6 +261,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
         if metrics is not None:
             load_change = max(abs(new[k] - metrics[k]) / max(abs(new[k]), 1e-300)
                               for k in new)
+            history.append(float(load_change))
         metrics = new
         log.debug("period %d: state change %.3g, load change %.3g, %d rhs, %.1f s", periods,
                   change, load_change, n_rhs, time.perf_counter() - t0)
@@ -274,7 +277,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
     return SteadyState(t=t_eval, delta=delta, load=mesh_load(mm, delta, t_eval), periods=periods,
                        change=change, load_change=load_change,
                        converged=bool(load_change < tol_periodic and change < tol_state),
-                       seconds=seconds, n_rhs=int(n_rhs), state=y)
+                       seconds=seconds, n_rhs=int(n_rhs), state=y, load_changes=history)
 
 
 # --------------------------------------------------------------------------- comparison

@@ -137,3 +137,11 @@ def test_error_on_the_attractor_of_the_reference():
     assert bc.summarize([row])["within_eps"]
     with pytest.raises(ValueError, match="no HBM solution"):
         bc.attractor_error(ref, [])
+
+
+def test_remaining_drift_of_a_geometric_tail():
+    changes = [1e-5 * 0.5 ** k for k in range(12)]
+    # sum_{j>=1} c r^j = c r / (1 - r) = c for r = 1/2
+    assert tr.remaining_drift(changes) == pytest.approx(changes[-1], rel=1e-9)
+    assert tr.remaining_drift([1e-6, 2e-6, 4e-6]) == float("inf")
+    assert tr.remaining_drift([1e-6, 5e-7]) == float("inf")        # too few periods

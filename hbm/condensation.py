@@ -76,7 +76,7 @@ class LinearData(Protocol):
     def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
                            law: float = 1.0): ...
 
-    def multiplication_matrix(self, s: np.ndarray) -> np.ndarray: ...
+    def contact_matrix(self, st) -> np.ndarray: ...
 
 
 class Condensation(Protocol):
@@ -186,7 +186,7 @@ class LoaCondensation:
         if not jacobian:
             return r
         if pb.matrix_free:         # J = I + H S, applied by FFT (hbm/krylov.py)
-            ju = LoaJacobian(h, sk, pb.harmonics, pb.multiplication_matrix, pb.preconditioners)
+            ju = LoaJacobian(h, sk, pb.harmonics, pb.contact_matrix, pb.preconditioners)
         else:
             ju = np.eye(pb.nr) + mul_rows(h, jf)
         jw = -pb.harmonics.to_real(dd) + complex_mul(dh, ft)

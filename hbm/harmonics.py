@@ -253,6 +253,11 @@ class HarmonicSet:
         n = self.n_time if n_time is None else int(n_time)
         xc = self.to_complex(xr)
         k = np.asarray(self.indices)
+        if 2 * k[-1] < n:                     # no aliasing: one real inverse FFT
+            spec = np.zeros(xc.shape[:-1] + (n // 2 + 1,), dtype=complex)
+            spec[..., k] = xc * (0.5 * n)
+            spec[..., 0] = xc[..., 0] * n
+            return np.fft.irfft(spec, n, axis=-1)
         spec = np.zeros(xc.shape[:-1] + (n,), dtype=complex)
         spec[..., 0] += xc[..., 0]
         half = 0.5 * xc[..., 1:]
@@ -268,8 +273,12 @@ class HarmonicSet:
         """
         x = np.asarray(x, dtype=float)
         n = x.shape[-1]
-        spec = np.fft.fft(x, axis=-1)
         k = np.asarray(self.indices)
+        if 2 * k[-1] < n:
+            xc = np.fft.rfft(x, axis=-1)[..., k] * (2.0 / n)
+            xc[..., 0] = xc[..., 0].real * 0.5
+            return self.to_real(xc)
+        spec = np.fft.fft(x, axis=-1)
         xc = spec[..., k % n] * (2.0 / n)
         xc[..., 0] = spec[..., 0].real / n
         return self.to_real(xc)

@@ -12,10 +12,13 @@ grid, while forming ``J`` costs ``O(n_real^2)`` gathers and factorising it
 augmented matrix ``[[J, j_w], [row]]``. Both are solved by right-preconditioned GMRES
 (:func:`gmres`) whose preconditioner is the LU factorisation of an *earlier* Newton
 matrix of the same size, kept in a :class:`Preconditioners` store: along a branch
-consecutive matrices differ little and GMRES converges in a few products. When it
-does not within :data:`MAX_ITERATIONS`, the current matrix is formed, factorised
-(:func:`hbm.newton.factor_checked`, with its condition estimate and singularity
-check) and stored. The dense path of small problems is unchanged.
+consecutive matrices differ little and GMRES converges in ~10 products. A solve that
+needed more than :data:`REFRESH_AFTER` iterations, or one that fails within
+:data:`MAX_ITERATIONS`, makes the next solve form the current matrix (without the
+kink blocks of T.13a, a rank-2m update GMRES takes care of) and factorise it, in
+single precision first (:func:`hbm.newton.factor_checked`, with its condition
+estimate and singularity check), then in double if GMRES still fails. The dense
+path of small problems is unchanged.
 """
 
 from __future__ import annotations
@@ -26,8 +29,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .contact import ContactStiffness, KinkCorrection
 from .harmonics import HarmonicSet, complex_mul, mul_rows
-from .newton import factor_checked
+from .newton import ConvergenceError, factor_checked
 
 logger = logging.getLogger(__name__)
 
@@ -35,8 +39,10 @@ __all__ = ["BorderedOperator", "LoaJacobian", "MAX_ITERATIONS", "Preconditioners
            "bordered", "gmres", "is_operator"]
 
 RTOL = 1e-10            # GMRES relative residual of every Krylov solve
-MAX_ITERATIONS = 40     # GMRES iterations before the preconditioner is refreshed
-REFRESH_AFTER = 15      # a solve that needed more iterations refreshes it next time
+MAX_ITERATIONS = 60     # GMRES iterations before the preconditioner is refreshed
+# a solve that needed more iterations refreshes it next time: a refresh (forming and
+# factorising J) costs as much as ~50 iterations at 1849 unknowns
+REFRESH_AFTER = 30
 
 
 @dataclass
@@ -49,7 +55,8 @@ class _Factor:
     def solve(self, b: np.ndarray) -> np.ndarray:
         import scipy.linalg as sla
 
-        return sla.lu_solve((self.lu, self.piv), b, check_finite=False)
+        x = sla.lu_solve((self.lu, self.piv), b.astype(self.lu.dtype), check_finite=False)
+        return x.astype(float, copy=False)
 
 
 @dataclass
@@ -130,36 +137,46 @@ class _KrylovSolvable:
         return n, n
 
     def solve(self, rhs: np.ndarray, where: str, warn: bool) -> tuple[np.ndarray, float]:
-        """``x`` with ``self @ x = rhs`` and the condition estimate of the factor used."""
+        """``x`` with ``self @ x = rhs`` and the condition estimate of the factor used.
+
+        GMRES with the stored factor; if it is stale or GMRES fails, with a fresh
+        single-precision factor of this matrix, then a double-precision one.
+        """
         st = self.store
         n = self.size
         st.solves += 1
         f = st.factors.get(n)
-        if f is not None and not f.stale:
+        tries = [None, np.float32, np.float64] if f is not None and not f.stale else \
+            [np.float32, np.float64]
+        its = 0
+        for dtype in tries:
+            if dtype is not None:
+                lu, piv, cond = factor_checked(self.dense(kinks=False), where, warn, dtype)
+                st.factorizations += 1
+                f = st.factors[n] = _Factor(lu, piv, cond)
             x, its, ok = gmres(self.__matmul__, rhs, f.solve)
             st.iterations += its
             if ok:
                 f.stale = its > REFRESH_AFTER
                 return x, f.cond
-        lu, piv, cond = factor_checked(self.dense(), where, warn)
-        st.factorizations += 1
-        f = st.factors[n] = _Factor(lu, piv, cond)
-        return f.solve(rhs), cond
+        raise ConvergenceError(f"{where}: GMRES did not reach {RTOL:.0e} in {its} iterations "
+                               f"with a fresh factor (condition estimate {f.cond:.2g})",
+                               np.inf, f.cond)
 
 
 @dataclass
 class LoaJacobian(_KrylovSolvable):
-    """``J v = v + h (.) Galerkin((s - k_bar) E v)`` on the real layout (see the module).
+    """``J v = v + h (.) Galerkin(s'(tau) E v)`` on the real layout (see the module).
 
-    ``h``: receptance per harmonic (complex, m/N); ``s``: samples of ``s - k_bar``
-    on the AFT grid (N/m); ``multiplication_matrix``: the problem's dense ``S``
-    builder (for :meth:`dense`).
+    ``h``: receptance per harmonic (complex, m/N); ``stiffness``: ``d f'/d Delta`` on
+    the AFT grid (:class:`hbm.contact.ContactStiffness`); ``contact_matrix``: the
+    problem's dense builder of ``S`` (for :meth:`dense`).
     """
 
     h: np.ndarray
-    s: np.ndarray
+    stiffness: ContactStiffness
     harmonics: HarmonicSet
-    multiplication_matrix: Callable[[np.ndarray], np.ndarray]
+    contact_matrix: Callable[[ContactStiffness], np.ndarray]
     store: Preconditioners
 
     @property
@@ -168,11 +185,16 @@ class LoaJacobian(_KrylovSolvable):
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         hs = self.harmonics
-        return v + complex_mul(self.h, hs.analyse(self.s * hs.synthesize(v)))
+        return v + complex_mul(self.h, hs.analyse(self.stiffness.apply(hs.synthesize(v))))
 
-    def dense(self) -> np.ndarray:
-        """The matrix itself (n_real, n_real)."""
-        return np.eye(self.size) + mul_rows(self.h, self.multiplication_matrix(self.s))
+    def dense(self, kinks: bool = True) -> np.ndarray:
+        """The matrix itself (n_real, n_real); without the kink blocks of T.13a when
+        ``kinks`` is False (the preconditioner: they are a rank-2m update costing
+        ``O(n_real^2 m)`` for m crossings, GMRES takes them into account)."""
+        st = self.stiffness
+        if not kinks:
+            st = ContactStiffness(st.samples, KinkCorrection.none(st.samples.size))
+        return np.eye(self.size) + mul_rows(self.h, self.contact_matrix(st))
 
 
 @dataclass
@@ -194,9 +216,10 @@ class BorderedOperator(_KrylovSolvable):
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         return np.concatenate([self.jx @ v[:-1] + self.jw * v[-1], [self.row @ v]])
 
-    def dense(self) -> np.ndarray:
-        """The matrix itself (n + 1, n + 1)."""
-        return np.vstack([np.hstack([self.jx.dense(), self.jw[:, None]]), self.row[None, :]])
+    def dense(self, kinks: bool = True) -> np.ndarray:
+        """The matrix itself (n + 1, n + 1) (``kinks``: see :meth:`LoaJacobian.dense`)."""
+        return np.vstack([np.hstack([self.jx.dense(kinks), self.jw[:, None]]),
+                          self.row[None, :]])
 
 
 def is_operator(j) -> bool:

@@ -31,13 +31,16 @@ class ConvergenceError(RuntimeError):
         self.condition = condition
 
 
-def factor_checked(j: np.ndarray, where: str = "Newton",
-                   warn: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+def factor_checked(j: np.ndarray, where: str = "Newton", warn: bool = True,
+                   dtype=np.float64) -> tuple[np.ndarray, np.ndarray, float]:
     """LU factors of ``j`` and the estimate of its 1-norm condition number.
 
     The estimate is LAPACK's ``gecon`` on the LU factors (O(n^2) on top of the
     factorisation).  Above :data:`COND_WARN` a warning naming ``where`` and the
     estimate is logged (when ``warn``).
+
+    ``dtype=np.float32`` factorises in single precision (a preconditioner: half the
+    memory traffic of every solve).
 
     Returns
     -------
@@ -58,7 +61,7 @@ def factor_checked(j: np.ndarray, where: str = "Newton",
     anorm = float(np.max(np.sum(np.abs(j), axis=0))) if j.size else 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)     # singularity is handled below
-        lu, piv = sla.lu_factor(j, check_finite=False)
+        lu, piv = sla.lu_factor(j.astype(dtype, copy=False), check_finite=False)
     diag = np.abs(np.diag(lu))
     if anorm == 0.0 or np.min(diag) == 0.0:
         raise ConvergenceError(f"{where}: singular Jacobian (zero pivot in its LU factors)",

@@ -23,7 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .condensation import CONDENSATIONS, Condensation, make_condensation
-from .contact import dead_zone, dead_zone_stiffness
+from .contact import (
+    ContactStiffness,
+    KinkCorrection,
+    dead_zone,
+    dead_zone_stiffness,
+    kink_correction,
+)
 from .harmonics import HarmonicSet
 from .krylov import Preconditioners
 from .model import Excitation, GearMesh, LinearSystem
@@ -35,6 +41,9 @@ __all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S", "COND_WARN
 
 RPM_TO_RAD_S = 2.0 * np.pi / 60.0
 LINEAR_SOLVERS = ("auto", "dense", "krylov")
+# "corrected": samples of the dead-zone force with the sub-sample kink correction
+# (T.13a, C1 in the unknowns); "sampled": the plain samples (piecewise smooth)
+AFT_KINDS = ("corrected", "sampled")
 # "auto": matrix-free from this many real unknowns on (loa); below, the dense LU is as
 # fast (docs/hbm.md, "Linear solver")
 KRYLOV_MIN = 400
@@ -93,7 +102,7 @@ class HBMProblem:
 
     def __init__(self, system: LinearSystem, mesh: GearMesh, excitation: Excitation,
                  harmonics: HarmonicSet, condensation: str = "loa",
-                 linear_solver: str = "auto") -> None:
+                 linear_solver: str = "auto", aft: str = "corrected") -> None:
         if not isinstance(system, LinearSystem):
             raise ValueError(f"problem.system = {type(system).__name__}: must be a LinearSystem")
         if not isinstance(mesh, GearMesh):
@@ -110,6 +119,9 @@ class HBMProblem:
         if linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"problem.linear_solver = {linear_solver!r}: must be one of "
                              f"{', '.join(LINEAR_SOLVERS)}")
+        if aft not in AFT_KINDS:
+            raise ValueError(f"problem.aft = {aft!r}: must be one of {', '.join(AFT_KINDS)}")
+        self.aft = aft
         if linear_solver == "krylov" and condensation != "loa":
             raise ValueError("problem.linear_solver = 'krylov': needs condensation = 'loa'")
         n = system.n_dof
@@ -309,26 +321,58 @@ class HBMProblem:
         Returns the real coefficients of f' (N) and, if asked, d f'/d Delta
         (n_real, n_real) (N/m).
         """
-        ft, s = self.mesh_force_samples(delta_r, jacobian, law)
-        return ft, (self.multiplication_matrix(s) if jacobian else None)
+        ft, st = self.mesh_force_samples(delta_r, jacobian, law)
+        return ft, (self.contact_matrix(st) if jacobian else None)
 
     def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
-                           law: float = 1.0) -> tuple[np.ndarray, np.ndarray | None]:
-        """As :meth:`mesh_force`, with ``d f'/d Delta`` as its AFT samples ``s - k_bar``
-        (N/m, one per instant of the grid) instead of the dense matrix."""
+                           law: float = 1.0) -> tuple[np.ndarray, ContactStiffness | None]:
+        """As :meth:`mesh_force`, with ``d f'/d Delta`` on the AFT grid
+        (:class:`hbm.contact.ContactStiffness`) instead of the dense matrix.
+
+        The samples of the dead-zone force carry the sub-sample kink correction (T.13a,
+        :func:`hbm.contact.kink_correction`) that makes them C1 in the unknowns.
+        """
         delta = self.harmonics.synthesize(delta_r)
         p = delta - self.e_t
+        if law == 0.0 or self.aft == "sampled":
+            kinks = KinkCorrection.none(p.size)
+        else:
+            kinks = kink_correction(p, self.k_t, self.b)
         if law == 0.0:
             f = self.k_t * (p - self.b)
             s = self.k_t
         else:
-            f = dead_zone(p, self.k_t, self.b)
+            f = dead_zone(p, self.k_t, self.b) + kinks.values
             s = dead_zone_stiffness(p, self.k_t, self.b)
             if law != 1.0:
                 f = law * f + (1.0 - law) * self.k_t * (p - self.b)
                 s = law * s + (1.0 - law) * self.k_t
+                kinks = kinks.scaled(law)
         ft = self.harmonics.analyse(f - self.kbar * delta)
-        return ft, (s - self.kbar if stiffness else None)
+        return ft, (ContactStiffness(s - self.kbar, kinks) if stiffness else None)
+
+    def contact_matrix(self, st: ContactStiffness) -> np.ndarray:
+        """Real-layout matrix of ``x -> Galerkin(st.apply(x(tau)))``: the dense
+        ``d f'/d Delta`` (n_real, n_real), kink blocks included."""
+        out = self.multiplication_matrix(st.samples)
+        kc = st.kinks
+        if kc.nodes.size == 0:
+            return out
+        n = st.samples.size
+        rows = np.stack([kc.nodes, (kc.nodes + 1) % n], axis=1)
+        cols = kc.columns(n)
+        nodes = np.unique(np.concatenate([rows.ravel(), cols.ravel()]))
+        pr, pc = np.searchsorted(nodes, rows), np.searchsorted(nodes, cols)
+        d = np.zeros((nodes.size, nodes.size))
+        np.add.at(d, (pr[:, :, None], pc[:, None, :]), kc.blocks)
+        tau = 2.0 * np.pi * nodes / n
+        k = np.asarray(self.harmonics.indices[1:], dtype=float)
+        e = np.empty((nodes.size, self.nr))
+        e[:, 0] = 1.0
+        e[:, 1::2] = np.cos(np.outer(tau, k))
+        e[:, 2::2] = -np.sin(np.outer(tau, k))
+        a = e.T * np.where(np.arange(self.nr) == 0, 1.0, 2.0)[:, None] / n
+        return out + a @ (d @ e)
 
     def multiplication_matrix(self, s: np.ndarray) -> np.ndarray:
         """Real-layout matrix of ``x -> Galerkin(s(tau) x(tau))`` on the AFT grid.

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .contact import dead_zone, dead_zone_stiffness
+from .contact import dead_zone, dead_zone_stiffness, kink_correction
 from .problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
@@ -51,8 +51,10 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
     spec[:, k] = q * np.where(k == 0, 1.0, 0.5) * n_t
     delta = problem.G @ np.fft.irfft(spec, n_t, axis=1)          # Delta(tau_j)
     phase = hs.time_grid() * problem.mesh_step
-    f_t = dead_zone(delta - problem.mesh.error_at(phase), problem.mesh.stiffness_at(phase),
-                    problem.mesh.backlash)
+    p, km = delta - problem.mesh.error_at(phase), problem.mesh.stiffness_at(phase)
+    f_t = dead_zone(p, km, problem.mesh.backlash)
+    if problem.aft == "corrected":       # the sub-sample kink correction (T.13a)
+        f_t = f_t + kink_correction(p, km, problem.mesh.backlash).values
     fk = np.fft.rfft(f_t)[k] / n_t * np.where(k == 0, 1.0, 2.0)  # f_LoA,k
     w = problem.kS * hs.divisor * point.omega
     forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)

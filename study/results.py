@@ -121,6 +121,7 @@ def write_static(f: h5py.File, scene, problem, extra: Callable[[h5py.File], None
     ex["harmonics"].attrs["fundamental"] = hs.fundamental
     ex["harmonics"].attrs["divisor"] = hs.divisor
     ex["harmonics"].attrs["n_time"] = hs.n_time
+    ex["harmonics"].attrs["aft"] = problem.aft
     ex["forces"] = problem.Fc
     ex["forces"].attrs["unit"] = "N"
     ex["forces"].attrs["meaning"] = "constant forcing per harmonic index (rows) and DOF"

@@ -97,8 +97,8 @@ def test_condensations_agree(modal):
     for cond in ("none", "gear", "loa"):
         pb = _random_problem(cond, modal=modal)
         assert pb.modal == modal
-        pt = pb.solve(100.0)
-        assert pt.residual < 1e-8
+        pt = pb.solve(100.0, tol=1e-12)      # the C1 residual: converged, not exact
+        assert pt.residual < 1e-12
         qs[cond] = pb.recover(pt)
         if cond == "loa":
             assert hbm.point_stats(pb, pt).contact == 2

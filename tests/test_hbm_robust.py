@@ -92,4 +92,7 @@ def test_truncated_hill_with_residual_compliance_matches_full():
         lam, exps = hbm.floquet_exponents(pb, pt, max_size=2 * pb.nr, method="hill")
         assert exps.size == 2
         full, _ = hbm.floquet_exponents(pb, pt, max_size=10 ** 6, method="hill")
-        assert abs(lam - full) < 1e-3 * (abs(full) + 0.01)
+        # worst point (68 % contact loss): 6.1e-4 with the plain AFT samples, 1.9e-3 with
+        # the kink-corrected ones (T.13a), whose 2x4 blocks the residual compliance of the
+        # dropped mode does not see
+        assert abs(lam - full) < 3e-3 * (abs(full) + 0.01)

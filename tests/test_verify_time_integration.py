@@ -66,8 +66,10 @@ def test_sdof_hbm_matches_time_integration(sdof, index):
         # permanent contact: the HBM is exact up to the k_m(t) harmonics it keeps
         assert err64["err_std"] < 1e-7
     else:
-        # impacts: the remaining difference is harmonic truncation, it falls with H
-        assert err64["err_std"] < 0.5 * err16["err_std"]
+        # impacts: the remaining difference is harmonic truncation, it falls with H down
+        # to the floor of the reference integration (rtol 1e-10: ~1e-8), which the
+        # kink-corrected AFT (T.13a) reaches at 16 harmonics on the double-sided case
+        assert err64["err_std"] < max(0.5 * err16["err_std"], 3e-8)
 
 
 @pytest.mark.slow

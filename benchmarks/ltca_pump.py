@@ -1,0 +1,128 @@
+"""Mesh stiffness and STE of the pump's gear pair from the loaded tooth contact analysis.
+
+Prints the comparison table of docs/theory.md §13.3 (scenes/pump.toml's invented
+values beside study/tooth_contact.py's for perfect teeth and for ISO 1328-1:2013
+class-6 deviations, at T = 2.5 and 3.29 N·m) and, with ``--json FILE``, writes the
+numbers atomically. Not a timing benchmark (not picked up by ``run_all``).
+
+Run: ``.venv/bin/python -m benchmarks.ltca_pump [--json FILE] [--positions N] [--slices N]
+[--sets]`` (``--sets`` prints each case's ``--set`` options for ``geardyn``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+from pathlib import Path
+
+from geometry.files import atomic_write
+from study import tooth_contact as tc
+from study.scene import load_scene
+
+log = logging.getLogger("ltca_pump")
+ROOT = Path(__file__).resolve().parent.parent
+
+# name -> keyword arguments of tooth_contact.class_deviations (None: perfect teeth)
+CASES: dict[str, dict | None] = {
+    "perfect teeth": None,
+    "class 6, profile only (gear 1)": {"slope_signs": (1, 0), "form_signs": (1, 0),
+                                       "helix": False},
+    "class 6, profile + helix (gear 1)": {"slope_signs": (1, 0), "form_signs": (1, 0)},
+    "class 6 at half tolerance": {"slope_signs": (1, 0), "form_signs": (1, 0),
+                                  "fraction": 0.5},
+    "class 6, slopes opposite (both gears) + helix": {"slope_signs": (1, -1), "form_signs": (1, 1)},
+}
+
+
+def measure(torques: tuple[float, ...], positions: int, slices: int) -> dict:
+    """Scene values and LTCA coefficients per case and torque."""
+    scene = load_scene(ROOT / "scenes" / "pump.toml")
+    pair = tc.spur_pair(scene.gear)
+    ms, te = scene.mesh_stiffness, scene.transmission_error
+    out: dict = {
+        "scene": {"mesh_stiffness": {"mean_N_per_um": ms.mean * 1e-6,
+                                     "amplitudes_N_per_um": [a * 1e-6 for a in ms.amplitudes],
+                                     "phases_deg": [math.degrees(p) for p in ms.phases]},
+                  "transmission_error": {"mean_um": te.mean * 1e6,
+                                         "amplitudes_um": [a * 1e6 for a in te.amplitudes],
+                                         "phases_deg": [math.degrees(p) for p in te.phases]}},
+        "pitch_point_pair_N_per_um": tc.pitch_point_stiffness(pair) * 1e-6,
+        "iso6336_c_prime_N_per_um": tc.iso6336_stiffness(pair)[0] * 1e-6,
+        "iso6336_c_gamma_N_per_um": tc.iso6336_stiffness(pair)[1] * 1e-6,
+        "iso1328_class6_um": tc.class_deviations(pair, 6)[1],
+        "contact_ratio": pair.contact_ratio,
+        "cases": {},
+    }
+    for name, kw in CASES.items():
+        dev = tc.Deviations() if kw is None else tc.class_deviations(pair, 6, **kw)[0]
+        for torque in torques:
+            load = torque / scene.gear.base_radius
+            res = tc.solve_ltca(pair, load, dev, n_positions=positions, n_slices=slices)
+            coef = tc.scene_coefficients(res, 3)
+            coef["load_N"] = load
+            coef["F_s_over_kbar_um"] = load / res.stiffness.mean() * 1e6
+            out["cases"][f"{name} @ {torque} N·m"] = coef
+    return out
+
+
+def table(data: dict) -> str:
+    """Markdown table of the measured values."""
+    def fmt(v: list[float], p: list[float]) -> str:
+        return ", ".join(f"{a:.3g} ∠{q:.0f}°" for a, q in zip(v, p, strict=True))
+
+    rows = ["| case | k̄ (N/µm) | k_m harmonics (N/µm ∠φ) | q_s harmonics (µm ∠φ) | "
+            "F_s/k̄ (µm) |", "|---|---|---|---|---|"]
+    s = data["scene"]
+    sm, st = s["mesh_stiffness"], s["transmission_error"]
+    rows.append(f"| scenes/pump.toml (invented/calibrated) | {sm['mean_N_per_um']:.1f} | "
+                f"{fmt(sm['amplitudes_N_per_um'], sm['phases_deg'])} | "
+                f"{fmt(st['amplitudes_um'], st['phases_deg'])} | – |")
+    for name, c in data["cases"].items():
+        ms, te = c["mesh_stiffness"], c["transmission_error"]
+        rows.append(f"| {name} | {ms['mean_N_per_um']:.1f} | "
+                    f"{fmt(ms['amplitudes_N_per_um'], ms['phases_deg'])} | "
+                    f"{fmt(te['amplitudes_um'], te['phases_deg'])} | "
+                    f"{c['F_s_over_kbar_um']:.3f} |")
+    return "\n".join(rows)
+
+
+def set_args(coef: dict) -> str:
+    """The ``--set`` options that put one case's coefficients into a scene."""
+    out = []
+    for sec in ("mesh_stiffness", "transmission_error"):
+        for key, v in coef[sec].items():
+            if key == "kind":
+                continue
+            val = "[" + ",".join(f"{x:g}" for x in v) + "]" if isinstance(v, list) else f"{v:g}"
+            out.append(f"--set '{sec}.{key}={val}'")
+    return " ".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", type=Path, default=None, help="write the numbers here")
+    ap.add_argument("--positions", type=int, default=1440, help="positions per mesh period")
+    ap.add_argument("--slices", type=int, default=1280, help="slices across the face width")
+    ap.add_argument("--sets", action="store_true",
+                    help="also print each case's --set options for geardyn")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    data = measure((2.5, 3.29), args.positions, args.slices)
+    log.info("pitch-point pair stiffness %.1f N/µm, ISO 6336 c' %.1f, c_γα %.1f N/µm, "
+             "ε_α %.4f", data["pitch_point_pair_N_per_um"], data["iso6336_c_prime_N_per_um"],
+             data["iso6336_c_gamma_N_per_um"], data["contact_ratio"])
+    log.info("ISO 1328-1:2013 class 6 tolerances (µm): %s", data["iso1328_class6_um"])
+    log.info("\n%s", table(data))
+    if args.sets:
+        for name, coef in data["cases"].items():
+            log.info("%s:\n  %s", name, set_args(coef))
+    if args.json is not None:
+        with atomic_write(args.json, "w") as fh:
+            json.dump(data, fh, indent=2)
+            fh.write("\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -145,3 +145,14 @@ def test_remaining_drift_of_a_geometric_tail():
     assert tr.remaining_drift(changes) == pytest.approx(changes[-1], rel=1e-9)
     assert tr.remaining_drift([1e-6, 2e-6, 4e-6]) == float("inf")
     assert tr.remaining_drift([1e-6, 5e-7]) == float("inf")        # too few periods
+
+
+def test_uncertainty_of_a_reference():
+    floor = [2e-5, 1e-7, 3e-7, 5e-8, 2e-7, 1e-7, 3e-8, 2.5e-7, 1e-7, 6e-8]
+    assert 3e-7 <= tr.uncertainty(floor) < 1e-6           # at least the jitter of the last 8
+    assert tr.uncertainty([1e-7] * 4 + [2e-7] * 4) == 2e-7   # no decrease: the jitter only
+    tail = [1e-5 * 0.9 ** k for k in range(12)]
+    assert tr.uncertainty(tail) == pytest.approx(tail[-1] * 9, rel=1e-9)   # r / (1 - r) = 9
+    assert tr.settled({"converged": False, "load_changes": floor})
+    assert not tr.settled({"converged": False, "load_changes": [1e-4] * 9})
+    assert tr.settled({"converged": True, "load_changes": []})

@@ -745,6 +745,10 @@ def _revisit(rec, state, yn, evaluate=None, tol=1e-8, max_iter=12) -> int | None
     if n < 3:
         return None
     ys = _states(rec, state)
+    if (yn - ys[-1]) @ (ys[-1] - ys[-2]) > 0:
+        # the step went on in the direction of travel: a branch that winds past its own
+        # earlier loops (a spiral near a resonance with impacts), not a walk back
+        return None
     a, b = ys[:n - 2], ys[1:n - 1]
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),

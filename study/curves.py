@@ -7,13 +7,14 @@ synthetic curves. Used by :mod:`study.excitations` and :mod:`study.paper`.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Peak", "CurveSummary", "resonance_peaks", "impact_intervals", "impact_span",
-           "contact_windows", "summarize_curve", "summarize_branch", "primary_peak", "ipp_runs",
-           "ipp_fractions"]
+__all__ = ["Peak", "CurveSummary", "resonance_peaks", "impact_intervals", "merge_intervals",
+           "impact_span", "contact_windows", "summarize_curve", "summarize_branch",
+           "primary_peak", "ipp_runs", "ipp_fractions"]
 
 #: Local maxima less prominent than this fraction of the curve's largest std are
 #: numerical wiggles, not resonances.
@@ -120,10 +121,15 @@ def impact_intervals(rpm: np.ndarray, contact: np.ndarray) -> list[tuple[float, 
     flank (a segment counts when one of its ends has impacts)."""
     rpm = np.asarray(rpm, dtype=float)
     contact = np.asarray(contact)
-    segs = sorted((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1])))
-                  for i in range(len(rpm) - 1) if max(contact[i], contact[i + 1]) > 0)
+    return merge_intervals((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1])))
+                           for i in range(len(rpm) - 1) if max(contact[i], contact[i + 1]) > 0)
+
+
+def merge_intervals(segments: Iterable[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Sorted union of speed intervals (rpm); intervals that overlap or touch (to 1e-9
+    rpm) become one."""
     merged: list[list[float]] = []
-    for a, b in segs:
+    for a, b in sorted(segments):
         if merged and a <= merged[-1][1] + 1e-9:
             merged[-1][1] = max(merged[-1][1], b)
         else:

@@ -26,7 +26,9 @@ import numpy as np
 
 from geometry.files import atomic_write
 from study.curves import Peak, primary_peak, summarize_branch
-from study.scene import Scene, SceneError, scene_from_dict
+from study.errors import SceneError
+from study.scene_data import Scene
+from study.scene_load import scene_from_dict
 
 logger = logging.getLogger(__name__)
 
@@ -266,7 +268,7 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
     """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md`` and
     ``paper.md`` in ``out`` (rank 0 under mpirun)."""
     from study.paper import write_paper
-    from study.plots import forced_response_overlay
+    from study.plots_speed import forced_response_overlay
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -12,12 +12,12 @@ names in SI units, or the field name with a unit suffix of
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from dataclasses import dataclass
 from typing import Any
 
 from study.errors import SceneError
+from study.scene_check import suggest
 from study.units import FE_SUFFIXES, TO_SI
 
 __all__ = ["FEParams", "fe_parameters"]
@@ -61,9 +61,7 @@ def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | Non
                     break
         if field not in names:
             allowed = [n for n in names if n not in skip] + list(nested)
-            m = difflib.get_close_matches(key, allowed, n=1, cutoff=0.5)
-            hint = f" (did you mean {m[0]!r}?)" if m else ""
-            raise SceneError(f"{section}.{key}: unknown key{hint}; allowed: "
+            raise SceneError(f"{section}.{key}: unknown key{suggest(key, allowed)}; allowed: "
                              f"{', '.join(allowed)} (SI, or with a unit suffix "
                              f"{', '.join('_' + s for s in FE_SUFFIXES)})")
         if isinstance(val, bool) or not isinstance(val, (int, float, str, list)):

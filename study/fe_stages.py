@@ -1,6 +1,6 @@
 """FE stages of the pipeline (``scene.kind = "fe"``): mesh, FE model, ROM, the HBM
 problem on the ROM, the ``rom/`` group of results.h5 and housing fields (the ROM plots
-are :func:`study.plots.rom_plots`).
+are :func:`study.plots_modes.rom_plots`).
 
 Everything that needs gmsh, dolfinx, petsc4py or slepc4py is imported inside the
 functions, so that importing this module (or running a lumped scene) loads none of

@@ -14,7 +14,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from study.scene import Scene, SceneError, apply_overrides, scene_from_dict
+from study.errors import SceneError
+from study.scene_data import Scene
+from study.scene_load import scene_from_dict
+from study.scene_overrides import apply_overrides
 
 logger = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ import logging
 import numpy as np
 
 from study.lumped import sdof_forcing, sdof_matrices
-from study.scene import Scene
+from study.scene_data import Scene
 
 logger = logging.getLogger(__name__)
 
@@ -56,7 +56,8 @@ def build_problem(scene: Scene, M, C, K, G, constant: dict, omega_squared: dict 
     system = LinearSystem(np.asarray(M), np.asarray(C), np.asarray(K), np.asarray(G))
     exc = Excitation(system.n_dof, constant=constant, omega_squared=omega_squared or {})
     return HBMProblem(system, gear_mesh(scene), exc, harmonic_set(scene),
-                      condensation=scene.hbm.condensation)
+                      condensation=scene.hbm.condensation,
+                      linear_solver=scene.hbm.linear_solver)
 
 
 def lumped_problem(scene: Scene):

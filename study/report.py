@@ -9,7 +9,7 @@ import numpy as np
 from geometry.files import atomic_write
 from hbm.stability import KINDS
 from study.fields import velocity_level_db
-from study.plots import contact_intervals, order_label
+from study.plot_common import contact_intervals, order_label
 
 __all__ = ["summary", "write_report"]
 

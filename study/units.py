@@ -1,7 +1,7 @@
 """The one unit table of scene files: key suffix -> factor to SI.
 
 Scene keys carry their unit as a suffix (``backlash_um``, ``torque_Nm``); the schema of
-:mod:`study.scene` names each field's unit from :data:`TO_SI`, and the free FE
+:mod:`study.scene_schema` names each field's unit from :data:`TO_SI`, and the free FE
 sections (:mod:`study.fe_params`) accept the suffixes :data:`FE_SUFFIXES` on the
 FE packages' dataclass fields. Conversions happen here only (SI inside the code).
 """

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from geometry.files import atomic_write
-from study.plots import contact_intervals, forced_response_overlay
+from study.plot_common import contact_intervals
+from study.plots_speed import forced_response_overlay
 
 logger = logging.getLogger(__name__)
 
@@ -59,7 +60,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
     from study.pipeline import Pipeline, RunResult, SolverError
     from study.results import read_branch
-    from study.scene import load_scene
+    from study.scene_load import load_scene
 
     scene = load_scene(scene_path, overrides)
     pipe = Pipeline(scene, out, cache_dir=cache, progress=False)

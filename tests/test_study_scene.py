@@ -96,6 +96,30 @@ def test_estimated_ste_is_static_deflection():
     assert s.transmission_error.mean >= s.static_load / s.mesh_stiffness.mean
 
 
+def test_fourier_series_samples_its_coefficients():
+    """k_m(t) and the TE are one FourierSeries: sample() equals Re Σ c_k e^{ikθ}."""
+    import numpy as np
+
+    s = load_scene(SDOF)
+    theta = 2 * np.pi * np.arange(64) / 64
+    for series in (s.mesh_stiffness, s.transmission_error):
+        c = series.coefficients()
+        ref = sum((v * np.exp(1j * k * theta)).real for k, v in c.items())
+        assert np.allclose(series.sample(64), ref, rtol=0, atol=1e-12 * abs(c[0]))
+
+
+def test_estimated_ste_times_mesh_stiffness_is_the_static_load():
+    """q_s(t) k_m(t) = F_s pointwise once enough STE harmonics are kept."""
+    import numpy as np
+
+    from study.scene import MeshStiffness, estimate_ste
+
+    ms = MeshStiffness(2.0e8, (4.0e7, 2.0e7), (0.0, 1.0))
+    te = estimate_ste(ms, 1000.0, 40)
+    assert te.kind == "loaded" and te.estimated
+    assert np.allclose(te.sample(128) * ms.sample(128), 1000.0, rtol=1e-9)
+
+
 # ---------------------------------------------------------------- broken scenes
 
 BROKEN = [
@@ -277,4 +301,11 @@ def test_harmonic_set_option_reaches_the_builder():
             assert hs.indices == tuple(range(12 * 76 + 16 + 1))
     # Z = 76, orders 1, 2, 4, s = 4: bands 76 +- 16 hold 61 = 76 - 15 (order 5)
     assert sizes == {"combinations": 775, "bands": 825, "contiguous": 1857}
-    assert load_scene(ROOT / "scenes" / "pump.toml").hbm.harmonic_set == "combinations"
+    # the shipped pump uses the converged contiguous 12/3 set; the builder's default kind
+    # (a scene that does not say) stays the combinations
+    shipped = load_scene(ROOT / "scenes" / "pump.toml").hbm
+    assert (shipped.harmonic_set, shipped.mesh_harmonics, shipped.sideband_order) == \
+        ("contiguous", 12, 3)
+    raw = tomllib.loads((ROOT / "scenes" / "pump.toml").read_text())
+    del raw["hbm"]["harmonic_set"]
+    assert scene_from_dict(raw, "pump").hbm.harmonic_set == "combinations"

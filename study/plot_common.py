@@ -1,0 +1,103 @@
+"""What the plots of :mod:`study` share: the Agg backend, atomic PNG writing, the
+impact-class colours and shading, and the naming of shaft orders.
+
+Plain helpers (:func:`contact_intervals`, :func:`grazing_values`,
+:func:`order_label`) are also used by ``report.md`` and the variant study.
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from geometry.files import atomic_write  # noqa: E402
+from study.curves import merge_intervals  # noqa: E402
+
+logger = logging.getLogger("study.plots")  # one logger for every plot module
+
+__all__ = ["CLASS_COLOURS", "save_figure", "contact_intervals", "shade_impacts",
+           "grazing_values", "order_label"]
+
+CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
+
+
+def save_figure(fig, path: Path) -> Path:
+    """Write ``fig`` as a PNG (atomically), close it and return ``path``."""
+    path = Path(path)
+    try:
+        with atomic_write(path) as tmp:
+            fig.savefig(tmp, dpi=130, bbox_inches="tight")
+    finally:
+        plt.close(fig)
+    logger.info("wrote %s", path)
+    return path
+
+
+def contact_intervals(rpm: np.ndarray, contact: np.ndarray) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) covered by branch segments with impacts, per class.
+
+    A segment between consecutive points counts for the larger class of its ends.
+    """
+    out: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
+    for i in range(len(rpm) - 1):
+        c = int(max(contact[i], contact[i + 1]))
+        if c in out:
+            out[c].append((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1]))))
+    return {c: merge_intervals(iv) for c, iv in out.items()}
+
+
+
+def shade_impacts(ax, rpm: np.ndarray, contact: np.ndarray,
+                  alpha: tuple[float, float] = (0.18, 0.25)) -> None:
+    """Shade the speed ranges with single- and double-sided impacts (``alpha`` of each
+    class), each class labelled once."""
+    for c, iv in contact_intervals(rpm, contact).items():
+        col, name = CLASS_COLOURS[c]
+        for j, (a, b) in enumerate(iv):
+            ax.axvspan(a, b, color=col, alpha=alpha[c - 1], lw=0,
+                       label=name if j == 0 else None)
+
+
+def grazing_values(branch) -> list[tuple[float, float, str, str]]:
+    """(rpm, mesh-load std, kind, side) of each grazing point, std interpolated on the
+    branch segment where the corresponding contact margin changes sign."""
+    out = []
+    for g in branch.grazing:
+        m = branch.margin_active if g.side == "active" else branch.margin_reverse
+        best = None
+        for i in range(len(branch) - 1):
+            if (m[i] > 0) != (m[i + 1] > 0):
+                a, b = branch.rpm[i], branch.rpm[i + 1]
+                if min(a, b) - 1e-6 <= g.rpm <= max(a, b) + 1e-6:
+                    w = 0.0 if a == b else (g.rpm - a) / (b - a)
+                    val = (1 - w) * branch.mesh_load_std[i] + w * branch.mesh_load_std[i + 1]
+                    d = 0.0
+                else:
+                    d = min(abs(a - g.rpm), abs(b - g.rpm))
+                    val = branch.mesh_load_std[i]
+                if best is None or d < best[0]:
+                    best = (d, val)
+        if best is None:
+            i = int(np.argmin(np.abs(branch.rpm - g.rpm)))
+            best = (0.0, branch.mesh_load_std[i])
+        out.append((g.rpm, float(best[1]), g.kind, g.side))
+    return out
+
+
+
+def order_label(order: int, n_teeth: int) -> str:
+    """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
+    plain number for orders far below the mesh frequency (external orders)."""
+    order = int(order)
+    k = int(round(order / n_teeth))
+    e = order - k * n_teeth
+    if k == 0:
+        return str(order)
+    base = "Z" if k == 1 else f"{k}Z"
+    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
+

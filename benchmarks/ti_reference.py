@@ -69,9 +69,10 @@ ACCEPT_UNCERTAINTY = 1e-5
 
 # --------------------------------------------------------------------------- key
 
-def reference_key(scene_path: Path, cache_dir: Path) -> dict[str, str]:
+def reference_key(scene_path: Path, cache_dir: Path) -> dict[str, str | None]:
     """What a reference depends on: the scene path (relative to the repository), the
-    ROM stage-cache key and a hash of the HBM physics on top of the ROM.
+    ROM stage-cache key, the SHA-256 of that cache entry's ``rom.h5`` (None if the ROM is
+    not in the cache) and a hash of the HBM physics on top of the ROM.
 
     Computing the keys hashes inputs and sources only; nothing is built.
     """
@@ -87,37 +88,80 @@ def reference_key(scene_path: Path, cache_dir: Path) -> dict[str, str]:
         rel = str(scene_path.relative_to(ROOT))
     except ValueError:
         rel = str(scene_path)
-    return {"scene": rel, "rom_key": pl.rom_key(), "physics_key": stage_key("physics", physics, "")}
+    rom_key = pl.rom_key()
+    return {"scene": rel, "rom_key": rom_key, "rom_sha256": rom_sha256(cache_dir, rom_key),
+            "physics_key": stage_key("physics", physics, "")}
+
+
+def rom_sha256(cache_dir: Path, rom_key: str) -> str | None:
+    """SHA-256 of ``rom.h5`` recorded in the manifest of the cache entry of ``rom_key``."""
+    manifest = Path(cache_dir) / "rom" / rom_key[:24] / "manifest.json"
+    try:
+        m = json.loads(manifest.read_text())
+    except (OSError, ValueError):
+        return None
+    if m.get("key") != rom_key:
+        return None
+    return m.get("files", {}).get("rom.h5", {}).get("sha256")
 
 
 class StaleReference(ValueError):
     """The reference was computed for another scene, ROM or physics."""
 
 
-def load_reference(path: Path, key: dict[str, str]) -> dict[str, Any]:
-    """Read a reference file and check it was made for ``key`` (:func:`reference_key`).
+def check_key(got: dict, key: dict, where: str = "reference") -> None:
+    """Refuse a reference key ``got`` that does not match the current ``key``.
+
+    Scene and physics key must be equal. The ROM key must be equal too, unless both
+    keys carry the same ``rom_sha256``: the ROM key hashes the source of the ROM stage as
+    well, and a change of a comment there rebuilds a byte-identical ROM.
+
+    Raises
+    ------
+    StaleReference
+        Naming the first field that differs.
+    """
+    for name in ("scene", "physics_key"):
+        if got.get(name) != key[name]:
+            raise StaleReference(
+                f"{where}: key.{name} = {str(got.get(name))[:16]!r} does not match the current "
+                f"{str(key[name])[:16]!r}: recompute the reference "
+                "(python -m benchmarks.ti_reference)")
+    if got.get("rom_key") == key["rom_key"]:
+        return
+    same_rom = got.get("rom_sha256") is not None and got.get("rom_sha256") == key.get(
+        "rom_sha256")
+    if not same_rom:
+        raise StaleReference(
+            f"{where}: key.rom_key = {str(got.get('rom_key'))[:16]!r} does not match the current "
+            f"{str(key['rom_key'])[:16]!r} and the ROM file differs (rom_sha256 "
+            f"{str(got.get('rom_sha256'))[:12]!r} vs {str(key.get('rom_sha256'))[:12]!r}): "
+            "recompute the reference (python -m benchmarks.ti_reference)")
+    log.info("%s: ROM key %s differs from the current %s, the ROM file is the same (sha256 "
+             "%s): accepted", where, got["rom_key"][:12], key["rom_key"][:12],
+             got["rom_sha256"][:12])
+
+
+def load_reference(path: Path, key: dict[str, str | None]) -> dict[str, Any]:
+    """Read a reference file and check it was made for ``key`` (:func:`reference_key`,
+    :func:`check_key`).
 
     Returns the payload with ``speeds`` as a list of records sorted by rpm; complex
-    coefficients are rebuilt as ``coefficients`` (complex array) in each record.
+    coefficients are rebuilt as ``coefficients`` (complex array) in each record, and
+    ``accepted`` is recomputed (:func:`settled`).
 
     Raises
     ------
     FileNotFoundError
         If ``path`` does not exist.
     StaleReference
-        If the file's format, scene, ROM key or physics key differ from ``key``.
+        If the file's format, scene, physics or ROM differ from ``key``.
     """
     path = Path(path)
     data = json.loads(path.read_text())
     if data.get("format") != FORMAT:
         raise StaleReference(f"{path}: format = {data.get('format')!r}, expected {FORMAT}")
-    got = data.get("key", {})
-    for field_name in ("scene", "rom_key", "physics_key"):
-        if got.get(field_name) != key[field_name]:
-            raise StaleReference(
-                f"{path}: key.{field_name} = {str(got.get(field_name))[:16]!r} does not match "
-                f"the current {key[field_name][:16]!r}: recompute the reference "
-                "(python -m benchmarks.ti_reference)")
+    check_key(data.get("key", {}), key, str(path))
     for rec in data["speeds"]:
         rec["accepted"] = settled(rec)
         c = rec["delta_coefficients"]
@@ -377,7 +421,14 @@ def main(argv: list[str] | None = None) -> dict:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     key = reference_key(args.scene, args.cache)
     if args.relabel:
+        raw = json.loads(args.out.read_text())
+        if raw["key"].get("rom_sha256") is None:       # files written before rom_sha256
+            raw["key"]["rom_sha256"] = rom_sha256(args.cache, raw["key"]["rom_key"])
+            with atomic_write(args.out, "w") as fh:
+                json.dump(raw, fh, indent=1)
+                fh.write("\n")
         old = load_reference(args.out, key)
+        key = raw["key"]
         for r in old["speeds"]:
             r.pop("coefficients")
             if r.get("load_changes"):

@@ -1,9 +1,10 @@
 """The reference file of the pump time integrations and the error metric of
 benchmarks/bench_converged.py (issue 13 item 4), on synthetic data (fast).
 
-1. A reference is keyed by the scene, the ROM stage-cache key and the physics the
-   HBM adds to the ROM: the loader returns what was written and refuses a file whose
-   ROM or physics key differs; changing the torque changes the physics key only.
+1. A reference is keyed by the scene, the ROM stage-cache key (and the SHA-256 of the
+   ROM file) and the physics the HBM adds to the ROM: the loader returns what was
+   written and refuses a file whose physics key differs, or whose ROM key differs
+   unless the ROM file is the same; changing the torque changes the physics key only.
 2. On a synthetic S-shaped branch (three sheets over 1200-1400 rpm, known std and
    Delta on each), the metric takes the sheet whose Delta is nearest to the
    reference's, whatever its std, and returns the relative std error exactly.
@@ -47,8 +48,17 @@ def test_reference_refuses_another_rom_or_physics(tmp_path):
     assert [r["rpm"] for r in ref["speeds"]] == [900.0, 1500.0]
     np.testing.assert_allclose(ref["speeds"][0]["coefficients"], c, rtol=1e-12)
 
+    assert key["rom_sha256"] is None                      # no ROM in that cache
     with pytest.raises(tr.StaleReference, match="rom_key"):
         tr.load_reference(path, {**key, "rom_key": "0" * 64})
+    # another ROM key: refused unless both name the same ROM file
+    with_sha = {**key, "rom_sha256": "a" * 64}
+    tr.write_reference(path, with_sha, [_record(900.0, c)], {})
+    assert tr.load_reference(path, {**with_sha, "rom_key": "0" * 64})["speeds"][0]["rpm"] == 900
+    with pytest.raises(tr.StaleReference, match="ROM file differs"):
+        tr.load_reference(path, {**with_sha, "rom_key": "0" * 64, "rom_sha256": "b" * 64})
+    with pytest.raises(tr.StaleReference, match="ROM file differs"):
+        tr.load_reference(path, {**with_sha, "rom_key": "0" * 64, "rom_sha256": None})
     with pytest.raises(tr.StaleReference, match="physics_key"):
         tr.load_reference(path, {**key, "physics_key": "0" * 64})
 

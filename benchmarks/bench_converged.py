@@ -139,11 +139,11 @@ def speed_error(problem, branch, ref: dict) -> dict:
     return row
 
 
-def label_of(overrides: dict) -> str:
-    """Short name of a harmonic set from its overrides (``shipped`` without any)."""
-    if not overrides:
-        return "shipped"
-    return " ".join(f"{k.split('.', 1)[1]}={v}" for k, v in sorted(overrides.items()))
+def label_of(scene, overrides: dict) -> str:
+    """Name of the harmonic set, e.g. ``contiguous 12/3 (shipped)``."""
+    h = scene.hbm
+    name = f"{h.harmonic_set} {h.mesh_harmonics}/{h.sideband_order}"
+    return name + (" (shipped)" if not overrides else "")
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None) -> dict:
     scene = study.load_scene(PUMP_SCENE, overrides)
     problem, _ = Pipeline(scene, args.cache.parent / "bench-converged", cache_dir=args.cache,
                           progress=False).problem()
-    label = label_of(overrides)
+    label = label_of(scene, overrides)
     log.info("%s: %d unknowns, tracing %g-%g rpm with stability", label, problem.n_unknowns,
              *scene.continuation.speed)
     br, wall = trace_curve(problem, scene)

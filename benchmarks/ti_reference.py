@@ -375,12 +375,14 @@ def write_reference(path: Path, key: dict, records: list[dict], settings: dict) 
                     "std/RMS/p2p and the geometric bound on a decreasing drift) started on "
                     "the HBM solution of the "
                     "12/3 contiguous set. 'HBM 12/3 std' is the HBM solution at that speed "
-                    "nearest to the integrated orbit (distance: relative L2 of Delta)."),
+                    "nearest to the integrated orbit (distance: relative L2 of Delta), with "
+                    "the HBM code of the time the reference was made (the current code's "
+                    "errors: the 'converged' section)."),
         "settings": settings,
         "tables": [{"title": "reference mesh load per speed",
                     "columns": ["rpm", "std N", "rms N", "p2p N", "contact", "periods",
                                 "load change", "uncertainty", "settled", "s",
-                                "HBM solutions", "HBM 12/3 std N",
+                                "HBM solutions", "HBM 12/3 std N (run-time code)",
                                 "12/3 err std", "distance"],
                     "rows": rows}],
         "speeds": records,

@@ -181,6 +181,7 @@ class SteadyState:
     seconds: float
     n_rhs: int
     state: np.ndarray = field(repr=False)   # state at the end
+    load_changes: list = field(default_factory=list, repr=False)   # per period, from the 2nd
 
 
 def _state_norm(mm: ModalModel, y: np.ndarray) -> np.ndarray:
@@ -199,7 +200,8 @@ def state_atol(mm: ModalModel, y0: np.ndarray, rtol: float) -> np.ndarray:
 
 def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
                  tol_periodic: float = 1e-9, max_periods: int = 2000, samples: int = 4096,
-                 method: str = "DOP853", tol_state: float | None = None) -> SteadyState:
+                 method: str = "DOP853", tol_state: float | None = None,
+                 max_seconds: float | None = None) -> SteadyState:
     """Integrate whole fundamental periods until the mesh load repeats itself.
 
     Stops when the period-to-period relative change of the mesh-load std, RMS and
@@ -223,11 +225,16 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
         Give up (``converged=False``) after this many periods.
     samples
         Samples of the last period returned (equally spaced from its start).
+    max_seconds
+        Also give up (``converged=False``) after the first period that ends past this
+        wall time (default: no limit).
     """
     if not 0 < rtol < 1:
         raise ValueError(f"rtol = {rtol!r}: must be in (0, 1)")
     if not 0 < tol_periodic < 1:
         raise ValueError(f"tol_periodic = {tol_periodic!r}: must be in (0, 1)")
+    if max_seconds is not None and not max_seconds > 0:
+        raise ValueError(f"max_seconds = {max_seconds!r}: must be > 0")
     tol_state = 1000 * tol_periodic if tol_state is None else tol_state
     fun = _rhs(mm)
     m = mm.n_modes
@@ -236,6 +243,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
     t_eval = T * np.arange(samples) / samples
     y = np.array(y0, dtype=float)
     n_rhs, change, periods, metrics, load_change = 0, np.inf, 0, None, np.inf
+    history: list[float] = []
     t0 = time.perf_counter()
     sol = None
     while periods < max_periods:
@@ -253,17 +261,23 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
         if metrics is not None:
             load_change = max(abs(new[k] - metrics[k]) / max(abs(new[k]), 1e-300)
                               for k in new)
+            history.append(float(load_change))
         metrics = new
         log.debug("period %d: state change %.3g, load change %.3g, %d rhs, %.1f s", periods,
                   change, load_change, n_rhs, time.perf_counter() - t0)
         if load_change < tol_periodic and change < tol_state:
+            break
+        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
+            log.warning("steady_state: stopped after %d periods (%.0f s > max_seconds %g), "
+                        "load change %.3g", periods, time.perf_counter() - t0, max_seconds,
+                        load_change)
             break
     seconds = time.perf_counter() - t0
     delta = mm.gamma @ sol.y[:m, :-1]
     return SteadyState(t=t_eval, delta=delta, load=mesh_load(mm, delta, t_eval), periods=periods,
                        change=change, load_change=load_change,
                        converged=bool(load_change < tol_periodic and change < tol_state),
-                       seconds=seconds, n_rhs=int(n_rhs), state=y)
+                       seconds=seconds, n_rhs=int(n_rhs), state=y, load_changes=history)
 
 
 # --------------------------------------------------------------------------- comparison

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from study.acoustics import node_blocks
 from study.errors import SceneError
+from study.surface_facets import node_blocks
 
 logger = logging.getLogger(__name__)
 

@@ -82,7 +82,8 @@ def test_box_translation_closed_form():
     expect = 0.5 * RHO * C * v ** 2 * 2 * b * c
     assert _direct_erp(V, u, facets, omega) == pytest.approx(expect, rel=1e-10)
     # face-centroid rows: n_x on every facet, Σ A (n·u)² the same integral
-    from study.acoustics import facet_geometry_nodes, facet_normal_velocity_rows, surface_area
+    from study.acoustics import surface_area
+    from study.surface_facets import facet_geometry_nodes, facet_normal_velocity_rows
 
     g, _ = facet_geometry_nodes(fm.mesh, facets)
     p = fm.mesh.geometry.x[g]        # flat facets: edge nodes at the mid-points of the edges

@@ -10,10 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from .krylov import bordered
-from .newton import ConvergenceError, backtrack, solve_checked
+from .newton import ConvergenceError, NewtonSystem, iterate, solve_checked
 from .problem import HBMProblem
 
-REFINE_BOUND = 1e-7     # refine a converged point when cond * residual exceeds this
 CORNER_STEP = 1e-4      # steps below this may turn sharply (corners of the branch)
 CORNER_RADIUS = 1e-3    # largest sphere of a corner step (no room for another branch)
 
@@ -34,50 +33,65 @@ def _augmented(problem: HBMProblem, omega_scale: float):
     return evaluate
 
 
+class Bordered(NewtonSystem):
+    """The continuation corrector's equations: ``R_hat(y) = 0`` bordered by the plane
+    ``direction . (y - y_pred) = 0`` or the sphere ``|y - centre| = radius``, on the
+    augmented unknowns ``y = (x_hat, w_hat)``; backtracking from the third iteration, a
+    growth by 1e3 counts as divergence (:func:`hbm.newton.iterate`)."""
+
+    warn = False
+    recoverable = (ConvergenceError, np.linalg.LinAlgError)
+    refine_where = "continuation corrector"
+
+    def __init__(self, evaluate, y_pred, direction, sphere=None) -> None:
+        self.evaluate_y = evaluate
+        self.y_pred, self.direction, self.sphere = y_pred, direction, sphere
+
+    def evaluate(self, y):
+        return self.evaluate_y(y)
+
+    def relative(self, y, ev) -> float:
+        return float(np.linalg.norm(ev[0]) / max(np.linalg.norm(y[:-1]), 1.0))
+
+    def trial(self, y) -> float:
+        return _relative_residual(self.evaluate_y, y)
+
+    def matrix(self, y, ev):
+        r, jx, jw = ev
+        row, con = _constraint(y, self.y_pred, self.direction, self.sphere)
+        return bordered(jx, jw, row), -np.concatenate([r, [con]])
+
+    def where(self, it: int) -> str:
+        return "continuation corrector"
+
+    def tries(self, it: int) -> int:
+        # Newton may cycle on the piecewise-linear force: backtrack on ||R||
+        # (the constraint is linear, so every partial step keeps it)
+        return 6 if it >= 2 else 0
+
+    def diverged(self, it: int, res: float, res0: float, tol: float) -> bool:
+        return it > 2 and res > 1e3 * res0
+
+    def non_finite(self, it: int, res: float, cond: float) -> ConvergenceError:
+        return ConvergenceError("non-finite residual", res)
+
+    def failure(self, it: int, res: float, res0: float, tol: float, cond: float) -> str:
+        return (f"corrector: relative residual {res:.3g} > tol {tol:.1g} after {it} "
+                f"iterations (condition estimate {cond:.2g})")
+
+
 def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None):
-    """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0.
+    """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0 (:class:`Bordered`).
 
     ``conds``, if given, collects the condition estimates of the Newton matrices.
     ``sphere = (centre, radius)`` replaces the plane by ``|y - centre| = radius``
     (spherical arc length: it meets any branch leaving the centre, even one that
-    turns by more than 90 degrees at a corner).
+    turns by more than 90 degrees at a corner). Returns ``(y, iterations, residual,
+    J_x, J_w)``.
     """
-    y = y_pred.copy()
-    res0 = None
-    cond = np.nan
-    for it in range(max_iter + 1):
-        r, jx, jw = evaluate(y)
-        res = float(np.linalg.norm(r) / max(np.linalg.norm(y[:-1]), 1.0))
-        if not np.isfinite(res):
-            raise ConvergenceError("non-finite residual", res)
-        res0 = res if res0 is None else res0
-        if res < tol and (it == 0 or cond * res > REFINE_BOUND):
-            # within tol already at the predictor (tiny step), or an error bound
-            # cond * res that a poorly conditioned Jacobian makes loose: one Newton step
-            # more, so that the point does not carry a tol-sized error along the branch
-            refined = _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it)
-            return refined if refined is not None else (y, it, res, jx, jw)
-        if res < tol:
-            return y, it, res, jx, jw
-        if it == max_iter or (it > 2 and res > 1e3 * res0):
-            break
-        row, con = _constraint(y, y_pred, direction, sphere)
-        j = bordered(jx, jw, row)
-        rhs = -np.concatenate([r, [con]])
-        try:
-            dy, cond = solve_checked(j, rhs, "continuation corrector", warn=False)
-        except ConvergenceError as exc:
-            raise ConvergenceError(f"{exc} (relative residual {res:.3g})", res,
-                                   exc.condition) from exc
-        if conds is not None:
-            conds.append(cond)
-        if it >= 2:
-            # Newton may cycle on the piecewise-linear force: backtrack on ||R||
-            # (the constraint is linear, so every partial step keeps it)
-            dy = backtrack(lambda yt: _relative_residual(evaluate, yt), y, dy, res, 6) * dy
-        y = y + dy
-    raise ConvergenceError(f"corrector: relative residual {res:.3g} > tol {tol:.1g} after {it} "
-                           f"iterations (condition estimate {cond:.2g})", res, cond)
+    system = Bordered(evaluate, y_pred, direction, sphere)
+    y, it, res, (_, jx, jw) = iterate(system, y_pred.copy(), tol, max_iter, conds)
+    return y, it, res, jx, jw
 
 
 def _relative_residual(evaluate, y) -> float:
@@ -94,21 +108,6 @@ def _constraint(y, y_pred, direction, sphere):
         return direction, direction @ (y - y_pred)
     v = y - sphere[0]
     return v / sphere[1], 0.5 * (v @ v / sphere[1] - sphere[1])
-
-
-def _refine(evaluate, y, y_pred, direction, sphere, r, jx, jw, res, it0=0):
-    """One Newton step from a point already within tol; kept if it lowers the residual."""
-    row, con = _constraint(y, y_pred, direction, sphere)
-    j = bordered(jx, jw, row)
-    try:
-        dy = solve_checked(j, -np.concatenate([r, [con]]), "continuation corrector",
-                           warn=False)[0]
-        yn = y + dy
-        rn, jxn, jwn = evaluate(yn)
-    except (ConvergenceError, np.linalg.LinAlgError):
-        return None
-    resn = float(np.linalg.norm(rn) / max(np.linalg.norm(yn[:-1]), 1.0))
-    return (yn, 1 + it0, resn, jxn, jwn) if resn < res else None
 
 
 def _tangent(jx, jw, previous):

@@ -180,10 +180,7 @@ MAX_FUNCTION_LINES = 100
 #: The exceptions, each with why: ``"pkg/module.py"`` for a module,
 #: ``"pkg/module.py:Class.function"`` for a function. An entry that is no longer needed
 #: fails :func:`test_size_exceptions_are_still_needed`: remove it.
-SIZE_EXCEPTIONS = {
-    "hbm/problem.py": "HBMProblem's set-up, AFT force and solve at one speed; being reshaped "
-                      "in hbm/ (issue 17 part 2, another branch)",
-}
+SIZE_EXCEPTIONS: dict[str, str] = {}
 
 
 def function_lengths(node: ast.AST, prefix: str = "") -> dict[str, int]:

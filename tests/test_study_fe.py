@@ -134,8 +134,8 @@ def _match(points, coords):
 
 def test_housing_fields_read_back(pump_runs):
     """The housing XDMF files read back with meshio: housing cells only (tetra10, part id),
-    edge nodes at the VTK positions, frames sampled 13 per mesh period (no aliasing of
-    order 232); the time series, per-order amplitudes and surface normal velocity equal an
+    edge nodes at the VTK positions, frames sampled 49 per mesh period (no aliasing of
+    order 924); the time series, per-order amplitudes and surface normal velocity equal an
     independent evaluation through DOLFINx (P, T as PETSc matrices)."""
     import meshio
 
@@ -160,7 +160,7 @@ def test_housing_fields_read_back(pump_runs):
         frames = [rd.read_data(k) for k in range(rd.num_steps)]
     assert cells[0].type == "tetra10" and len(cells[0].data) == n_h_cells
     nf = int(np.ceil(4 * idx.max() / z))                     # 4 per period of the top order
-    assert nf == 13 and len(frames) == 4 * nf
+    assert nf == 49 and len(frames) == 4 * nf                # shipped set: orders 0...924
     t_mesh = 2 * np.pi / (z * pt.omega)
     np.testing.assert_allclose([f[0] for f in frames], np.arange(4 * nf) * t_mesh / nf,
                                rtol=1e-12)

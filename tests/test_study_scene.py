@@ -301,4 +301,11 @@ def test_harmonic_set_option_reaches_the_builder():
             assert hs.indices == tuple(range(12 * 76 + 16 + 1))
     # Z = 76, orders 1, 2, 4, s = 4: bands 76 +- 16 hold 61 = 76 - 15 (order 5)
     assert sizes == {"combinations": 775, "bands": 825, "contiguous": 1857}
-    assert load_scene(ROOT / "scenes" / "pump.toml").hbm.harmonic_set == "combinations"
+    # the shipped pump uses the converged contiguous 12/3 set; the builder's default kind
+    # (a scene that does not say) stays the combinations
+    shipped = load_scene(ROOT / "scenes" / "pump.toml").hbm
+    assert (shipped.harmonic_set, shipped.mesh_harmonics, shipped.sideband_order) == \
+        ("contiguous", 12, 3)
+    raw = tomllib.loads((ROOT / "scenes" / "pump.toml").read_text())
+    del raw["hbm"]["harmonic_set"]
+    assert scene_from_dict(raw, "pump").hbm.harmonic_set == "combinations"

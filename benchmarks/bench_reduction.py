@@ -157,16 +157,14 @@ def _gmsh_box(size, h):
 
 
 def bench_calculix(h, n_modes, repeats, size=(0.3, 0.04, 0.04)):
-    """CalculiX *FREQUENCY vs SLEPc (and eigsh) on the same clamped tet10 mesh."""
+    """CalculiX *FREQUENCY vs SLEPc (and eigsh) on the same clamped tet10 mesh
+    (:func:`benchmarks.ccx_compare.compare`)."""
     import shutil
 
     import gmsh
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
     import fem
-    from fem import calculix
-    from reduction.craig_bampton import _make_eps
+    from benchmarks.ccx_compare import compare
 
     if shutil.which("ccx") is None:
         return None
@@ -174,46 +172,11 @@ def bench_calculix(h, n_modes, repeats, size=(0.3, 0.04, 0.04)):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
-        model = _gmsh_box(size, h)
-        groups = fem.gmsh_physical_groups(model)
-        t_ccx = []
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            f_ccx = calculix.run_frequency(model, {"box": steel}, groups, ["clamp"], n_modes)
-            t_ccx.append(time.perf_counter() - t0)
-        fe_mesh = fem.load_gmsh_mesh(model)
+        _gmsh_box(size, h)
+        rec = compare({"box": steel}, ["clamp"], n_modes, repeats, scipy_eigsh=True)
     finally:
         gmsh.finalize()
-    spec = fem.ModelSpec()
-    spec.add_clamp("clamp")
-    m = fem.build_model(fe_mesh, {"box": steel}, spec, quadrature_degree=2)
-    n = m.K.getSize()[0]
-    t_slepc, t_eigsh = [], []
-    mats = []
-    for A in (m.K, m.M):
-        ia, ja, a = A.getValuesCSR()
-        mats.append(sp.csr_matrix((a.copy(), ja.copy(), ia.copy()), shape=A.getSize()))
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        eps = _make_eps(m.K, m.M, 1e-10)
-        eps.setDimensions(n_modes)
-        eps.solve()
-        lam = np.sort([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
-        t_slepc.append(time.perf_counter() - t0)
-        eps.destroy()
-        t0 = time.perf_counter()
-        spla.eigsh(mats[0], k=n_modes, M=mats[1], sigma=0.0, which="LM", tol=1e-10,
-                   return_eigenvectors=False)
-        t_eigsh.append(time.perf_counter() - t0)
-    f = np.sqrt(lam[:n_modes]) / (2 * math.pi)
-    ts, tc, te = (statistics.median(t) for t in (t_slepc, t_ccx, t_eigsh))
-    log.info("ccx n=%d n_modes=%d: slepc %.3f s, ccx %.3f s, eigsh %.3f s", n, n_modes,
-             ts, tc, te)
-    return {"mesh_size_m": h, "n_dof": n, "n_modes": n_modes, "repeats": repeats,
-            "slepc_s": ts, "ccx_s": tc, "eigsh_s": te,
-            "ccx_over_slepc": tc / ts, "eigsh_over_slepc": te / ts,
-            "max_rel_freq_diff_ccx": float(np.max(np.abs(f / f_ccx - 1))),
-            "note": "ccx time includes writing the deck and the ccx process (OMP 1 thread)"}
+    return {"mesh_size_m": h, **rec}
 
 
 PRESETS = ("coarse", "fine")

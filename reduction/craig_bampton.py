@@ -29,6 +29,10 @@ log = logging.getLogger(__name__)
 
 #: Relative residual above which the static-mode solve is declared failed.
 PSI_RESIDUAL_TOL = 1e-8
+#: Most refinement steps of the static modes with an approximate (BLR) factor.
+PSI_REFINE_STEPS = 10
+#: Factorisations of K_ii for the shift-invert (``factor`` of :func:`craig_bampton`).
+FACTORS = ("lu", "cholesky")
 
 
 @dataclass
@@ -54,6 +58,11 @@ class CBResult:
     timings : dict
         Wall time of each phase [s] (``eigensolve``, ``static_modes``,
         ``projection``, ``total``), maxima over ranks.
+    factor_stats : dict
+        MUMPS figures of the factorisation of ``K_ii``: ``entries`` (INFOG(29), entries
+        of the factors, sum over ranks; with BLR the compressed count), ``memory_mib_max_rank``
+        and ``memory_mib_total`` (INFOG(21), INFOG(22): memory used during the
+        factorisation, MB as MUMPS reports it).
     """
 
     T: PETSc.Mat
@@ -64,6 +73,7 @@ class CBResult:
     fixed_interface_hz: np.ndarray
     psi_residual: float
     timings: dict = field(default_factory=dict)
+    factor_stats: dict = field(default_factory=dict)
 
     @property
     def n_r(self) -> int:
@@ -134,11 +144,30 @@ def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
     return dofs.astype(np.int64)
 
 
-def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float) -> SLEPc.EPS:
-    """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU on K_ii."""
+def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "lu",
+              blr_tol: float = 0.0) -> SLEPc.EPS:
+    """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU (or LDLᵀ: ``factor =
+    "cholesky"``) of K_ii, with block low-rank compression at ``blr_tol`` (0: full
+    rank); set up, i.e. factored. PETSc options with the prefix ``cb_`` override these."""
     eps = shift_invert_eps(K_ii, M_ii, 0.0, tol, 500)
     eps.setOptionsPrefix("cb_")
-    eps.setFromOptions()
+    pc = eps.getST().getKSP().getPC()
+    if factor == "cholesky":
+        pc.setType(PETSc.PC.Type.CHOLESKY)
+        pc.setFactorSolverType("mumps")
+    opts = PETSc.Options()
+    added = []
+    if blr_tol > 0:  # MUMPS reads its ICNTL/CNTL from the options when it factors
+        for key, val in (("cb_st_mat_mumps_icntl_35", 1), ("cb_st_mat_mumps_cntl_7", blr_tol)):
+            if not opts.hasName(key):
+                opts.setValue(key, val)
+                added.append(key)
+    try:
+        eps.setFromOptions()
+        eps.setUp()
+    finally:
+        for key in added:
+            opts.delValue(key)
     return eps
 
 
@@ -183,6 +212,8 @@ def craig_bampton(
     f_cut_hz: float | None = None,
     comm=None,
     eps_tol: float = 1e-12,
+    factor: str = "lu",
+    blr_tol: float = 0.0,
 ) -> CBResult:
     """Craig–Bampton reduction with one MUMPS factorisation of K_ii (eq. 5–9).
 
@@ -210,6 +241,14 @@ def craig_bampton(
         Only checked against the communicator of ``K``, which is the one used.
     eps_tol : float
         SLEPc relative residual tolerance of the eigenpairs.
+    factor : {"lu", "cholesky"}
+        MUMPS factorisation of ``K_ii`` (``K_ii`` is symmetric positive definite, so
+        LDLᵀ gives the same solves with about half the factor; docs/scale.md).
+    blr_tol : float
+        MUMPS block low-rank compression threshold (``CNTL(7)``), 0 = full rank. The
+        shift-invert then uses an approximate factor: the eigenpairs are those of a
+        perturbed K_ii (measured frequency error in docs/scale.md) and the static
+        modes are refined with the exact K_ii to the usual residual.
 
     Returns
     -------
@@ -217,6 +256,10 @@ def craig_bampton(
     """
     t_start = time.perf_counter()
     dofs = _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz)
+    if factor not in FACTORS:
+        raise ValueError(f"factor = {factor!r}: must be one of {FACTORS}")
+    if not (math.isfinite(blr_tol) and 0.0 <= blr_tol < 1e-2):
+        raise ValueError(f"blr_tol = {blr_tol}: must be 0 (full rank) or in (0, 1e-2)")
     pcomm = K.getComm()
     if comm is not None:
         size = comm.getSize() if hasattr(comm, "getSize") else comm.Get_size()
@@ -241,7 +284,7 @@ def craig_bampton(
 
     # --- fixed-interface modes, eq. (6)
     t0 = time.perf_counter()
-    eps = _make_eps(K_ii, M_ii, eps_tol)
+    eps = _make_eps(K_ii, M_ii, eps_tol, factor, blr_tol)
     n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
     lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
     order = np.argsort(lam, kind="stable")[:n_cm]
@@ -285,14 +328,26 @@ def craig_bampton(
     # --- static constraint modes, eq. (7), from the same MUMPS factor
     t0 = time.perf_counter()
     F = eps.getST().getKSP().getPC().getFactorMatrix()
+    stats = _factor_stats(F)
     B = K_ic.convert(PETSc.Mat.Type.DENSE)
     X = B.duplicate()
     F.matSolve(B, X)
     X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
-    R = K_ii.matMult(X)
-    R.axpy(1.0, B)
     nb = B.norm(PETSc.NormType.FROBENIUS)
-    psi_res = R.norm(PETSc.NormType.FROBENIUS) / nb if nb > 0 else 0.0
+    R, psi_res = _psi_residual(K_ii, X, B, nb)
+    steps = 0
+    while not psi_res < PSI_RESIDUAL_TOL and steps < PSI_REFINE_STEPS:
+        # iterative refinement with the approximate factor: X -= F⁻¹ (K_ii X + K_ic)
+        D = X.duplicate()
+        F.matSolve(R, D)
+        X.axpy(-1.0, D)
+        D.destroy()
+        R.destroy()
+        R, psi_res = _psi_residual(K_ii, X, B, nb)
+        steps += 1
+    if steps:
+        log.info("static modes: %d refinement steps (approximate factor), residual %.2e",
+                 steps, psi_res)
     if not psi_res < PSI_RESIDUAL_TOL:
         raise RuntimeError(
             f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
@@ -307,8 +362,8 @@ def craig_bampton(
 
     # --- Galerkin projection, eq. (9)
     t0 = time.perf_counter()
-    M_r = _project(M, T, mpi)
-    K_r = _project(K, T, mpi)
+    M_r = dense_projection(M, T)
+    K_r = dense_projection(K, T)
     t_proj = time.perf_counter() - t0
 
     for obj in (R, X, B, K_ic, K_ii, M_ii, xr, y, is_i, is_c):
@@ -325,7 +380,32 @@ def craig_bampton(
         "Craig-Bampton: n = %d, n_c = %d, n_r = %d, psi residual %.2e, %.3f s",
         n, n_c, n_r, psi_res, timings["total"],
     )
-    return CBResult(T, M_r, K_r, dofs, n_cm, fi_hz, float(psi_res), timings)
+    return CBResult(T, M_r, K_r, dofs, n_cm, fi_hz, float(psi_res), timings, stats)
+
+
+def _factor_stats(F: PETSc.Mat) -> dict:
+    """MUMPS's own figures of the factor ``F`` (empty for another solver)."""
+    try:
+        blr = F.getMumpsIcntl(35) > 0
+        entries = F.getMumpsInfog(29)
+        if blr:  # INFOG(35): entries of the BLR factors (negative: in millions)
+            e = F.getMumpsInfog(35)
+            entries = e if e >= 0 else -e * 1_000_000
+        out = {"entries": int(entries), "memory_mib_max_rank": int(F.getMumpsInfog(21)),
+               "memory_mib_total": int(F.getMumpsInfog(22)), "blr": bool(blr)}
+    except (AttributeError, PETSc.Error):
+        return {}
+    log.info("MUMPS factor of K_ii: %.4g entries%s, %d MB max per rank, %d MB in all",
+             out["entries"], " (BLR)" if blr else "", out["memory_mib_max_rank"],
+             out["memory_mib_total"])
+    return out
+
+
+def _psi_residual(K_ii: PETSc.Mat, X: PETSc.Mat, B: PETSc.Mat, nb: float):
+    """``R = K_ii X + B`` and ``‖R‖_F / ‖B‖_F`` (Ψ = X solves K_ii Ψ = −K_ic, B = K_ic)."""
+    R = K_ii.matMult(X)
+    R.axpy(1.0, B)
+    return R, (R.norm(PETSc.NormType.FROBENIUS) / nb if nb > 0 else 0.0)
 
 
 def _max_op():
@@ -334,13 +414,22 @@ def _max_op():
     return MPI.MAX
 
 
-def _project(A: PETSc.Mat, T: PETSc.Mat, mpi) -> np.ndarray:
-    """Dense ``Tᵀ A T`` on every rank (local products summed with allreduce)."""
+def dense_projection(A: PETSc.Mat, T: PETSc.Mat) -> np.ndarray:
+    """Dense ``Tᵀ A T`` (symmetrised) on every rank: ``A·T`` by PETSc, then each rank's
+    rows ``T_locᵀ (AT)_loc`` summed with an allreduce (eq. 9).
+
+    Parameters
+    ----------
+    A : PETSc.Mat
+        Square AIJ matrix on ``T``'s row layout.
+    T : PETSc.Mat
+        Distributed dense matrix (n × m).
+    """
+    from mpi4py import MPI
+
     AT = A.matMult(T)
     local = T.getDenseArray().T @ AT.getDenseArray()
     AT.destroy()
     out = np.empty_like(local)
-    from mpi4py import MPI
-
-    mpi.Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
+    T.getComm().tompi4py().Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
     return 0.5 * (out + out.T)

@@ -22,12 +22,18 @@ bores the integrand is rational and degree 6 is used (the sphere test in
 ``tests/test_study_acoustics.py`` shows it converged to the geometry error).
 
 The functions taking DOLFINx objects import dolfinx lazily; the rest is NumPy.
-Everything here runs on one process (the export stage is serial).
+:func:`radiation_data` (and :func:`outer_surface_facets`, :func:`surface_area`,
+:func:`reduced_radiation_matrix`) are collective on the mesh communicator: each rank
+integrates and projects on its own facets with its rows of the distributed basis,
+and only the small outputs (W, the facet rows) are summed or gathered on rank 0,
+ordered by the input mesh's node numbers, so they do not depend on the partition.
+:func:`fe_basis` and :func:`facet_centroid_rows` are serial (housing fields).
 """
 from __future__ import annotations
 
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -79,26 +85,14 @@ def erp_harmonics(W: np.ndarray, qk: np.ndarray, omega_k: np.ndarray,
 
 # --------------------------------------------------------------------------- DOLFINx side
 
-def outer_surface_facets(fe_mesh, part: str = "housing") -> np.ndarray:
-    """Local indices of the facets of the outer skin of volume ``part``.
-
-    The boundary facets of the part's cells, minus its named surface groups
-    (bearing seats ``housing/bore_*`` and the bolted ``housing/feet``, which face a
-    bearing or the foundation, not the air), split into connected pieces (shared
-    vertices); the outer skin is the piece with the largest bounding box (the
-    inner skin of a closed casing lies strictly inside it).
-    """
-    import scipy.sparse as sp
+def _part_boundary_facets(fe_mesh, part: str) -> np.ndarray:
+    """This rank's exterior facets of volume ``part`` minus its named surface groups."""
     from dolfinx import mesh as dmesh
-    from scipy.sparse.csgraph import connected_components
 
-    m = fe_mesh.mesh
-    if m.comm.size != 1:
-        raise RuntimeError("outer_surface_facets: serial only (the export stage runs on one "
-                           "process)")
-    top = m.topology
+    top = fe_mesh.mesh.topology
     top.create_connectivity(2, 3)
     top.create_connectivity(2, 0)
+    # owned facets with one cell in the whole mesh (no inter-process facets)
     ext = np.asarray(dmesh.exterior_facet_indices(top), dtype=np.int32)
     f2c = top.connectivity(2, 3)
     cells = f2c.array[f2c.offsets[ext]]
@@ -109,28 +103,67 @@ def outer_surface_facets(fe_mesh, part: str = "housing") -> np.ndarray:
              if d == 2 and name.startswith(part + "/")]
     if named:
         facets = np.setdiff1d(facets, np.concatenate(named))
-    if facets.size == 0:
+    return facets.astype(np.int32)
+
+
+def _input_ids(mesh, geometry_nodes: np.ndarray) -> np.ndarray:
+    """Input-mesh (gmsh) node numbers of local geometry nodes: the same on any partition."""
+    ids = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
+    return ids[geometry_nodes]
+
+
+def _gather(comm, a: np.ndarray) -> np.ndarray | None:
+    """The ranks' arrays stacked along axis 0 on rank 0 (None elsewhere)."""
+    parts = comm.gather(np.ascontiguousarray(a), root=0)
+    return np.concatenate(parts, axis=0) if comm.rank == 0 else None
+
+
+def outer_surface_facets(fe_mesh, part: str = "housing") -> np.ndarray:
+    """Local indices of this rank's facets of the outer skin of volume ``part``
+    (collective on the mesh communicator).
+
+    The boundary facets of the part's cells, minus its named surface groups
+    (bearing seats ``housing/bore_*`` and the bolted ``housing/feet``, which face a
+    bearing or the foundation, not the air), split into connected pieces (shared
+    vertices); the outer skin is the piece with the largest bounding box (the
+    inner skin of a closed casing lies strictly inside it). Under MPI the facets'
+    vertex numbers (input mesh) and positions are gathered on rank 0, which finds the
+    pieces and sends each rank its selection.
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    m = fe_mesh.mesh
+    comm = m.comm
+    facets = _part_boundary_facets(fe_mesh, part)
+    n_total = comm.allreduce(int(facets.size))
+    if n_total == 0:
         raise ValueError(f"part = {part!r}: has no free boundary facets")
-    f2v = top.connectivity(2, 0)
-    verts = np.stack([f2v.links(f) for f in facets])              # (n_f, 3)
-    n_v = top.index_map(0).size_local + top.index_map(0).num_ghosts
-    inc = sp.csr_matrix((np.ones(verts.size), (np.repeat(np.arange(facets.size), 3),
-                                               verts.ravel())), shape=(facets.size, n_v))
-    n_comp, lab = connected_components(inc @ inc.T, directed=False)
-    x = m.geometry.x
-    from dolfinx.cpp.mesh import entities_to_geometry
-    gnodes = entities_to_geometry(getattr(m, "_mesh", m), 2, facets, False)
-    pts = x[gnodes]                                                 # (n_f, 3, 3) vertices
-    best, size = -1, -1.0
-    for c in range(n_comp):
-        p = pts[lab == c].reshape(-1, 3)
-        s = float(np.prod(np.ptp(p, axis=0) + 1e-12))
-        if s > size:
-            best, size = c, s
-    out = np.sort(facets[lab == best]).astype(np.int32)
-    logger.info("outer surface of %r: %d of %d free boundary facets (%d connected pieces)",
-                part, out.size, facets.size, n_comp)
-    return out
+    g, _ = facet_geometry_nodes(m, facets)
+    verts = _input_ids(m, g[:, :3])                                # (n_f, 3)
+    pts = m.geometry.x[g[:, :3]]                                   # (n_f, 3, 3)
+    all_v, all_p = _gather(comm, verts), _gather(comm, pts)
+    counts = comm.gather(int(facets.size), root=0)
+    keep_parts = None
+    if comm.rank == 0:
+        _, vidx = np.unique(all_v, return_inverse=True)
+        vidx = vidx.reshape(all_v.shape)
+        n_f = all_v.shape[0]
+        inc = sp.csr_matrix((np.ones(vidx.size), (np.repeat(np.arange(n_f), 3), vidx.ravel())),
+                            shape=(n_f, int(vidx.max()) + 1))
+        n_comp, lab = connected_components(inc @ inc.T, directed=False)
+        best, size = -1, -1.0
+        for c in range(n_comp):
+            p = all_p[lab == c].reshape(-1, 3)
+            s = float(np.prod(np.ptp(p, axis=0) + 1e-12))
+            if s > size:
+                best, size = c, s
+        keep = lab == best
+        logger.info("outer surface of %r: %d of %d free boundary facets (%d connected pieces)",
+                    part, int(keep.sum()), n_f, n_comp)
+        keep_parts = np.split(keep, np.cumsum(counts)[:-1])
+    keep_local = comm.scatter(keep_parts, root=0)
+    return np.sort(facets[keep_local]).astype(np.int32)
 
 
 def _ds(mesh, facets):
@@ -145,11 +178,12 @@ def _ds(mesh, facets):
 
 
 def surface_area(mesh, facets) -> float:
-    """Area of the facets [m²] (P2 geometry)."""
+    """Area of the facets [m²] (P2 geometry); collective: each rank's ``facets`` are its
+    own, the sum over the ranks is returned on every rank."""
     from dolfinx import fem
 
     one = fem.Constant(mesh, 1.0)
-    return float(fem.assemble_scalar(fem.form(one * _ds(mesh, facets))))
+    return float(mesh.comm.allreduce(fem.assemble_scalar(fem.form(one * _ds(mesh, facets)))))
 
 
 def normal_gram(V, facets):
@@ -181,26 +215,73 @@ def fe_basis(model, T: np.ndarray) -> np.ndarray:
     return _csr(model.P)[:n_fe] @ np.asarray(T, dtype=float)
 
 
-def reduced_radiation_matrix(model, T: np.ndarray, facets: np.ndarray,
-                             PT: np.ndarray | None = None) -> np.ndarray:
-    """``W = (P T)ᵀ A (P T)`` (n_r × n_r) [m²] for the FE model's outer facets.
+def _dense_mat(T, comm):
+    """``T`` as a PETSc dense matrix: a PETSc Mat is returned as is, a NumPy array (the
+    whole basis, one process only) is copied into a sequential dense matrix."""
+    from petsc4py import PETSc
+
+    if isinstance(T, PETSc.Mat):
+        return T
+    if comm.size != 1:
+        raise RuntimeError("a NumPy basis is serial only: give the distributed PETSc basis")
+    T = np.asarray(T, dtype=float)
+    out = PETSc.Mat().createDense(T.shape, comm=PETSc.COMM_SELF)
+    out.setUp()
+    out.getDenseArray()[:] = T
+    out.assemble()
+    return out
+
+
+def _aij(P, n_rows_local: int, csr: tuple):
+    """AIJ matrix with ``n_rows_local`` rows here and the columns of ``P``'s row layout
+    (the P2 DOF of V, then the 6-DOF node rows on the last rank)."""
+    from petsc4py import PETSc
+
+    it = PETSc.IntType
+    ip, ix, vals = csr
+    A = PETSc.Mat().createAIJ(
+        size=((n_rows_local, PETSc.DETERMINE), (P.getLocalSize()[0], P.getSize()[0])),
+        csr=(np.asarray(ip, dtype=it), np.asarray(ix, dtype=it),
+             np.asarray(vals, dtype=PETSc.ScalarType)), comm=P.getComm())
+    A.assemble()
+    return A
+
+
+def _on_p_rows(A, P):
+    """The V-layout matrix ``A`` (n_V × n_V) on ``P``'s row layout (square): the V DOF
+    keep their global numbers, the node rows of P get empty rows and columns."""
+    ip, ix, vals = A.getValuesCSR()
+    n_pad = P.getLocalSize()[0] - (ip.size - 1)
+    ip = np.concatenate([ip, np.full(n_pad, ip[-1], dtype=ip.dtype)])
+    return _aij(P, P.getLocalSize()[0], (ip, ix, vals))
+
+
+def reduced_radiation_matrix(model, T, facets: np.ndarray, PT=None) -> np.ndarray:
+    """``W = (P T)ᵀ A (P T)`` (n_r × n_r) [m²] for the FE model's outer facets (collective;
+    the same W on every rank).
 
     Parameters
     ----------
     model : fem.FEModel
-        Serial FE model (``P`` maps its reduced unknowns to the P2 DOF of ``V``).
-    T : (n_red, n_r) float
+        FE model (``P`` maps its reduced unknowns to the P2 DOF of ``V``), serial or
+        distributed.
+    T : PETSc dense Mat (rows on ``model.K``'s layout), or (n_red, n_r) float (serial)
         Reduction basis (``rom/basis``).
     facets : int array
-        Facets of the radiating surface (:func:`outer_surface_facets`).
-    PT : (n_fe, n_r) float, optional
-        :func:`fe_basis` when already computed.
+        This rank's facets of the radiating surface (:func:`outer_surface_facets`).
+    PT : PETSc dense Mat, optional
+        ``P T`` when already computed.
     """
+    from reduction import dense_projection
+
     if PT is None:
-        PT = fe_basis(model, T)
-    A = _csr(normal_gram(model.V, facets))
-    W = PT.T @ (A @ PT)
-    return 0.5 * (W + W.T)
+        PT = model.P.matMult(_dense_mat(T, model.comm))
+    A = normal_gram(model.V, facets)
+    Ap = _on_p_rows(A, model.P)
+    A.destroy()
+    W = dense_projection(Ap, PT)
+    Ap.destroy()
+    return W
 
 
 #: Edges of the reference tetrahedron (DOLFINx/basix P2 layout: geometry node 4 + e
@@ -245,16 +326,9 @@ def node_blocks(mesh, V, cells: np.ndarray) -> np.ndarray:
     return out
 
 
-def facet_centroid_rows(mesh, V, facets: np.ndarray):
-    """Sparse rows giving u and ``n·u`` at the centroid of each facet from the P2 DOF of V.
-
-    Returns ``(Rc, Rn, area, centroid, normal)``: ``Rc`` a list of 3 scipy CSR
-    (n_f × n_V), ``(Rc[i] u)_f = u_i(centroid_f)`` (P2 triangle: vertex weights
-    −1/9, edge weights 4/9), ``Rn = Σ_i n_i Rc[i]`` (``n·u``); flat facet areas
-    [m²], centroids [m] and unit normals (flat facet, pointing out of the cell).
-    """
-    import scipy.sparse as sp
-
+def _facet_frames(mesh, facets: np.ndarray):
+    """Geometry nodes (n_f × 6, ``triangle6``), cells, flat areas [m²], centroids [m]
+    and outward unit normals of the facets."""
     x = mesh.geometry.x
     g, cells = facet_geometry_nodes(mesh, facets)                  # (n_f, 6)
     p = x[g]
@@ -264,19 +338,63 @@ def facet_centroid_rows(mesh, V, facets: np.ndarray):
     cen = p[:, :3].mean(axis=1)
     # orient outwards: away from the centroid of the (single) adjacent cell
     cg = mesh.geometry.dofmap
-    cell_cen = np.stack([x[cg.links(c)[:4]].mean(axis=0) for c in cells])
+    cell_cen = np.stack([x[cg.links(c)[:4]].mean(axis=0) for c in cells]).reshape(-1, 3)
     flip = np.einsum("ij,ij->i", nrm, cen - cell_cen) < 0
     nrm[flip] *= -1
+    return g, cells, area, cen, nrm
+
+
+#: Weights of the P2 triangle's nodes at its centroid (vertices, then edge nodes).
+_CENTROID_WEIGHTS = np.array([-1 / 9] * 3 + [4 / 9] * 3)
+
+
+def facet_centroid_rows(mesh, V, facets: np.ndarray):
+    """Sparse rows giving u and ``n·u`` at the centroid of each facet from the P2 DOF of V
+    (local DOF numbers, serial use).
+
+    Returns ``(Rc, Rn, area, centroid, normal)``: ``Rc`` a list of 3 scipy CSR
+    (n_f × n_V), ``(Rc[i] u)_f = u_i(centroid_f)`` (P2 triangle: vertex weights
+    −1/9, edge weights 4/9), ``Rn = Σ_i n_i Rc[i]`` (``n·u``); flat facet areas
+    [m²], centroids [m] and unit normals (flat facet, pointing out of the cell).
+    """
+    import scipy.sparse as sp
+
+    g, cells, area, cen, nrm = _facet_frames(mesh, facets)
     blocks = node_blocks(mesh, V, cells)[g]
     if np.any(blocks < 0):
         raise RuntimeError("facet_centroid_rows: facet node without a DOF block")
-    w = np.array([-1 / 9] * 3 + [4 / 9] * 3)
     n_v = 3 * (V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts)
     rows = np.repeat(np.arange(facets.size), 6)
-    Rc = [sp.csr_matrix((np.tile(w, facets.size), (rows, (3 * blocks + i).ravel())),
-                        shape=(facets.size, n_v)) for i in range(3)]
+    Rc = [sp.csr_matrix((np.tile(_CENTROID_WEIGHTS, facets.size),
+                         (rows, (3 * blocks + i).ravel())), shape=(facets.size, n_v))
+          for i in range(3)]
     Rn = sum(sp.diags(nrm[:, i]) @ Rc[i] for i in range(3)).tocsr()
     return Rc, Rn, area, cen, nrm
+
+
+def _centroid_u_rows(model, PT, g: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``u`` at each local facet's centroid per unit ROM coordinate (n_f × 3 × n_r),
+    from the distributed ``P T``: one AIJ row per facet and component (global P2 DOF
+    numbers as columns) times ``P T``, so ghost DOF come through PETSc."""
+    mesh, V = model.fe_mesh.mesh, model.V
+    n_f = g.shape[0]
+    blocks = node_blocks(mesh, V, cells)[g] if n_f else np.zeros((0, 6), dtype=np.int64)
+    if np.any(blocks < 0):
+        raise RuntimeError("facet rows: facet node without a DOF block")
+    gblocks = np.asarray(V.dofmap.index_map.local_to_global(
+        np.ascontiguousarray(blocks.ravel(), dtype=np.int32)), dtype=np.int64).reshape(-1, 6)
+    order = np.argsort(gblocks, axis=1)                            # sorted columns per row
+    cols = np.take_along_axis(gblocks, order, axis=1)
+    w = _CENTROID_WEIGHTS[order]
+    ip = np.arange(0, 6 * n_f + 1, 6, dtype=np.int64)
+    out = np.empty((n_f, 3, PT.getSize()[1]))
+    for i in range(3):
+        R = _aij(model.P, n_f, (ip, (3 * cols + i).ravel(), w.ravel()))
+        X = R.matMult(PT)
+        out[:, i, :] = X.getDenseArray()
+        X.destroy()
+        R.destroy()
+    return out
 
 
 def facet_normal_velocity_rows(mesh, V, facets: np.ndarray):
@@ -295,8 +413,23 @@ def sphere_erp(radius: float, u0: float, omega: float, rho: float = AIR_DENSITY,
 RADIATION_FILE = "radiation.h5"
 
 
-def radiation_data(model, T: np.ndarray, path, part: str = "housing") -> None:
-    """Write the ROM's radiation data of ``part``'s outer surface to ``path`` (HDF5).
+def radiation_data(model, T, path, part: str = "housing") -> None:
+    """Write the ROM's radiation data of ``part``'s outer surface to ``path`` (HDF5);
+    collective on ``model.comm``, rank 0 writes.
+
+    Each rank computes its facets' part (``P T`` stays distributed, no rank builds a
+    serial FE model or the dense basis); W is summed and the facet rows are gathered
+    on rank 0 and sorted by the facets' input-mesh vertex numbers, so the file does
+    not depend on the number of ranks or the partition.
+
+    Parameters
+    ----------
+    model : fem.FEModel
+    T : PETSc dense Mat (rows on ``model.K``'s layout), or (n_red, n_r) float (serial)
+        Reduction basis.
+    path : path of the HDF5 file.
+    part : str
+        Volume whose outer surface radiates.
 
     Datasets: ``W`` (n_r × n_r, m²), ``facet_rows`` (n_f × n_r: n·u at each facet
     centroid per unit ROM coordinate), ``facet_u_rows`` (n_f × 3 × n_r: u there),
@@ -307,26 +440,41 @@ def radiation_data(model, T: np.ndarray, path, part: str = "housing") -> None:
     """
     import h5py
 
+    from geometry.files import atomic_write
+
+    comm = model.comm
     mesh = model.fe_mesh.mesh
     facets = outer_surface_facets(model.fe_mesh, part)
-    PT = fe_basis(model, T)
+    PT = model.P.matMult(_dense_mat(T, comm))
     W = reduced_radiation_matrix(model, T, facets, PT)
-    Rc, Rn, fa, cen, nrm = facet_centroid_rows(mesh, model.V, facets)
-    g, _ = facet_geometry_nodes(mesh, facets)
-    used, inv = np.unique(g, return_inverse=True)
-    n_fe = PT.shape[0]
-    with h5py.File(path, "w") as f:
+    g, cells, fa, cen, nrm = _facet_frames(mesh, facets)
+    urows = _centroid_u_rows(model, PT, g, cells)
+    PT.destroy()
+    area = surface_area(mesh, facets)
+    ids = _input_ids(mesh, g)
+    parts = {"ids": ids, "x": mesh.geometry.x[g], "urows": urows, "area": fa, "cen": cen,
+             "nrm": nrm}
+    got = {k: _gather(comm, v) for k, v in parts.items()}
+    if comm.rank != 0:
+        return
+    # partition-independent order: by the sorted input numbers of the facet's vertices
+    key = np.sort(got["ids"][:, :3], axis=1)
+    order = np.lexsort(key.T[::-1])
+    got = {k: v[order] for k, v in got.items()}
+    used, first, inv = np.unique(got["ids"], return_index=True, return_inverse=True)
+    n_f = order.size
+    with atomic_write(Path(path)) as tmp, h5py.File(tmp, "w") as f:
         f["W"] = W
-        f["facet_rows"] = Rn[:, :n_fe] @ PT
-        f["facet_u_rows"] = np.stack([R[:, :n_fe] @ PT for R in Rc], axis=1)
-        f["facet_area"] = fa
-        f["facet_centroid"] = cen
-        f["facet_normal"] = nrm
-        f["facet_nodes"] = inv.reshape(g.shape).astype(np.int64)
-        f["points"] = mesh.geometry.x[used]
-        f.attrs["area"] = surface_area(mesh, facets)
-        f.attrs["n_facets"] = int(facets.size)
+        f["facet_rows"] = np.einsum("fi,fir->fr", got["nrm"], got["urows"])
+        f["facet_u_rows"] = got["urows"]
+        f["facet_area"] = got["area"]
+        f["facet_centroid"] = got["cen"]
+        f["facet_normal"] = got["nrm"]
+        f["facet_nodes"] = inv.reshape(n_f, 6).astype(np.int64)
+        f["points"] = got["x"].reshape(-1, 3)[first]
+        f.attrs["area"] = area
+        f.attrs["n_facets"] = int(n_f)
         f.attrs["part"] = part
         f.attrs["quadrature_degree"] = QUADRATURE_DEGREE
-    logger.info("radiation matrix of the %s outer surface: %d facets, %.4g m²", part,
-                facets.size, float(np.sum(fa)))
+    logger.info("radiation matrix of the %s outer surface: %d facets, %.4g m² (%d ranks)",
+                part, n_f, float(np.sum(got["area"])), comm.size)

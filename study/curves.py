@@ -19,6 +19,9 @@ __all__ = ["Peak", "CurveSummary", "resonance_peaks", "impact_intervals", "merge
 #: Local maxima less prominent than this fraction of the curve's largest std are
 #: numerical wiggles, not resonances.
 MIN_PROMINENCE = 0.01
+# maxima closer than this (relative speed) are one resonance: a branch winding at one
+# speed has a local maximum per loop (the pump at 1393 and 2509 rpm)
+SAME_PEAK = 5e-3
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,22 @@ def resonance_peaks(rpm: np.ndarray, std: np.ndarray,
     for i, prom in zip(idx, props["prominences"], strict=True):
         r, s = _refine(rpm[i - 1:i + 2], std[i - 1:i + 2])
         out.append(Peak(r, s, float(prom)))
-    return sorted(out, key=lambda p: p.rpm)
+    return _merge_close(sorted(out, key=lambda p: p.rpm))
+
+
+def _merge_close(peaks: list[Peak]) -> list[Peak]:
+    """One peak per resonance: maxima within ``SAME_PEAK`` (relative speed) of each other
+    are the loops of a branch winding at one speed (docs/convergence.md); the highest
+    stays, with the largest prominence of the group."""
+    out: list[Peak] = []
+    for p in peaks:
+        if out and abs(p.rpm - out[-1].rpm) <= SAME_PEAK * p.rpm:
+            q = out[-1]
+            top = p if p.std > q.std else q
+            out[-1] = Peak(top.rpm, top.std, max(p.prominence, q.prominence))
+        else:
+            out.append(p)
+    return out
 
 
 def _refine(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:

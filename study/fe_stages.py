@@ -81,9 +81,10 @@ def fe_stage(scene, mesh_dir: Path, comm=None):
     return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
 
 
-def rom_stage(scene, model, folder: Path, progress: bool = False,
-              mesh_dir: Path | None = None) -> None:
-    """Craig–Bampton ROM (``rom.h5`` with basis) and the basis rows of the load nodes.
+def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
+    """Craig–Bampton ROM (``rom.h5`` with basis), the radiation data of the housing
+    (``radiation.h5``, from the distributed basis) and the basis rows of the load nodes
+    (collective on the model's communicator; rank 0 writes the small files).
 
     The coupled quantities stored in rom.h5 (frequencies, mesh energy, C, and the
     Fig. 9 validation) use the scene's mean mesh stiffness at build time; the hbm
@@ -96,16 +97,17 @@ def rom_stage(scene, model, folder: Path, progress: bool = False,
     r = scene.rom
     km, xi = scene.mesh_stiffness.mean, scene.damping.modal_ratio
     kw = {"f_cut_hz": r.cutoff} if r.cutoff else {"n_modes": r.n_cm}
-    cb = craig_bampton(model.M, model.K, model.gear_dofs, **kw)
+    cb = craig_bampton(model.M, model.K, model.gear_dofs, factor=r.factorization, **kw)
     rom = build_rom(cb, model.G, km, xi)
     if r.n_check > 0:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
                                       min(r.n_check, rom.n_r))
     # collective: each rank writes its basis rows with their partition-independent keys
     save_rom(folder / "rom.h5", rom, row_keys=model.row_keys())
+    # collective: each rank its facets, rank 0 gathers and writes (no serial FE model)
+    acoustics.radiation_data(model, rom.T, folder / acoustics.RADIATION_FILE)
     if rom.T.getComm().tompi4py().rank != 0:
         return
-    _radiation(scene, model, folder, mesh_dir)
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
     rows = sorted({i for v in nodes.values() for i in v if i >= 0})
     with h5py.File(folder / "rom.h5", "r") as f:
@@ -115,22 +117,6 @@ def rom_stage(scene, model, folder: Path, progress: bool = False,
         f["basis_rows"] = basis_rows
         f.attrs["nodes"] = json.dumps(nodes)
         f.attrs["n_fe"] = int(model.K.getSize()[0])
-
-
-def _radiation(scene, model, folder: Path, mesh_dir: Path | None) -> None:
-    """Radiation data of the housing's outer surface (ERP, study.acoustics), built on
-    one process: under mpirun rank 0 rebuilds a serial FE model from the cached mesh
-    and reads the basis rows by key."""
-    from mpi4py import MPI
-
-    if model.comm.size != 1:
-        if mesh_dir is None:
-            logger.warning("ERP: no mesh folder to build the radiation matrix serially; "
-                           "skipped")
-            return
-        model = fe_stage(scene, mesh_dir, comm=MPI.COMM_SELF)
-    acoustics.radiation_data(model, _dense_basis(folder, model),
-                             folder / acoustics.RADIATION_FILE)
 
 
 @dataclass

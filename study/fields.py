@@ -101,7 +101,7 @@ def check_outputs(scene, harmonics, rom=None) -> None:
         rad = getattr(rom, "radiation", None)
         if rad is None:
             raise SceneError("outputs.accelerometer: the ROM has no housing surface data "
-                             "(radiation.h5); rebuild it serially")
+                             "(radiation.h5); reduce it again (geardyn reduce)")
         accelerometer_rows(scene.outputs.accelerometers, rad)
 
 

@@ -223,7 +223,7 @@ class Pipeline:
         t = time.perf_counter()
         with StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
             d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
-                self.scene, model, tmp, self.progress, mesh_dir=mesh_dir), comm=self.comm)
+                self.scene, model, tmp, self.progress), comm=self.comm)
         self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 

@@ -181,6 +181,7 @@ class RomData:
     n_cm: int
     cutoff: float | None
     n_check: int = 30
+    factorization: str = "lu"
 
 
 @dataclass(frozen=True)

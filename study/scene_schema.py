@@ -139,6 +139,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="keep modes below this frequency instead of n_cm"),
         "n_check": _f(30, "", 0, 5000, kind="int",
                       doc="coupled modes compared with the full model (Fig. 9); 0: skip"),
+        "factorization": _c("lu", ("lu", "cholesky"),
+                            "MUMPS factorisation of K_ii in the Craig–Bampton eigen-solve: "
+                            "`cholesky` (LDLᵀ) gives the same modes with about half the factor "
+                            "memory and time (docs/scale.md)"),
     },
     "hbm": {
         "mesh_harmonics": _f(3, "", 1, 200, kind="int", doc="mesh harmonics kZ, k = 1…n"),

@@ -44,6 +44,27 @@ def test_fixed_interface_modes_match_dense(chain, dense):
     assert cb.psi_residual < 1e-12
 
 
+def test_cholesky_factor_gives_the_same_reduction(chain, dense):
+    """rom.factorization = 'cholesky': MUMPS LDLᵀ of K_ii, one factorisation (also with
+    the cut-off restarts); modes, Schur complement and ROM equal the LU ones and SciPy's."""
+    PETSc.Log.begin()
+    ev = PETSc.Log.Event("MatCholFctrNum")
+    before = ev.getPerfInfo()["count"]
+    ch = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0, factor="cholesky")
+    assert ev.getPerfInfo()["count"] - before == 1
+    lu = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0)
+    ref = _interior_hz(dense)
+    assert ch.n_cm == lu.n_cm == np.count_nonzero(ref <= 200.0)
+    np.testing.assert_allclose(ch.fixed_interface_hz, ref[: ch.n_cm], rtol=1e-9)
+    assert ch.psi_residual < 1e-12
+    for a, b in ((ch.K_r, lu.K_r), (ch.M_r, lu.M_r)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max())
+    with pytest.raises(ValueError, match="factor"):
+        craig_bampton(chain.M, chain.K, IFACE, n_modes=5, factor="qr")
+    with pytest.raises(ValueError, match="blr_tol"):
+        craig_bampton(chain.M, chain.K, IFACE, n_modes=5, blr_tol=-1.0)
+
+
 def test_static_modes_give_schur_complement(chain, dense):
     # K_r restricted to q_c is the exact static condensation K_cc − K_ci K_ii⁻¹ K_ic
     cb = craig_bampton(chain.M, chain.K, IFACE, n_modes=5)

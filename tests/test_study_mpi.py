@@ -30,6 +30,7 @@ SETS = ["--set", "rom.n_cm=20", "--set", "rom.n_check=6",
         "--set", "continuation.speed_rpm=[600,1100]", "--set", "continuation.step_rpm=10",
         "--set", "continuation.max_step_rpm=10",
         "--set", "outputs.housing_field_rpm=[800]", "--no-progress"]
+PAR_SETS = ["--set", "rom.factorization=cholesky"]
 CURVES = ("rpm", "omega", "mesh_load_std", "mesh_load_max", "coefficients", "unknowns",
           "margin_active", "margin_reverse", "contact_loss_fraction", "floquet_max_real")
 
@@ -51,7 +52,8 @@ def _geardyn(n: int, *args, check: bool = True, timeout: float = 300):
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """serial: reduce, then run (ROM from cache); mpirun -n 2: reduce, run, export on
-    its own cache (the ROM is reduced by two ranks)."""
+    its own cache (the ROM is reduced by two ranks, with the MUMPS LDLᵀ factorisation
+    ``rom.factorization = cholesky``: the comparisons also check it against serial LU)."""
     pytest.importorskip("dolfinx")
     tmp = tmp_path_factory.mktemp("mpi")
     logs = {}
@@ -61,12 +63,13 @@ def runs(tmp_path_factory):
             if n == 1 and cmd == "export":
                 continue
             p = _geardyn(n, cmd, str(PUMP), "--out", str(tmp / tag / cmd), "--cache", cache,
-                         *SETS)
+                         *SETS, *(PAR_SETS if n > 1 else []))
             logs[tag, cmd] = p.stderr
     # `report` under mpirun: the ROM from the cache on both ranks, files from rank 0
     (tmp / "par/run/report.md").unlink()
     logs["par", "report"] = _geardyn(2, "report", str(PUMP), "--out", str(tmp / "par/run"),
-                                     "--cache", str(tmp / "cache_par"), *SETS).stderr
+                                     "--cache", str(tmp / "cache_par"), *SETS,
+                                     *PAR_SETS).stderr
     return tmp, logs
 
 
@@ -140,6 +143,36 @@ def test_two_ranks_results_equal_serial(runs, cmd):
         assert _rel(fs["grazing/rpm"][()], fp["grazing/rpm"][()]) < 1e-10
         for name in ("frequencies_hz", "mesh_energy"):
             assert _rel(fs["rom/" + name][()], fp["rom/" + name][()]) < 1e-10, name
+        # ERP per harmonic from the radiation matrix W that two ranks computed
+        assert fs["nvh/erp"].shape == fp["nvh/erp"].shape and fs["nvh/erp"][()].max() > 0
+        assert _rel(fs["nvh/erp"][()], fp["nvh/erp"][()]) < 1e-10
+        assert _rel(fs["nvh/radiation"].attrs["area"], fp["nvh/radiation"].attrs["area"]) < 1e-12
+
+
+def test_radiation_data_of_two_ranks_equals_serial(runs, tmp_path):
+    """radiation.h5 of the ROM reduced by two ranks (each rank its facets and basis rows,
+    no serial FE model) equals the serial computation on the same basis, dataset by
+    dataset, in the same facet order."""
+    from reduction import load_basis
+    from study import acoustics, fe_stages
+    from study.scene import load_scene
+
+    tmp, _ = runs
+    entry = next(p for p in (tmp / "cache_par/rom").iterdir() if not p.name.startswith("."))
+    mesh = next(p for p in (tmp / "cache_par/mesh").iterdir() if not p.name.startswith("."))
+    model = fe_stages.fe_stage(load_scene(PUMP, {"rom.n_cm": 20}), mesh)
+    assert model.comm.size == 1
+    T = load_basis(entry / "rom.h5", row_range=model.K.getOwnershipRange(),
+                   row_keys=model.row_keys())
+    acoustics.radiation_data(model, T, tmp_path / "radiation.h5")
+    with h5py.File(entry / acoustics.RADIATION_FILE, "r") as fp, \
+            h5py.File(tmp_path / "radiation.h5", "r") as fs:
+        assert set(fp) == set(fs) and fs.attrs["n_facets"] == fp.attrs["n_facets"] > 500
+        for name in ("facet_nodes", "points", "facet_area", "facet_centroid", "facet_normal"):
+            np.testing.assert_array_equal(fp[name][()], fs[name][()], err_msg=name)
+        for name in ("W", "facet_rows", "facet_u_rows"):
+            assert _rel(fs[name][()], fp[name][()]) < 1e-10, name
+        assert _rel(fs.attrs["area"], fp.attrs["area"]) < 1e-12
 
 
 def _sorted_rows(*cols) -> np.ndarray:

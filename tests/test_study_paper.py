@@ -74,6 +74,22 @@ def test_peak_on_a_fold_counted_once():
     assert len(peaks) == 1 and peaks[0].std == pytest.approx(50.0)
 
 
+def test_peaks_of_a_branch_winding_at_one_speed_count_once():
+    # the pump's branch at 1393 rpm: the speed oscillates by +-0.03 rpm over loops while
+    # the std goes 58 -> 62 -> 58 -> 63 N; one resonance, its highest point
+    t = np.linspace(0.0, 4 * np.pi, 160)
+    r = np.r_[np.linspace(1300, 1393, 30), 1393.13 + 0.03 * np.sin(3 * t),
+              np.linspace(1393, 1380, 10), np.linspace(1381, 1500, 30)]
+    y = np.r_[np.linspace(30, 58, 30), 60.5 + 2.5 * np.sin(t) + 0.01 * t,
+              np.linspace(62, 70, 10), np.linspace(69, 20, 30)]
+    peaks = resonance_peaks(r, y)
+    assert len(peaks) == 2                      # the top at 1380, the loops' highest
+    assert (peaks[0].rpm, peaks[0].std) == (pytest.approx(1380.0, abs=1.0),
+                                            pytest.approx(70.0, abs=0.5))
+    assert (peaks[1].rpm, peaks[1].std) == (pytest.approx(1393.13, abs=0.05),
+                                            pytest.approx(y[30:190].max(), rel=1e-3))
+
+
 def test_impact_intervals_span_and_windows():
     iv = impact_intervals(RPM, _contact(REGIONS))
     # a segment with impacts at one end counts: one grid step on each side

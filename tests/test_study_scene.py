@@ -169,6 +169,8 @@ BROKEN = [
     ({"lumped": {"inertia_kgm2": [1e-3, 1e-3], "equivalent_mass_kg": 0.3}},
      "lumped.equivalent_mass_kg"),
     ({"rom": {"n_cm": 0}}, "rom.n_cm = 0"),
+    ({"rom": {"factorization": "ldlt"}},
+     "rom.factorization = 'ldlt': must be one of 'lu', 'cholesky'"),
 ]
 
 

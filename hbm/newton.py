@@ -1,7 +1,10 @@
 """Newton on scaled unknowns, with a checked LU solve and its condition estimate.
 
-Used by :class:`hbm.problem.HBMProblem` at a fixed speed (plain and damped
-Newton, contact-law homotopy) and by :mod:`hbm.continuation` (branch switching).
+:func:`iterate` is the one Newton loop of hbm/ (line search by :func:`backtrack`,
+refinement step, condition bookkeeping): :func:`newton` runs it on the equations at a
+fixed speed (:class:`NewtonSystem`; used by :class:`hbm.problem.HBMProblem`: plain and
+damped Newton, contact-law homotopy, and by :mod:`hbm.continuation` to land on a bound),
+the continuation corrector on its bordered system (:class:`hbm.corrector.Bordered`).
 ``solve_checked`` is the one dense solve of every Newton step in hbm/.
 """
 
@@ -14,8 +17,8 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["COND_WARN", "ConvergenceError", "backtrack", "factor_checked", "newton",
-           "solve_checked"]
+__all__ = ["COND_WARN", "ConvergenceError", "NewtonSystem", "backtrack", "factor_checked",
+           "iterate", "newton", "solve_checked"]
 
 COND_WARN = 1e10   # 1-norm condition estimate of a Newton matrix above which we warn
 
@@ -118,49 +121,139 @@ def backtrack(relative_residual, x: np.ndarray, dx: np.ndarray, res: float,
     return alpha
 
 
-def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
-           line_search: bool = False):
-    """Damped Newton on scaled unknowns: ``fun(x) -> (r, J, ...)``, ``fun(x, False) -> r``.
+REFINE_BOUND = 1e-7   # refine a converged point when cond * residual exceeds this
 
-    Returns (x, iterations, relative residual); raises ConvergenceError.
+
+class NewtonSystem:
+    """What :func:`iterate` solves: the scaled equations of :func:`newton` at a fixed
+    speed, ``fun(x) -> (r, J, ...)``, ``fun(x, False) -> r``.
+
+    A subclass changes what differs (the continuation corrector,
+    :class:`hbm.corrector.Bordered`: the augmented unknowns, the bordered matrix, its
+    damping and divergence test); the iteration, the line search, the refinement step
+    and the condition bookkeeping are :func:`iterate`'s.
     """
-    res = np.inf
-    r0 = None
+
+    #: ``solve_checked`` may log an ill-conditioned matrix (once per solve)
+    warn = True
+    #: errors of the refinement step that only make it fail (the point is kept)
+    recoverable: tuple[type[Exception], ...] = (ConvergenceError,)
+
+    def __init__(self, fun, diverge: float = 1e8, line_search: bool = False) -> None:
+        self.fun, self.diverge, self.line_search = fun, diverge, line_search
+
+    def evaluate(self, x: np.ndarray):
+        """The residual at ``x`` (what :meth:`relative` and :meth:`matrix` read)."""
+        return self.fun(x, False)
+
+    def relative(self, x: np.ndarray, ev) -> float:
+        """Relative residual ``||R|| / max(||x||, 1)`` of an evaluation."""
+        return float(np.linalg.norm(ev) / max(np.linalg.norm(x), 1.0))
+
+    def trial(self, x: np.ndarray) -> float:
+        """Relative residual at a trial point of the line search."""
+        return float(np.linalg.norm(self.fun(x, False)) / max(np.linalg.norm(x), 1.0))
+
+    def matrix(self, x: np.ndarray, ev):
+        """Newton matrix and right-hand side at ``x``: the step solves ``J dx = rhs``."""
+        r, j = self.fun(x)[:2]
+        return j, -r
+
+    def where(self, it: int) -> str:
+        return f"Newton iteration {it}"
+
+    refine_where = "Newton refinement"
+
+    def tries(self, it: int) -> int:
+        """Halvings of the backtracking line search at iteration ``it`` (0: full step)."""
+        return 8 if self.line_search else 0
+
+    def diverged(self, it: int, res: float, res0: float, tol: float) -> bool:
+        return res > self.diverge * max(res0, tol)
+
+    def non_finite(self, it: int, res: float, cond: float) -> ConvergenceError:
+        return ConvergenceError(f"non-finite residual at iteration {it}", res, cond)
+
+    def failure(self, it: int, res: float, res0: float, tol: float, cond: float) -> str:
+        why = "diverged: relative residual" if self.diverged(it, res, res0, tol) else \
+            "relative residual"
+        return (f"Newton {why} {res:.3g} > tol {tol:.1g} after {it} iterations "
+                f"(condition estimate of the scaled Jacobian {cond:.2g})")
+
+
+def iterate(system: NewtonSystem, x: np.ndarray, tol: float, max_iter: int,
+            conds: list | None = None):
+    """Newton on ``system`` from ``x``: the one loop of :func:`newton` and the
+    continuation corrector.
+
+    Converged when the relative residual is below ``tol``; then one Newton step more
+    (kept if it lowers the residual) when converged at the guess or with a loose error
+    bound ``cond * res > REFINE_BOUND``. Each step is damped by :func:`backtrack` when
+    ``system.tries(it)`` says so. ``conds``, if given, collects the condition estimates.
+
+    Returns
+    -------
+    x, iterations, relative residual, evaluation
+        The evaluation is ``system.evaluate(x)`` at the returned point.
+
+    Raises
+    ------
+    ConvergenceError
+        Not converged in ``max_iter`` iterations, diverged, or a singular matrix.
+    """
+    res0 = None
     cond = np.nan
     warned = False
     for it in range(max_iter + 1):
-        r = fun(x, False)
-        res = float(np.linalg.norm(r) / max(np.linalg.norm(x), 1.0))
+        ev = system.evaluate(x)
+        res = system.relative(x, ev)
         if not np.isfinite(res):
-            raise ConvergenceError(f"non-finite residual at iteration {it}", res, cond)
-        if r0 is None:
-            r0 = res
-        if res < tol and (it == 0 or cond * res > 1e-7):
-            # converged at the guess, or with a loose error bound cond * res: one
-            # Newton step more (kept if it lowers the residual)
-            try:
-                rr, jj = fun(x)[:2]
-                xn = x + solve_checked(jj, -rr, "Newton refinement", warn=False)[0]
-                resn = float(np.linalg.norm(fun(xn, False)) / max(np.linalg.norm(xn), 1.0))
-            except ConvergenceError:
-                resn = np.inf
-            return (xn, it + 1, resn) if resn < res else (x, it, res)
+            raise system.non_finite(it, res, cond)
+        res0 = res if res0 is None else res0
+        if res < tol and (it == 0 or cond * res > REFINE_BOUND):
+            # within tol already at the guess, or an error bound cond * res that a poorly
+            # conditioned matrix makes loose: one Newton step more, so that the point
+            # does not carry a tol-sized error along
+            return _refine(system, x, ev, res, it)
         if res < tol:
-            return x, it, res
-        if it == max_iter or res > diverge * max(r0, tol):
+            return x, it, res, ev
+        if it == max_iter or system.diverged(it, res, res0, tol):
             break
-        r, j = fun(x)[:2]
+        j, rhs = system.matrix(x, ev)
         try:
-            dx, cond = solve_checked(j, -r, f"Newton iteration {it}", warn=not warned)
+            dx, cond = solve_checked(j, rhs, system.where(it), warn=system.warn and not warned)
         except ConvergenceError as exc:
             raise ConvergenceError(f"{exc} (relative residual {res:.3g})", res,
                                    exc.condition) from exc
         warned = warned or cond > COND_WARN
-        # backtracking on the residual norm (the force is only piecewise smooth)
-        alpha = backtrack(lambda xt: float(np.linalg.norm(fun(xt, False))
-                                           / max(np.linalg.norm(xt), 1.0)),
-                          x, dx, res, 8) if line_search else 1.0
-        x = x + alpha * dx
-    why = "diverged: relative residual" if res > diverge * max(r0, tol) else "relative residual"
-    raise ConvergenceError(f"Newton {why} {res:.3g} > tol {tol:.1g} after {it} iterations "
-                           f"(condition estimate of the scaled Jacobian {cond:.2g})", res, cond)
+        if conds is not None:
+            conds.append(cond)
+        tries = system.tries(it)
+        if tries:
+            # backtracking on the residual norm (the force is only piecewise smooth)
+            dx = backtrack(system.trial, x, dx, res, tries) * dx
+        x = x + dx
+    raise ConvergenceError(system.failure(it, res, res0, tol, cond), res, cond)
+
+
+def _refine(system: NewtonSystem, x: np.ndarray, ev, res: float, it: int):
+    """One Newton step from a point within tol; kept if it lowers the residual."""
+    try:
+        j, rhs = system.matrix(x, ev)
+        xn = x + solve_checked(j, rhs, system.refine_where, warn=False)[0]
+        evn = system.evaluate(xn)
+        resn = system.relative(xn, evn)
+    except system.recoverable:
+        resn = np.inf
+    return (xn, it + 1, resn, evn) if resn < res else (x, it, res, ev)
+
+
+def newton(fun, x: np.ndarray, tol: float, max_iter: int, diverge: float = 1e8,
+           line_search: bool = False):
+    """Damped Newton on scaled unknowns: ``fun(x) -> (r, J, ...)``, ``fun(x, False) -> r``
+    (:func:`iterate` on a :class:`NewtonSystem`).
+
+    Returns (x, iterations, relative residual); raises ConvergenceError.
+    """
+    x, it, res, _ = iterate(NewtonSystem(fun, diverge, line_search), x, tol, max_iter)
+    return x, it, res

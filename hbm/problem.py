@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import fixed_speed
 from .condensation import CONDENSATIONS, Condensation, make_condensation
 from .contact import (
     ContactStiffness,
@@ -30,16 +31,17 @@ from .contact import (
     dead_zone_stiffness,
     kink_correction,
 )
+from .fixed_speed import RPM_TO_RAD_S, Point
 from .harmonics import HarmonicSet
 from .krylov import Preconditioners
 from .model import Excitation, GearMesh, LinearSystem
-from .newton import COND_WARN, ConvergenceError, newton, solve_checked
+from .modes import length_scale, modes
+from .newton import COND_WARN, ConvergenceError, solve_checked
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S", "COND_WARN", "solve_checked"]
 
-RPM_TO_RAD_S = 2.0 * np.pi / 60.0
 LINEAR_SOLVERS = ("auto", "dense", "krylov")
 # "corrected": samples of the dead-zone force with the sub-sample kink correction
 # (T.13a, C1 in the unknowns); "sampled": the plain samples (piecewise smooth)
@@ -60,32 +62,6 @@ class Synthesis:
 
     def __matmul__(self, xr: np.ndarray) -> np.ndarray:
         return self.harmonics.synthesize(xr, self.n_time)
-
-
-@dataclass
-class Point:
-    """A converged periodic solution at one speed.
-
-    Attributes
-    ----------
-    rpm, omega
-        Shaft speed (rpm) and Omega (rad/s).
-    unknowns
-        Real unknown vector of the problem's condensation (physical units).
-    coefficients
-        Complex Fourier coefficients of Delta = G^T q (m), one per index.
-    residual
-        Relative residual norm ``||R_hat|| / max(||x_hat||, 1)`` (scaled).
-    iterations
-        Newton iterations used.
-    """
-
-    rpm: float
-    omega: float
-    unknowns: np.ndarray
-    coefficients: np.ndarray
-    residual: float
-    iterations: int
 
 
 class HBMProblem:
@@ -183,8 +159,12 @@ class HBMProblem:
         # equilibration D = diag(M)^-1/2: D Z D is in 1/s^2 whatever the units of each
         # coordinate, so every dense factorisation below is done on it
         self.dof_eq = 1.0 / np.sqrt(np.diag(system.M))
-        self._setup_modes()
-        self._setup_length_scale()
+        md = modes(self.Kp, system.M, system.C, g, self.Fc, self.Fu, self.dof_eq)
+        self.modal, self.kp_symmetric = md.modal, md.kp_symmetric
+        self.w2, self.phi, self.cj, self.gj = md.w2, md.phi, md.cj, md.gj
+        self.pfc, self.pfu, self.rigid = md.pfc, md.pfu, md.rigid
+        self.length_scale = length_scale(self.b, self.e_t, mesh.static_load, self.kbar, md,
+                                         self.Kp, g, self.Fc[0], self.dof_eq)
         self._fine_cache: dict[int, tuple] = {}
         # matrix-free Newton matrices solved by GMRES (hbm/krylov.py) for large sets
         self.matrix_free = condensation == "loa" and (
@@ -193,62 +173,6 @@ class HBMProblem:
         self.scheme: Condensation = make_condensation(condensation, self)
 
     # ------------------------------------------------------------------ setup
-    def _setup_modes(self) -> None:
-        import scipy.linalg as sla
-
-        s = self.system
-        d = self.dof_eq
-        dd = np.outer(d, d)
-        w2, phi = sla.eigh(0.5 * (self.Kp + self.Kp.T) * dd, s.M * dd)
-        phi = d[:, None] * phi                                    # mass-normalised modes
-        top = max(np.max(np.abs(w2)), 1e-300)
-        if np.min(w2) < -1e-9 * top:
-            raise ValueError(
-                f"system.K: K + k_bar G G^T has a negative eigenvalue {np.min(w2):.3g}; "
-                "the linear model must be positive semi-definite")
-        w2 = np.clip(w2, 0.0, None)
-        cm = phi.T @ s.C @ phi
-        diag = np.diag(cm).copy()
-        off = cm - np.diag(diag)
-        cscale = max(np.max(np.abs(diag)), np.sqrt(top) * 1e-300, 1e-300)
-        self.modal = bool(np.max(np.abs(off), initial=0.0) <= 1e-9 * cscale)
-        self.kp_symmetric = bool(np.allclose(self.Kp * dd, (self.Kp * dd).T, rtol=0,
-                                             atol=1e-12 * top))
-        if not self.kp_symmetric:
-            self.modal = False
-        self.w2, self.phi, self.cj = w2, phi, diag
-        self.gj = phi.T @ self.G
-        self.pfc = phi.T @ self.Fc.T        # (n_modes, nS)
-        self.pfu = phi.T @ self.Fu.T
-        gn = np.linalg.norm(self.gj)
-        rigid = w2 <= 1e-12 * top
-        self.rigid = rigid & (np.abs(self.gj) <= 1e-12 * gn)
-        if np.any(rigid & ~self.rigid):
-            raise ValueError("system: a rigid-body mode of K + k_bar G G^T moves the mesh")
-        if np.any(self.rigid):
-            f0 = np.abs(self.pfc[self.rigid, 0]) + np.abs(self.pfu[self.rigid, 0])
-            fscale = np.linalg.norm(self.Fc[0]) + np.linalg.norm(self.Fu[0]) + 1e-300
-            if np.any(f0 > 1e-9 * fscale):
-                raise ValueError(
-                    "excitation.constant[0]: the static load drives a rigid-body mode that the "
-                    "mesh does not restrain (no steady state)")
-
-    def _setup_length_scale(self) -> None:
-        b = self.b
-        te_amp = 0.5 * (np.max(self.e_t) - np.min(self.e_t)) if self.e_t.size else 0.0
-        keep = ~self.rigid
-        static = 0.0
-        if self.modal and np.any(keep):
-            static = abs(float(np.sum(self.gj[keep] * self.pfc[keep, 0].real / self.w2[keep])))
-        elif np.any(self.Fc[0] != 0):
-            # static mesh deflection under the mean load, whatever the damping
-            d = self.dof_eq
-            x = d * np.linalg.lstsq(self.Kp * np.outer(d, d), d * self.Fc[0].real,
-                                    rcond=None)[0]
-            static = abs(float(self.G @ x))
-        L = max(b, te_amp, abs(self.mesh.static_load) / self.kbar, static)
-        self.length_scale = float(L)
-
     def equilibrated_solve(self, z: np.ndarray, rhs: np.ndarray,
                            idx: np.ndarray | None = None) -> np.ndarray:
         """Batched ``z^-1 rhs`` for z (nS, m, m), rhs (nS, m, p), equilibrated by D.
@@ -437,11 +361,7 @@ class HBMProblem:
     # ------------------------------------------------------------------ Newton
     def initial_guess(self, omega: float) -> np.ndarray:
         """Linear response in permanent contact on the active flank (one Newton step)."""
-        u0 = np.zeros(self.n_unknowns)
-        r, ju, _ = self.evaluate(u0, omega, law=0.0)
-        dx = solve_checked(self._scaled_jacobian(ju), r / self.eq_scale,
-                           "initial guess (linear contact)")[0]
-        return u0 - dx * self.x_scale
+        return fixed_speed.initial_guess(self, omega)
 
     def point(self, u: np.ndarray, omega: float, iterations: int = 0,
               residual: float | None = None) -> Point:
@@ -454,7 +374,8 @@ class HBMProblem:
 
     def solve(self, rpm: float, x0: np.ndarray | None = None, tol: float = 1e-8,
               max_iter: int = 40) -> Point:
-        """Newton corrector at fixed speed with scaled unknowns and equations.
+        """Newton corrector at fixed speed with scaled unknowns and equations; on failure the
+        contact-law homotopy, then damped Newton (:func:`hbm.fixed_speed.solve`).
 
         Parameters
         ----------
@@ -470,53 +391,7 @@ class HBMProblem:
         ConvergenceError
             If the tolerance is not reached in ``max_iter`` iterations.
         """
-        if not np.isfinite(rpm) or rpm <= 0:
-            raise ValueError(f"rpm = {rpm!r}: must be > 0")
-        omega = float(rpm) * RPM_TO_RAD_S
-        u = self.initial_guess(omega) if x0 is None else np.array(x0, dtype=float)
-        if u.shape != (self.n_unknowns,):
-            raise ValueError(f"x0 shape = {u.shape}: must be ({self.n_unknowns},)")
-        def fun(x, j=True):
-            return self.scaled(x, omega, j)
-
-        try:
-            xh, it, res = newton(fun, u / self.x_scale, tol, max_iter, line_search=False)
-        except ConvergenceError as exc:
-            logger.debug("plain Newton failed at %.6g rpm (%s); homotopy from linear contact",
-                         rpm, exc)
-            try:
-                xh, it, res = self._homotopy(omega, tol, max_iter)
-            except ConvergenceError:
-                logger.debug("homotopy failed at %.6g rpm; damped Newton", rpm)
-                xh, it, res = newton(fun, u / self.x_scale, tol, 4 * max_iter, line_search=True)
-        u = xh
-        return self.point(u * self.x_scale, omega, it, res)
-
-    def _homotopy(self, omega: float, tol: float, max_iter: int):
-        """Natural continuation in lam from the linear contact law (0) to the dead zone (1)."""
-        x = self.initial_guess(omega) / self.x_scale
-        lam, dlam, total = 0.0, 0.25, 0
-        slope = np.zeros_like(x)
-        while lam < 1.0:
-            target = min(1.0, lam + dlam)
-            guess = x + slope * (target - lam)
-
-            def fun(y, j=True, t=target):
-                return self.scaled(y, omega, j, law=t)
-
-            try:
-                xn, it, _ = newton(fun, guess, tol, max_iter)
-            except ConvergenceError:
-                dlam *= 0.5
-                if dlam < 1e-4:
-                    raise
-                continue
-            slope = (xn - x) / (target - lam)
-            x, lam = xn, target
-            total += it
-            dlam = min(2 * dlam, 0.5) if it <= 4 else dlam
-        r = self.scaled(x, omega, False)
-        return x, total, float(np.linalg.norm(r) / max(np.linalg.norm(x), 1.0))
+        return fixed_speed.solve(self, rpm, x0, tol, max_iter)
 
     def scaled(self, xh: np.ndarray, omega: float, jacobian: bool = True, law: float = 1.0):
         """:meth:`evaluate` on scaled unknowns ``xh = u / x_scale`` and equations
@@ -528,9 +403,9 @@ class HBMProblem:
         if not jacobian:
             return self.evaluate(u, omega, jacobian=False, law=law) / self.eq_scale
         r, ju, jw = self.evaluate(u, omega, law=law)
-        return r / self.eq_scale, self._scaled_jacobian(ju), jw / self.eq_scale
+        return r / self.eq_scale, self.scaled_jacobian(ju), jw / self.eq_scale
 
-    def _scaled_jacobian(self, ju):
+    def scaled_jacobian(self, ju):
         """``dR/du`` in scaled unknowns and equations; a matrix-free one (loa: both
         scales are the same length) is unchanged."""
         if isinstance(ju, np.ndarray):

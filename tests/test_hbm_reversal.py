@@ -21,11 +21,11 @@ def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1) -> list:
     orig = cont._check_events
     done: list[float] = []
 
-    def flipped(problem, rec, evaluate, yn, tn, *args):
+    def flipped(ctx, rec, yn, tn, *args):
         if len(done) < times and yn[-1] * rec.meta["omega_scale"] / RPM > rpm_flip:
             done.append(yn[-1] * rec.meta["omega_scale"] / RPM)
             tn = -tn
-        return orig(problem, rec, evaluate, yn, tn, *args)
+        return orig(ctx, rec, yn, tn, *args)
 
     monkeypatch.setattr(cont, "_check_events", flipped)
     return done
@@ -140,11 +140,11 @@ def test_reversals_far_apart_do_not_add_up(reference, monkeypatch):
     at = [len(ref) // 4, len(ref) // 2]
     done: list[int] = []
 
-    def flipped(problem, rec, evaluate, yn, tn, *args):
+    def flipped(ctx, rec, yn, tn, *args):
         if len(rec) in at and len(rec) not in done:
             done.append(len(rec))
             tn = -tn
-        return orig(problem, rec, evaluate, yn, tn, *args)
+        return orig(ctx, rec, yn, tn, *args)
 
     monkeypatch.setattr(cont, "_check_events", flipped)
     monkeypatch.setattr(cont, "MAX_REVERSALS", 1)

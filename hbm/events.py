@@ -1,0 +1,324 @@
+"""Events along a continuation branch: grazing points (eq. 30), folds, and the branch
+walking back over itself (revisits, reversal points, corner leaps), for
+:func:`hbm.continuation.trace`.
+
+:class:`TraceContext` holds what they share for one trace (the problem, the augmented
+residual, the speed scale, the tolerances and the point recorder).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .branch import GrazingPoint, _Recorder
+from .corrector import _correct, _StepRejected, _tangent
+from .newton import ConvergenceError
+from .postprocess import point_stats
+from .problem import RPM_TO_RAD_S, HBMProblem
+
+# the tracer's log: one name for the continuation and its modules
+logger = logging.getLogger("hbm.continuation")
+
+FOLD_MERGE_POINTS = 3   # sign changes of dOmega/ds closer than this (points) cancel
+# A new point closer than REVISIT_RATIO times its chord to an earlier segment of the
+# branch (all but the last) is the branch walking back over itself, not a fold: on the
+# pump the retraced points lie 1e-3..5e-2 chords from the old polyline, distinct pieces
+# that meet at a fold or corner 0.7..2 chords (docs/hbm.md, "Reversals").
+REVISIT_RATIO = 0.1
+# A point flagged by REVISIT_RATIO is a revisit only if the old branch at its speed is the
+# same solution: Newton at that speed from the old polyline lands within this distance
+# (scaled unknowns, relative to max(|y|, 1)) of it. Past a sharp fold whose two pieces
+# differ little in state (the pump at 12 mesh harmonics, 1220-1236 rpm: 1e-4..1e-3 apart
+# while the chords are ~1e-2, mostly speed) the piece coming back is a distinct solution.
+SAME_SOLUTION = 1e-5
+LEAP_FACTORS = (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)   # corner leap: lengths in last chords
+
+
+@dataclass
+class TraceContext:
+    """The fixed data of one trace.
+
+    Attributes
+    ----------
+    problem
+        The HBM problem.
+    evaluate
+        Augmented scaled residual ``y -> (R_hat, J_x, J_w)`` (:func:`hbm.corrector._augmented`).
+    wscale
+        Speed scale: ``w_hat = Omega / wscale``.
+    tol, max_iter
+        Corrector tolerance and iterations.
+    gtol
+        Tolerance on located grazing speeds (rpm).
+    record
+        ``record(rec, y, iterations, residual, tangent)``: measure a converged point and
+        add it to the recorder.
+    step, min_step, max_step
+        Initial, smallest and largest arc-length step.
+    """
+
+    problem: HBMProblem
+    evaluate: Callable
+    wscale: float
+    tol: float
+    max_iter: int
+    gtol: float
+    record: Callable
+    step: float = 0.01
+    min_step: float = 1e-6
+    max_step: float = 0.05
+
+    def state(self, rec: _Recorder, i: int) -> np.ndarray:
+        """Scaled ``y`` of point ``i`` of the recorder."""
+        return np.concatenate([rec.lists["unknowns"][i] / self.problem.x_scale,
+                               [rec.lists["omega"][i] / self.wscale]])
+
+    def states(self, rec: _Recorder) -> np.ndarray:
+        """Scaled ``y`` of every point, (n_points, n_unknowns + 1)."""
+        return np.array([self.state(rec, i) for i in range(len(rec))])
+
+
+def _check_forward(rec, y, yn) -> None:
+    """After a reversal was undone at point k, refuse a step from k that goes back."""
+    if rec.guard is not None and rec.guard[0] == len(rec) - 1 and (yn - y) @ rec.guard[1] <= 0:
+        raise _StepRejected("step goes back over the branch (a reversal was undone here)")
+
+
+def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
+    """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
+
+    Every segment but the last is checked; ``yn`` is near the branch when its distance
+    to the segment is below ``REVISIT_RATIO`` times its chord from the last point. A
+    near point is a revisit only if it is the same solution as the old branch at its
+    speed (:func:`_distinct_solution`); otherwise it is another piece of the branch lying
+    close by (past a sharp fold) and None is returned.
+    """
+    n = len(rec)
+    if n < 3:
+        return None
+    ys = ctx.states(rec)
+    if (yn - ys[-1]) @ (ys[-1] - ys[-2]) > 0:
+        # the step went on in the direction of travel: a branch that winds past its own
+        # earlier loops (a spiral near a resonance with impacts), not a walk back
+        return None
+    a, b = ys[:n - 2], ys[1:n - 1]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                                1e-300), 0.0, 1.0)
+    foot = a + t[:, None] * ab
+    d = np.linalg.norm(foot - yn, axis=1)
+    i = int(np.argmin(d))
+    chord = float(np.linalg.norm(yn - ys[-1]))
+    if not d[i] < REVISIT_RATIO * chord:
+        return None
+    if _distinct_solution(ctx.evaluate, foot[i], yn, ctx.tol, ctx.max_iter):
+        logger.info("point at scaled speed %.9g lies %.2g chords from the branch traced but "
+                    "is another solution there (a sharp fold): not a revisit", yn[-1],
+                    d[i] / chord)
+        return None
+    return i
+
+
+def _distinct_solution(evaluate, foot, yn, tol, max_iter) -> bool:
+    """True if the branch traced, at the speed of ``yn``, is a solution other than ``yn``.
+
+    Newton at the fixed speed of ``yn`` from ``foot`` (the nearest point of the old
+    polyline, its speed replaced by that of ``yn``). Distinct when it converges to a point
+    ``y*`` farther than ``SAME_SOLUTION`` from ``yn`` and closer to ``foot`` than to
+    ``yn`` (the old piece, not ``yn``'s or a third one). A failed solve counts as the
+    same solution (the revisit is then undone as before).
+    """
+    y0 = foot.copy()
+    y0[-1] = yn[-1]
+    e_w = np.zeros_like(yn)
+    e_w[-1] = 1.0
+    try:
+        ys, *_ = _correct(evaluate, y0, e_w, tol, max_iter)
+    except (ConvergenceError, np.linalg.LinAlgError) as exc:
+        logger.debug("revisit check: no solution at the new point's speed from the old "
+                     "branch (%s)", exc)
+        return False
+    gap = float(np.linalg.norm(ys - yn))
+    logger.debug("revisit check: old branch at the new point's speed %.3g from it, %.3g from "
+                 "the old polyline", gap, float(np.linalg.norm(ys - y0)))
+    return gap > SAME_SOLUTION * max(float(np.linalg.norm(yn[:-1])), 1.0) and \
+        float(np.linalg.norm(ys - y0)) < 0.5 * gap
+
+
+def _past_fold(ctx: TraceContext, rec: _Recorder, hit: int) -> bool:
+    """True if the branch turned at a fold after the revisited segment ``hit`` and its
+    last point lies on the fold's far piece: another solution than the piece that led to
+    the fold, at the same speed (:func:`_distinct_solution`), not that piece walked back.
+    """
+    if not rec.fold_index:
+        return False
+    f, n = rec.fold_index[-1], len(rec)
+    if not (hit < f < n - 1 and f >= 1):
+        return False
+    ys = ctx.states(rec)
+    a, b = ys[:f], ys[1:f + 1]
+    ab = b - a
+    y = ys[-1]
+    t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                               1e-300), 0.0, 1.0)
+    foot = a + t[:, None] * ab
+    i = int(np.argmin(np.linalg.norm(foot - y, axis=1)))
+    return _distinct_solution(ctx.evaluate, foot[i], y, ctx.tol, ctx.max_iter)
+
+
+def _reversal_point(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, hit: int) -> int:
+    """The point after the revisited segment ``hit`` where the path turned the most."""
+    n = len(rec)
+    lo = max(hit + 1, 1)
+    if lo >= n:
+        return n - 1
+    ys = np.vstack([ctx.states(rec)[lo - 1:], yn])
+    ch = np.diff(ys, axis=0)
+    nrm = np.maximum(np.linalg.norm(ch, axis=1), 1e-300)
+    cos = np.einsum("ij,ij->i", ch[1:], ch[:-1]) / (nrm[1:] * nrm[:-1])
+    return lo + int(np.argmin(cos))
+
+
+def _leap(ctx: TraceContext, rec: _Recorder):
+    """Corner leap: plane predictors ``LEAP_FACTORS`` last chords ahead of the last point
+    along its direction of travel, then with the speed component of that direction
+    reversed (a fold at a corner: the state goes on, the speed turns back); accepted if
+    it moves forward along the predictor without revisiting the branch."""
+    y = ctx.state(rec, -1)
+    travel = y - ctx.state(rec, -2)
+    h = float(np.linalg.norm(travel))
+    if not h > 0:
+        return None
+    folded = travel.copy()
+    folded[-1] = -folded[-1]
+    e_w = np.zeros_like(y)
+    e_w[-1] = 1.0
+    for d, plane in ((travel / h, None), (folded / np.linalg.norm(folded), e_w)):
+        # folded: longest first (near the fold the piece traced lies close by)
+        for f in (LEAP_FACTORS if plane is None else LEAP_FACTORS[::-1]):
+            if f * h > ctx.max_step:
+                continue
+            try:
+                # folded: corrector at the predicted speed (the state from the last point)
+                yn, it, res, jx, jw = _correct(ctx.evaluate, y + f * h * d,
+                                               d if plane is None else plane, ctx.tol,
+                                               ctx.max_iter)
+                tn = _tangent(jx, jw, d)
+            except (ConvergenceError, np.linalg.LinAlgError):
+                continue
+            if (yn - y) @ d > 0 and _revisit(ctx, rec, yn) is None:
+                rec.counters["leaps"] += 1
+                logger.info("corner leap past rpm %.6g (%.0f chords ahead%s)", rec.last("rpm"),
+                            f, ", speed turned back" if d[-1] * travel[-1] < 0 else "")
+                return yn, it, res, tn
+    return None
+
+
+
+def _check_events(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, tn: np.ndarray,
+                  it: int, res: float) -> None:
+    """Record the new point ``yn`` (tangent ``tn``, corrector iterations and residual)
+    after locating the grazing and fold events since the last one."""
+    ya = ctx.state(rec, -1)
+    ma, mra = rec.last("margin_active"), rec.last("margin_reverse")
+    ctx.record(rec, yn, it, res, tn)
+    mb, mrb = rec.last("margin_active"), rec.last("margin_reverse")
+    _check_fold(rec, ctx.wscale, ctx.problem.x_scale)
+    events = []
+    if (ma > 0) != (mb > 0):
+        events.append(("active", 0, "onset" if ma > 0 else "end"))
+    if (mra > 0) != (mrb > 0):
+        events.append(("reverse", 1, "onset" if mrb > 0 else "end"))
+    for side, which, kind in events:
+        rpm = _locate(ctx, ya, yn, which)
+        rec.grazing.append(GrazingPoint(rpm=rpm, kind=kind, side=side))
+        rec.n_grazing[-1] = len(rec.grazing)
+        logger.info("grazing (%s, %s flank) at %.9g rpm", kind, side, rpm)
+
+
+def _check_fold(rec, wscale, xs) -> None:
+    """Fold (turning point): the speed increments of the last two steps change sign.
+
+    Secant increments, not the tangent, are used: at kinks of the
+    piecewise-smooth branch the one-sided Jacobian can give a tangent whose
+    speed component has the wrong sign. The fold speed is the vertex of the
+    parabola through the last three points in arc length.
+    """
+    if len(rec) < 3:
+        return
+    w = np.array(rec.lists["omega"][-3:])
+    if (w[1] - w[0]) * (w[2] - w[1]) >= 0:
+        return
+    here = len(rec) - 2
+    if rec.fold_index and here - rec.fold_index[-1] < FOLD_MERGE_POINTS:
+        # two turns within a few points: a kink of the branch, not two folds
+        logger.debug("fold pair near %.6g rpm merged", rec.folds[-1])
+        rec.folds.pop()
+        rec.fold_index.pop()
+        return
+    y = np.array(rec.lists["unknowns"][-3:]) / xs
+    s1 = np.linalg.norm(np.append(y[1] - y[0], (w[1] - w[0]) / wscale))
+    s2 = s1 + np.linalg.norm(np.append(y[2] - y[1], (w[2] - w[1]) / wscale))
+    c = np.polyfit([0.0, s1, s2], w, 2)
+    w_fold = w[1]
+    if c[0] != 0:
+        sv = -c[1] / (2 * c[0])
+        if 0 <= sv <= s2:
+            w_fold = np.polyval(c, sv)
+    rec.folds.append(float(w_fold / RPM_TO_RAD_S))
+    rec.fold_index.append(here)
+    logger.info("fold near %.6g rpm", rec.folds[-1])
+
+
+def _locate(ctx: TraceContext, ya: np.ndarray, yb: np.ndarray, which: int) -> float:
+    """Illinois regula falsi on the chord parameter for a zero contact margin
+    (``which`` 0: active flank, 1: reverse flank) between ``ya`` and ``yb``."""
+    problem, wscale = ctx.problem, ctx.wscale
+    xs = problem.x_scale
+
+    def margin(y):
+        st = point_stats(problem, y[:-1] * xs)
+        return st.margin_active if which == 0 else st.margin_reverse
+
+    d = yb - ya
+    d /= np.linalg.norm(d)
+    lo, hi = 0.0, 1.0
+    flo, fhi = margin(ya), margin(yb)
+    ylo, yhi = ya, yb
+    side = 0
+    mscale = problem.length_scale
+    for _ in range(60):
+        if abs(yhi[-1] - ylo[-1]) * wscale / RPM_TO_RAD_S < ctx.gtol:
+            break
+        s = hi - fhi * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
+        if not (lo < s < hi):
+            s = 0.5 * (lo + hi)
+        y_pred = ya + s * (yb - ya)
+        try:
+            y, *_ = _correct(ctx.evaluate, y_pred, d, ctx.tol, ctx.max_iter)
+        except ConvergenceError as exc:
+            logger.warning("grazing location stopped (corrector failed: %s); bracket "
+                           "[%.9g, %.9g] rpm", exc, ylo[-1] * wscale / RPM_TO_RAD_S,
+                           yhi[-1] * wscale / RPM_TO_RAD_S)
+            break
+        f = margin(y)
+        if abs(f) <= 1e-12 * mscale:
+            ylo = yhi = y
+            break
+        if (f > 0) == (fhi > 0):
+            hi, fhi, yhi = s, f, y
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        else:
+            lo, flo, ylo = s, f, y
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+    w = 0.5 * (ylo[-1] + yhi[-1]) * wscale
+    return float(w / RPM_TO_RAD_S)
+

@@ -181,8 +181,6 @@ MAX_FUNCTION_LINES = 100
 #: ``"pkg/module.py:Class.function"`` for a function. An entry that is no longer needed
 #: fails :func:`test_size_exceptions_are_still_needed`: remove it.
 SIZE_EXCEPTIONS = {
-    "study/acoustics.py": "radiation data distributed in the h8-scale merge (542d485) took it "
-                          "to 480 lines; to be split by its owner (not issue 17 part 2)",
 }
 
 

@@ -64,6 +64,59 @@ class Synthesis:
         return self.harmonics.synthesize(xr, self.n_time)
 
 
+def _check_inputs(system, mesh, excitation, harmonics, condensation: str,
+                  linear_solver: str, aft: str) -> None:
+    """Refuse bad inputs of :class:`HBMProblem`, naming the field and its allowed values."""
+    if not isinstance(system, LinearSystem):
+        raise ValueError(f"problem.system = {type(system).__name__}: must be a LinearSystem")
+    if not isinstance(mesh, GearMesh):
+        raise ValueError(f"problem.mesh = {type(mesh).__name__}: must be a GearMesh")
+    if not isinstance(excitation, Excitation):
+        raise ValueError(
+            f"problem.excitation = {type(excitation).__name__}: must be an Excitation")
+    if not isinstance(harmonics, HarmonicSet):
+        raise ValueError(
+            f"problem.harmonics = {type(harmonics).__name__}: must be a HarmonicSet")
+    if condensation not in CONDENSATIONS:
+        raise ValueError(
+            f"problem.condensation = {condensation!r}: must be 'none', 'gear' or 'loa'")
+    if linear_solver not in LINEAR_SOLVERS:
+        raise ValueError(f"problem.linear_solver = {linear_solver!r}: must be one of "
+                         f"{', '.join(LINEAR_SOLVERS)}")
+    if aft not in AFT_KINDS:
+        raise ValueError(f"problem.aft = {aft!r}: must be one of {', '.join(AFT_KINDS)}")
+    if linear_solver == "krylov" and condensation != "loa":
+        raise ValueError("problem.linear_solver = 'krylov': needs condensation = 'loa'")
+    n = system.n_dof
+    if excitation.n_dof != n:
+        raise ValueError(f"excitation.n_dof = {excitation.n_dof}: must equal system size {n}")
+    z = mesh.n_teeth
+    hs = harmonics
+    if hs.fundamental == "mesh" and hs.divisor != z:
+        raise ValueError(
+            f"harmonics.divisor = {hs.divisor}: a mesh-fundamental set needs divisor = "
+            f"n_teeth = {z}")
+    if z % hs.divisor:
+        raise ValueError(f"harmonics.divisor = {hs.divisor}: must divide n_teeth = {z}")
+
+
+def _forcing(excitation, hs: HarmonicSet, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Forcing per harmonic index, constant and Omega^2 parts, each (nS, n) complex."""
+    fc = np.zeros((hs.n_harmonics, n), dtype=complex)
+    fu = np.zeros((hs.n_harmonics, n), dtype=complex)
+    pos = {k: i for i, k in enumerate(hs.indices)}
+    for name, arr in (("constant", fc), ("omega_squared", fu)):
+        for order, vec in getattr(excitation, name).items():
+            idx = hs.index_of_shaft_order(order)
+            if idx is None:
+                raise ValueError(
+                    f"excitation.{name} order = {order}: shaft order not representable in "
+                    f"the harmonic set ({hs.fundamental} fundamental, w0 = {hs.divisor} "
+                    f"Omega, indices {list(hs.indices)[:12]}...)")
+            arr[pos[idx]] += vec
+    return fc, fu
+
+
 class HBMProblem:
     """Harmonic balance of a linear system with one gear mesh.
 
@@ -79,38 +132,11 @@ class HBMProblem:
     def __init__(self, system: LinearSystem, mesh: GearMesh, excitation: Excitation,
                  harmonics: HarmonicSet, condensation: str = "loa",
                  linear_solver: str = "auto", aft: str = "corrected") -> None:
-        if not isinstance(system, LinearSystem):
-            raise ValueError(f"problem.system = {type(system).__name__}: must be a LinearSystem")
-        if not isinstance(mesh, GearMesh):
-            raise ValueError(f"problem.mesh = {type(mesh).__name__}: must be a GearMesh")
-        if not isinstance(excitation, Excitation):
-            raise ValueError(
-                f"problem.excitation = {type(excitation).__name__}: must be an Excitation")
-        if not isinstance(harmonics, HarmonicSet):
-            raise ValueError(
-                f"problem.harmonics = {type(harmonics).__name__}: must be a HarmonicSet")
-        if condensation not in CONDENSATIONS:
-            raise ValueError(
-                f"problem.condensation = {condensation!r}: must be 'none', 'gear' or 'loa'")
-        if linear_solver not in LINEAR_SOLVERS:
-            raise ValueError(f"problem.linear_solver = {linear_solver!r}: must be one of "
-                             f"{', '.join(LINEAR_SOLVERS)}")
-        if aft not in AFT_KINDS:
-            raise ValueError(f"problem.aft = {aft!r}: must be one of {', '.join(AFT_KINDS)}")
+        _check_inputs(system, mesh, excitation, harmonics, condensation, linear_solver, aft)
         self.aft = aft
-        if linear_solver == "krylov" and condensation != "loa":
-            raise ValueError("problem.linear_solver = 'krylov': needs condensation = 'loa'")
         n = system.n_dof
-        if excitation.n_dof != n:
-            raise ValueError(f"excitation.n_dof = {excitation.n_dof}: must equal system size {n}")
         z = mesh.n_teeth
         hs = harmonics
-        if hs.fundamental == "mesh" and hs.divisor != z:
-            raise ValueError(
-                f"harmonics.divisor = {hs.divisor}: a mesh-fundamental set needs divisor = "
-                f"n_teeth = {z}")
-        if z % hs.divisor:
-            raise ValueError(f"harmonics.divisor = {hs.divisor}: must divide n_teeth = {z}")
         self.system, self.mesh, self.excitation, self.harmonics = system, mesh, excitation, hs
         self.condensation = condensation
         self.n_dof = n
@@ -131,18 +157,7 @@ class HBMProblem:
         self.nr = hs.n_real
 
         # forcing per harmonic index (nS, n) complex
-        self.Fc = np.zeros((self.nS, n), dtype=complex)
-        self.Fu = np.zeros((self.nS, n), dtype=complex)
-        pos = {k: i for i, k in enumerate(hs.indices)}
-        for name, arr in (("constant", self.Fc), ("omega_squared", self.Fu)):
-            for order, vec in getattr(excitation, name).items():
-                idx = hs.index_of_shaft_order(order)
-                if idx is None:
-                    raise ValueError(
-                        f"excitation.{name} order = {order}: shaft order not representable in "
-                        f"the harmonic set ({hs.fundamental} fundamental, w0 = {hs.divisor} "
-                        f"Omega, indices {list(hs.indices)[:12]}...)")
-                arr[pos[idx]] += vec
+        self.Fc, self.Fu = _forcing(excitation, hs, n)
 
         # mesh signals on the AFT grid tau = w0 t (Omega-independent); the AFT itself is
         # by FFT (HarmonicSet.synthesize / analyse), E and A are built only on request

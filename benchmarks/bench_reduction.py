@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import reset_peak, status_kib
 from geometry.files import atomic_write
 
 log = logging.getLogger("bench_reduction")
@@ -33,24 +34,6 @@ SIZES = [(8, 2, 2), (16, 3, 3), (24, 4, 4), (32, 5, 5)]
 SIZES_QUICK = [(8, 2, 2), (16, 3, 3)]
 N_CMS = [10, 40, 100]
 EIGSH_MAX_DOF = 15000  # eigsh comparison on small/medium sizes only
-
-
-def _rss_kib(field: str) -> int:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(field + ":"):
-                return int(line.split()[1])
-    raise RuntimeError(f"{field} not in /proc/self/status")
-
-
-def _reset_peak() -> bool:
-    """Reset VmHWM (Linux clear_refs 5); False if not permitted."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-        return True
-    except OSError:
-        return False
 
 
 def _interior_scipy(M, K, iface):
@@ -78,12 +61,12 @@ def bench_case(cells, n_cm, repeats):
         return None, model
     times, peaks, phases = [], [], []
     for _ in range(repeats):
-        ok = _reset_peak()
-        base = _rss_kib("VmRSS")
+        ok = reset_peak()
+        base = status_kib("VmRSS")
         t0 = time.perf_counter()
         cb = craig_bampton(model.M, model.K, model.interface_dofs, n_modes=n_cm)
         times.append(time.perf_counter() - t0)
-        peaks.append((_rss_kib("VmHWM") - base) / 1024.0 if ok else float("nan"))
+        peaks.append((status_kib("VmHWM") - base) / 1024.0 if ok else float("nan"))
         phases.append(cb.timings)
         cb.T.destroy()
     rec = {

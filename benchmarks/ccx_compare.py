@@ -20,25 +20,9 @@ import time
 
 import numpy as np
 
+from benchmarks.common import reset_peak, status_kib
+
 log = logging.getLogger(__name__)
-
-
-def _status_kib(field: str) -> int:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(field + ":"):
-                return int(line.split()[1])
-    raise RuntimeError(f"{field} not in /proc/self/status")
-
-
-def _reset_peak() -> bool:
-    """Reset VmHWM (Linux ``clear_refs`` 5); False if not permitted."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-        return True
-    except OSError:
-        return False
 
 
 def _cpu(who: int) -> float:
@@ -110,20 +94,20 @@ def compare(materials: dict, clamps: list[str], n_modes: int, repeats: int = 1,
         cpu_ccx.append(_cpu(resource.RUSAGE_CHILDREN) - c0)
     ccx_peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
     fe_mesh = fem.load_gmsh_mesh(gmsh.model)
-    reset = _reset_peak()
-    base = _status_kib("VmRSS")
+    reset = reset_peak()
+    base = status_kib("VmRSS")
     spec = fem.ModelSpec()
     for c in clamps:
         spec.add_clamp(c)
     m = fem.build_model(fe_mesh, materials, spec, quadrature_degree=2)
     n = int(m.K.getSize()[0])
-    model_rss = (_status_kib("VmRSS") - base) / 1024.0
+    model_rss = (status_kib("VmRSS") - base) / 1024.0
     by_factor = {}
     for factor in factors:
         # only the first solve's peak is its own: the allocator keeps what an earlier
         # solve freed, so a later one grows into it (measured: +14 MiB after LU)
         first = not by_factor
-        base_f = _status_kib("VmRSS")
+        base_f = status_kib("VmRSS")
         t_slepc, cpu_slepc = [], []
         for _ in range(repeats):
             c0 = time.process_time()
@@ -133,7 +117,7 @@ def compare(materials: dict, clamps: list[str], n_modes: int, repeats: int = 1,
             cpu_slepc.append(time.process_time() - c0)
         by_factor[factor] = {
             "s": statistics.median(t_slepc), "cpu_s": statistics.median(cpu_slepc),
-            "peak_extra_rss_mib": ((_status_kib("VmHWM") - base_f) / 1024.0
+            "peak_extra_rss_mib": ((status_kib("VmHWM") - base_f) / 1024.0
                                    if reset and first else None),
             "max_rel_freq_diff_ccx": float(np.max(np.abs(f / f_ccx - 1)))}
         if factor == factors[0]:

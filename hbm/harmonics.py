@@ -230,19 +230,25 @@ class HarmonicSet:
         ``u = A @ x(tau)``; ``A @ E = I`` for N > 2 max index.
         """
         n = self.n_time if n_time is None else int(n_time)
-        tau = 2.0 * np.pi * np.arange(n) / n
+        e = self.synthesis_rows(2.0 * np.pi * np.arange(n) / n)
+        return e, self.galerkin_columns(e, n)
+
+    def synthesis_rows(self, tau: np.ndarray) -> np.ndarray:
+        """Rows of the synthesis matrix at normalised times ``tau`` (rad), (m, n_real):
+        ``[1, cos k tau, -sin k tau, ...]``, so that ``x(tau) = rows @ u``."""
+        tau = np.asarray(tau, dtype=float)
         k = np.asarray(self.indices[1:], dtype=float)
-        c = np.cos(np.outer(tau, k))
-        s = np.sin(np.outer(tau, k))
-        e = np.empty((n, self.n_real))
+        e = np.empty((tau.size, self.n_real))
         e[:, 0] = 1.0
-        e[:, 1::2] = c
-        e[:, 2::2] = -s
-        a = np.empty((self.n_real, n))
-        a[0] = 1.0 / n
-        a[1::2] = 2.0 / n * c.T
-        a[2::2] = -2.0 / n * s.T
-        return e, a
+        e[:, 1::2] = np.cos(np.outer(tau, k))
+        e[:, 2::2] = -np.sin(np.outer(tau, k))
+        return e
+
+    def galerkin_columns(self, rows: np.ndarray, n_time: int) -> np.ndarray:
+        """Columns of the Galerkin analysis matrix ``A`` (n_real, m) at the samples whose
+        synthesis ``rows`` are given, on a grid of ``n_time`` samples per period."""
+        w = np.where(np.arange(self.n_real) == 0, 1.0, 2.0) / n_time
+        return rows.T * w[:, None]
 
     def synthesize(self, xr: np.ndarray, n_time: int | None = None) -> np.ndarray:
         """Samples ``x(tau_j)`` on ``tau_j = 2 pi j / N`` from the real layout, by FFT.

@@ -69,10 +69,6 @@ class Preconditioners:
     solves: int = 0
     iterations: int = 0
 
-    def clear(self) -> None:
-        """Forget every factor (the next solve of each size factorises)."""
-        self.factors.clear()
-
 
 def gmres(matvec: Callable[[np.ndarray], np.ndarray], b: np.ndarray,
           psolve: Callable[[np.ndarray], np.ndarray], rtol: float = RTOL,

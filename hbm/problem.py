@@ -304,14 +304,8 @@ class HBMProblem:
         pr, pc = np.searchsorted(nodes, rows), np.searchsorted(nodes, cols)
         d = np.zeros((nodes.size, nodes.size))
         np.add.at(d, (pr[:, :, None], pc[:, None, :]), kc.blocks)
-        tau = 2.0 * np.pi * nodes / n
-        k = np.asarray(self.harmonics.indices[1:], dtype=float)
-        e = np.empty((nodes.size, self.nr))
-        e[:, 0] = 1.0
-        e[:, 1::2] = np.cos(np.outer(tau, k))
-        e[:, 2::2] = -np.sin(np.outer(tau, k))
-        a = e.T * np.where(np.arange(self.nr) == 0, 1.0, 2.0)[:, None] / n
-        return out + a @ (d @ e)
+        e = self.harmonics.synthesis_rows(2.0 * np.pi * nodes / n)
+        return out + self.harmonics.galerkin_columns(e, n) @ (d @ e)
 
     def multiplication_matrix(self, s: np.ndarray) -> np.ndarray:
         """Real-layout matrix of ``x -> Galerkin(s(tau) x(tau))`` on the AFT grid.

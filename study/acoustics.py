@@ -27,7 +27,8 @@ The functions taking DOLFINx objects import dolfinx lazily; the rest is NumPy.
 integrates and projects on its own facets with its rows of the distributed basis,
 and only the small outputs (W, the facet rows) are summed or gathered on rank 0,
 ordered by the input mesh's node numbers, so they do not depend on the partition.
-:func:`fe_basis` and :func:`facet_centroid_rows` are serial (housing fields).
+:func:`block_u_rows` gives basis rows at any nodes from the distributed ``P T``
+(the housing fields, :mod:`study.fields`).
 """
 from __future__ import annotations
 
@@ -42,9 +43,8 @@ from .surface_facets import CENTROID_WEIGHTS, facet_frames, facet_geometry_nodes
 logger = logging.getLogger(__name__)
 
 __all__ = ["AIR_DENSITY", "SOUND_SPEED", "P_REF", "QUADRATURE_DEGREE", "outer_surface_facets",
-           "normal_gram", "surface_area", "fe_basis", "reduced_radiation_matrix", "erp_harmonics",
-           "power_db", "sphere_erp",
-           "radiation_data", "RADIATION_FILE"]
+           "normal_gram", "surface_area", "block_u_rows", "reduced_radiation_matrix",
+           "erp_harmonics", "power_db", "sphere_erp", "radiation_data", "RADIATION_FILE"]
 
 #: Default air density [kg/m³] and speed of sound [m/s] (20 °C, sea level).
 AIR_DENSITY = 1.2
@@ -208,14 +208,6 @@ def _csr(A):
     return sp.csr_matrix((vals, ix, ip), shape=A.getSize())
 
 
-def fe_basis(model, T: np.ndarray) -> np.ndarray:
-    """``P T``: the reduction basis on the P2 DOF of ``model.V`` (n_fe × n_r), serial."""
-    if model.comm.size != 1:
-        raise RuntimeError("fe_basis: serial only")
-    n_fe = 3 * model.V.dofmap.index_map.size_local
-    return _csr(model.P)[:n_fe] @ np.asarray(T, dtype=float)
-
-
 def _dense_mat(T, comm):
     """``T`` as a PETSc dense matrix: a PETSc Mat is returned as is, a NumPy array (the
     whole basis, one process only) is copied into a sequential dense matrix."""
@@ -285,29 +277,48 @@ def reduced_radiation_matrix(model, T, facets: np.ndarray, PT=None) -> np.ndarra
     return W
 
 
-def _centroid_u_rows(model, PT, g: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """``u`` at each local facet's centroid per unit ROM coordinate (n_f × 3 × n_r),
-    from the distributed ``P T``: one AIJ row per facet and component (global P2 DOF
-    numbers as columns) times ``P T``, so ghost DOF come through PETSc."""
-    mesh, V = model.fe_mesh.mesh, model.V
-    n_f = g.shape[0]
-    blocks = node_blocks(mesh, V, cells)[g] if n_f else np.zeros((0, 6), dtype=np.int64)
+def block_u_rows(model, PT, blocks: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``u`` per unit ROM coordinate at points given as weighted sums of DOF blocks
+    (n × 3 × n_r), from the distributed ``P T``: one AIJ row per point and component
+    (global P2 DOF numbers as columns) times ``P T``, so ghost DOF come through PETSc
+    (collective on ``model.comm``).
+
+    Parameters
+    ----------
+    model : fem.FEModel
+    PT : PETSc dense Mat
+        ``P T`` on the P2 DOF of ``model.V`` (rows on ``model.P``'s layout).
+    blocks : (n, k) int
+        Local DOF blocks of ``model.V`` (ghosts allowed) of each point's nodes.
+    weights : (k,) float
+        Weight of each node (the shape-function values at the point).
+    """
+    V = model.V
+    n, k = blocks.shape
     if np.any(blocks < 0):
-        raise RuntimeError("facet rows: facet node without a DOF block")
+        raise RuntimeError("basis rows: a node without a DOF block")
     gblocks = np.asarray(V.dofmap.index_map.local_to_global(
-        np.ascontiguousarray(blocks.ravel(), dtype=np.int32)), dtype=np.int64).reshape(-1, 6)
+        np.ascontiguousarray(blocks.ravel(), dtype=np.int32)), dtype=np.int64).reshape(n, k)
     order = np.argsort(gblocks, axis=1)                            # sorted columns per row
     cols = np.take_along_axis(gblocks, order, axis=1)
-    w = CENTROID_WEIGHTS[order]
-    ip = np.arange(0, 6 * n_f + 1, 6, dtype=np.int64)
-    out = np.empty((n_f, 3, PT.getSize()[1]))
+    w = np.asarray(weights, dtype=float)[order]
+    ip = np.arange(0, k * n + 1, k, dtype=np.int64)
+    out = np.empty((n, 3, PT.getSize()[1]))
     for i in range(3):
-        R = _aij(model.P, n_f, (ip, (3 * cols + i).ravel(), w.ravel()))
+        R = _aij(model.P, n, (ip, (3 * cols + i).ravel(), w.ravel()))
         X = R.matMult(PT)
         out[:, i, :] = X.getDenseArray()
         X.destroy()
         R.destroy()
     return out
+
+
+def _centroid_u_rows(model, PT, g: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``u`` at each local facet's centroid per unit ROM coordinate (n_f × 3 × n_r)."""
+    n_f = g.shape[0]
+    blocks = (node_blocks(model.fe_mesh.mesh, model.V, cells)[g] if n_f
+              else np.zeros((0, 6), dtype=np.int64))
+    return block_u_rows(model, PT, blocks, CENTROID_WEIGHTS)
 
 
 def sphere_erp(radius: float, u0: float, omega: float, rho: float = AIR_DENSITY,

@@ -237,50 +237,35 @@ def write_rom_group(f, result) -> None:
     g.attrs["xi_run"] = result.scene.damping.modal_ratio
 
 
-def _dense_basis(folder: Path, model) -> np.ndarray:
-    """The whole basis ``rom/basis`` (n_fe × n_r) in the row order of the serial ``model``;
-    rows are matched by their partition-independent keys when the ROM was reduced under
-    mpirun (``rom/row_keys``)."""
-    import h5py
-
-    with h5py.File(folder / "rom.h5", "r") as f:
-        T = f["rom/basis"][()]
-        if "row_keys" not in f["rom"]:
-            return T
-        keys = f["rom/row_keys"][()]
-    order = np.argsort(keys, kind="stable")
-    want = np.asarray(model.row_keys())
-    pos = order[np.searchsorted(keys[order], want)]
-    if not np.array_equal(keys[pos], want):
-        raise ValueError(f"{folder / 'rom.h5'}: rom/row_keys do not match the FE model")
-    return T[pos]
-
-
 def housing_fields(result) -> list[Path]:
     """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.fields):
     time series of the dynamic displacement (no aliasing), complex amplitudes per order,
     normal velocity and ERP density per order on the outer surface.
 
-    Under mpirun rank 0 writes them from a serial FE model (the files are small), so
-    they are the same whatever the number of ranks."""
+    Collective: every rank rebuilds its part of the FE model from the cached mesh and
+    reads its rows of the basis by their partition-independent keys; rank 0 gathers the
+    housing's nodes (:func:`study.fields.housing_mesh`) and writes the files, which are
+    the same whatever the number of ranks."""
+    from reduction import load_basis
 
-    return world().root_call(_housing_fields_serial, result)
-
-
-def _housing_fields_serial(result) -> list[Path]:
-    from mpi4py import MPI
-
-    sc = result.scene
-    rd = result.rom
+    sc, rd = result.scene, result.rom
     logger.info("rebuilding the FE model from the cached mesh for the housing fields")
-    model = fe_stage(sc, result.mesh_dir, comm=MPI.COMM_SELF)
-    T = _dense_basis(rd.folder, model)
-    hm = fields.housing_mesh(model, acoustics.fe_basis(model, T))
-    del T
+    model = fe_stage(sc, result.mesh_dir)
+    T = load_basis(rd.folder / "rom.h5", comm=model.K.getComm(),
+                   row_range=model.K.getOwnershipRange(), row_keys=model.row_keys())
+    PT = model.P.matMult(T)
+    T.destroy()
+    hm = fields.housing_mesh(model, PT)
+    PT.destroy()
+    return world().root_call(_write_housing_fields, result, hm)
+
+
+def _write_housing_fields(result, hm) -> list[Path]:
+    sc = result.scene
     paths = []
     for rpm in sc.outputs.housing_field:
         _, pt = nearest_point(result, rpm)
         qk = result.problem.recover(pt)                      # (n_r, nS) complex
-        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hm, rd.radiation, qk,
-                                             result.problem.harmonics, pt.omega, sc)
+        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hm, result.rom.radiation,
+                                             qk, result.problem.harmonics, pt.omega, sc)
     return paths

@@ -159,21 +159,47 @@ class HousingMesh:
     basis: np.ndarray
 
 
-def housing_mesh(model, PT: np.ndarray, part: str = "housing") -> HousingMesh:
-    """:class:`HousingMesh` of ``part`` from a serial FE model and ``P T`` (n_fe × n_r)."""
+def housing_mesh(model, PT, part: str = "housing") -> HousingMesh | None:
+    """:class:`HousingMesh` of ``part`` on rank 0 (``None`` on the other ranks);
+    collective on ``model.comm``.
+
+    Each rank takes its owned cells of ``part`` and the basis rows at their nodes from
+    the distributed ``P T`` (:func:`study.acoustics.block_u_rows`); rank 0 gathers
+    them, merges the nodes shared by several ranks and orders nodes and cells by the
+    input mesh's node numbers, so the mesh does not depend on the partition.
+
+    Parameters
+    ----------
+    model : fem.FEModel
+    PT : PETSc dense Mat
+        ``P T``: the reduction basis on the P2 DOF of ``model.V``.
+    part : str
+        Volume group.
+    """
+    from study.acoustics import block_u_rows
 
     fm = model.fe_mesh
     mesh = fm.mesh
+    comm = mesh.comm
     tag = fm.tag(part, 3)
     cells = np.sort(fm.cell_tags.find(tag))
+    cells = cells[cells < mesh.topology.index_map(3).size_local]         # owned only
     cg = mesh.geometry.dofmap
-    conn = np.stack([cg.links(c) for c in cells])                  # DOLFINx order
-    used, inv = np.unique(conn, return_inverse=True)
-    conn = inv.reshape(conn.shape)[:, TET10_VTK]
+    conn = (np.stack([cg.links(c) for c in cells]) if cells.size
+            else np.zeros((0, 10), dtype=np.int64))                      # DOLFINx order
+    used = np.unique(conn)
     blocks = node_blocks(mesh, model.V, cells)[used]
-    rows = 3 * blocks[:, None] + np.arange(3)[None, :]
-    return HousingMesh(mesh.geometry.x[used].copy(), conn, np.full(len(cells), tag, np.int64),
-                       PT[rows])
+    rows = block_u_rows(model, PT, blocks[:, None], np.ones(1))          # (n_u, 3, n_r)
+    ids = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
+    parts = comm.gather((ids[used], mesh.geometry.x[used], rows, ids[conn]), root=0)
+    if comm.rank != 0:
+        return None
+    node_ids, x, basis, cell_ids = (np.concatenate(a) for a in zip(*parts, strict=True))
+    uid, first = np.unique(node_ids, return_index=True)
+    cell_ids = cell_ids[np.lexsort(np.sort(cell_ids[:, :4], axis=1).T[::-1])]
+    conn = np.searchsorted(uid, cell_ids)[:, TET10_VTK]
+    return HousingMesh(x[first].copy(), conn, np.full(conn.shape[0], tag, np.int64),
+                       basis[first])
 
 
 def _complex_fields(prefix: str, z: np.ndarray) -> dict[str, np.ndarray]:

@@ -1,0 +1,62 @@
+"""benchmarks/calibrate_pump.py (issue 14 item 1): the calibration iteration and the
+error measure, on a synthetic resonance model with a known root (fast, no FE)."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from benchmarks import calibrate_pump as cp
+
+
+def _model(amps, linear=(1090.0, 1620.0, 3250.0), soft=(0.01, 0.03, 0.05)):
+    """Peak k (H_3Z, H_2Z, H_Z) softens with its own amplitude: f_k = lin_k (1 − c_k a/a0)
+    with a the amplitude of that harmonic, a0 = 0.1 µm."""
+    a = {0: amps[2], 1: amps[1], 2: amps[0]}
+    return {"status": "completed",
+            "resonances_rpm": [linear[k] * (1 - soft[k] * a[k] / 0.1) for k in range(3)]}
+
+
+def _root(linear=(1090.0, 1620.0, 3250.0), soft=(0.01, 0.03, 0.05)):
+    """Amplitudes (H_Z, H_2Z, H_3Z) that put every peak on its target, closed form."""
+    a = [0.1 * (1 - t / f) / c for t, f, c in zip(cp.TARGETS, linear, soft, strict=True)]
+    return a[2], a[1], a[0]
+
+
+def test_errors_are_relative_to_the_paper_and_need_three_peaks():
+    ev = {"status": "completed", "resonances_rpm": [1070.0 * 1.01, 1570.0, 3000.0 * 0.97]}
+    assert cp.errors(ev) == pytest.approx([0.01, 0.0, -0.03], abs=1e-12)
+    assert cp.errors({"status": "completed", "resonances_rpm": [1070.0, 1570.0]}) is None
+    assert cp.errors({"status": "stopped: left_range",
+                      "resonances_rpm": [1070.0, 1570.0, 3000.0]}) is None
+
+
+def test_calibration_reaches_the_closed_form_root_of_a_softening_model():
+    root = _root()
+    assert all(0.01 < a < 1.0 for a in root)      # the model is a fair test: root inside
+
+    r = cp.calibrate(_model, start=cp.SHIPPED_UM, slope=-0.08, iterations=20, tol=1e-4)
+    assert r["converged"]
+    assert r["amplitudes_um"] == pytest.approx(root, rel=5e-3)
+    assert max(abs(e) for e in r["errors"]) <= 1e-4
+
+
+def test_calibration_leaves_a_peak_within_tolerance_alone_and_bounds_the_step():
+    # H_3Z already within 2 % at the start: its amplitude must not move
+    start = (0.3, 0.1, 0.05)
+    soft = (1e-4, 0.03, 0.05)
+    r = cp.calibrate(lambda a: _model(a, linear=(1075.0, 1620.0, 3250.0), soft=soft),
+                     start=start, slope=-0.08, iterations=20, tol=0.02)
+    assert r["converged"]
+    for h in r["history"]:
+        assert h["amplitudes_um"][2] == pytest.approx(start[2], rel=1e-12)
+    steps = [abs(math.log(b["amplitudes_um"][j] / a["amplitudes_um"][j]))
+             for a, b in zip(r["history"], r["history"][1:], strict=False) for j in range(3)]
+    assert max(steps) <= 0.5 + 1e-12
+
+
+def test_calibration_reports_a_run_without_three_peaks_instead_of_guessing():
+    r = cp.calibrate(lambda a: {"status": "stopped: left_range", "resonances_rpm": []},
+                     start=cp.SHIPPED_UM, slope=-0.08, iterations=5, tol=0.02)
+    assert not r["converged"]
+    assert "no complete curve" in r["reason"]

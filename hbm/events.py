@@ -92,7 +92,8 @@ def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
 
     Every segment but the last is checked; ``yn`` is near the branch when its distance
-    to the segment is below ``REVISIT_RATIO`` times its chord from the last point. A
+    to the segment is below ``REVISIT_RATIO`` times its chord from the last point and
+    the step from the last point runs against the segment's direction. A
     near point is a revisit only if it is the same solution as the old branch at its
     speed (:func:`_distinct_solution`); otherwise it is another piece of the branch lying
     close by (past a sharp fold) and None is returned.
@@ -101,10 +102,6 @@ def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     if n < 3:
         return None
     ys = ctx.states(rec)
-    if (yn - ys[-1]) @ (ys[-1] - ys[-2]) > 0:
-        # the step went on in the direction of travel: a branch that winds past its own
-        # earlier loops (a spiral near a resonance with impacts), not a walk back
-        return None
     a, b = ys[:n - 2], ys[1:n - 1]
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
@@ -114,6 +111,12 @@ def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     i = int(np.argmin(d))
     chord = float(np.linalg.norm(yn - ys[-1]))
     if not d[i] < REVISIT_RATIO * chord:
+        return None
+    if (yn - ys[-1]) @ ab[i] > 0:
+        # the step goes the way the old segment went: a branch that winds past its own
+        # earlier loops (a spiral near a resonance with impacts), not a walk back. A walk
+        # back runs against the old segment, also when it turned gradually (no single
+        # step going back) or came round a loop onto the old branch.
         return None
     if _distinct_solution(ctx.evaluate, foot[i], yn, ctx.tol, ctx.max_iter):
         logger.info("point at scaled speed %.9g lies %.2g chords from the branch traced but "

@@ -153,3 +153,36 @@ def test_reversals_far_apart_do_not_add_up(reference, monkeypatch):
     assert br.status == "completed", br.message
     assert br.reversals == 2
     np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
+
+
+# ------------------------------------ a walk back after a gradual turn (issue 14, item 4)
+
+class _Polyline:
+    """Stand-in for the trace context and recorder: states of a given polyline."""
+
+    def __init__(self, points):
+        self.points = np.asarray(points, dtype=float)
+        self.evaluate, self.tol, self.max_iter = None, 1e-10, 5
+
+    def __len__(self):
+        return len(self.points)
+
+    def states(self, rec):
+        return rec.points
+
+
+def test_a_walk_back_is_found_without_a_step_that_turned_back(monkeypatch):
+    """The branch runs right along y = 0, turns round a loop and comes back along it: the
+    last step goes the way the step before went (the turn was gradual), but against the
+    old segment it lies on, so it is a revisit of that segment (the pump at 0.6 x the
+    shipped TE, 3/1 set, walked back from 1514 to 250 rpm this way). A step along an old
+    segment in its own direction (a branch winding past its earlier loop) is not."""
+    import hbm.events
+    monkeypatch.setattr(hbm.events, "_distinct_solution", lambda *a: False)   # same solutions
+    out = [(0, 0), (1, 0), (2, 0), (3, 0), (3.7, 0.3), (3.9, 0.9), (3.5, 1.2), (2.9, 0.7)]
+    walk = _Polyline(out + [(2.3, 0.2), (1.9, 0.01)])
+    yn = np.array([1.4, 0.005])
+    assert (yn - walk.points[-1]) @ (walk.points[-1] - walk.points[-2]) > 0   # no turn back
+    assert cont._revisit(walk, walk, yn) == 1                 # segment (1, 0) -> (2, 0)
+    wind = _Polyline(out + [(2.3, 1.2), (1.2, 1.05), (0.5, 0.6), (0.4, 0.1), (0.9, 0.01)])
+    assert cont._revisit(wind, wind, np.array([1.4, 0.005])) is None

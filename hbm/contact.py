@@ -63,8 +63,9 @@ class KinkCorrection:
         n = x.shape[-1]
         xc = x[self.columns(n)]                                    # (m, 4)
         y = np.zeros_like(x)
-        np.add.at(y, self.nodes, np.einsum("mc,mc->m", self.blocks[:, 0], xc))
-        np.add.at(y, (self.nodes + 1) % n, np.einsum("mc,mc->m", self.blocks[:, 1], xc))
+        # the nodes are distinct, and so are their successors: no repeated index per call
+        y[self.nodes] += np.einsum("mc,mc->m", self.blocks[:, 0], xc)
+        y[(self.nodes + 1) % n] += np.einsum("mc,mc->m", self.blocks[:, 1], xc)
         return y
 
     def scaled(self, factor: float) -> KinkCorrection:

@@ -253,10 +253,18 @@ class HarmonicSet:
         return rows.T * w[:, None]
 
     @cached_property
+    def index_array(self) -> np.ndarray:
+        """The indices as an integer array (built once: converting the tuple costs as
+        much as an FFT of the AFT grid)."""
+        k = np.asarray(self.indices)
+        k.setflags(write=False)
+        return k
+
+    @cached_property
     def _columns(self) -> slice | np.ndarray:
         """Where the indices 1.. sit in a half spectrum: a slice for a contiguous set
         (no gather), else the index array."""
-        k = np.asarray(self.indices)
+        k = self.index_array
         return slice(1, k.size) if k[-1] == k.size - 1 else k[1:]
 
     def synthesize(self, xr: np.ndarray, n_time: int | None = None) -> np.ndarray:
@@ -266,7 +274,7 @@ class HarmonicSet:
         ``O(N log N)``; ``xr`` may carry leading axes (..., n_real).
         """
         n = self.n_time if n_time is None else int(n_time)
-        k = np.asarray(self.indices)
+        k = self.index_array
         if 2 * k[-1] < n:                     # no aliasing: one real inverse FFT
             xr = np.asarray(xr, dtype=float)
             spec = np.zeros(xr.shape[:-1] + (n // 2 + 1,), dtype=complex)
@@ -290,7 +298,7 @@ class HarmonicSet:
         """
         x = np.asarray(x, dtype=float)
         n = x.shape[-1]
-        k = np.asarray(self.indices)
+        k = self.index_array
         if 2 * k[-1] < n:
             spec = sfft.rfft(x, axis=-1)
             out = np.empty(x.shape[:-1] + (self.n_real,))

@@ -165,3 +165,16 @@ def test_chunked_period_equals_stepping():
     for i in range(n):
         ref = e @ (ref - dt * jbar[i] * np.outer(b, c @ ref))
     assert np.max(np.abs(phi - ref)) < 1e-11 * np.max(np.abs(ref))
+
+
+def test_a_wrong_fold_parity_from_the_caller_is_overruled_by_det_t0():
+    """A stable orbit in permanent contact (det T(0) > 0) passed with parity=True, as a
+    tangent that flipped sign at a fold would: no positive real root exists, so the
+    verdict is the variational equation's (finite, stable), not a NaN exponent."""
+    pb = sdof_problem(harmonics=20, fa=0.01, b=1.0)
+    pt = pb.solve(0.3 / RPM)
+    ref = stability(pb, pt)
+    assert not ref.fold_parity and ref.kind == "stable"
+    st = stability(pb, pt, parity=True)
+    assert np.isfinite(st.max_real) and st.max_real == ref.max_real
+    assert st.kind == "stable" and st.consistent and not st.fold_parity

@@ -166,6 +166,10 @@ class _Recorder:
         # process (None: measured), and the hook that collects them (_Measure.settle)
         self.tickets: list = []
         self.settle = None
+        # scaled states y = (u / x_scale, Omega / omega_scale) of the points, rows of a
+        # buffer grown by doubling (the events read the whole branch at every point)
+        self._x_scale = problem.x_scale
+        self._ys = np.empty((16, problem.n_unknowns + 1))
         if resume is not None:
             self.counters = {"step_cuts": int(resume.step_cuts),
                              "secant_retries": int(resume.secant_retries),
@@ -182,6 +186,8 @@ class _Recorder:
                 self.fold_index = [-(10 ** 9)] * len(self.folds)
             self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
             self.tickets = [None] * len(self.lists["rpm"])
+            for i in range(len(self.tickets)):
+                self._put_state(i)
 
     def __len__(self) -> int:
         return len(self.lists["rpm"])
@@ -194,6 +200,21 @@ class _Recorder:
             self.lists[k].append(values[k])
         self.n_grazing.append(len(self.grazing))
         self.tickets.append(ticket)
+        self._put_state(len(self) - 1)
+
+    def _put_state(self, i: int) -> None:
+        if i >= self._ys.shape[0]:
+            grown = np.empty((2 * self._ys.shape[0], self._ys.shape[1]))
+            grown[:i] = self._ys[:i]
+            self._ys = grown
+        self._ys[i, :-1] = self.lists["unknowns"][i] / self._x_scale
+        self._ys[i, -1] = self.lists["omega"][i] / self.meta["omega_scale"]
+
+    def states(self) -> np.ndarray:
+        """Scaled states of every point (n_points, n_unknowns + 1), a read-only view."""
+        v = self._ys[:len(self)]
+        v.flags.writeable = False
+        return v
 
     def fill(self, ticket, **values) -> None:
         """Set the values of the point waiting for ``ticket`` (gone after a roll-back:

@@ -53,10 +53,23 @@ class _Factor:
     stale: bool = False
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        import scipy.linalg as sla
-
-        x = sla.lu_solve((self.lu, self.piv), b.astype(self.lu.dtype), check_finite=False)
+        # LAPACK getrs itself (what scipy.linalg.lu_solve calls, without its checks)
+        x, info = _getrs(self.lu.dtype)(self.lu, self.piv, b.astype(self.lu.dtype))
+        if info != 0:
+            raise ConvergenceError(f"preconditioner solve: getrs info = {info}")
         return x.astype(float, copy=False)
+
+
+def _getrs(dtype):
+    """LAPACK ``?getrs`` for factors of ``dtype`` (cached)."""
+    if dtype not in _GETRS:
+        from scipy.linalg import get_lapack_funcs
+
+        _GETRS[dtype] = get_lapack_funcs("getrs", dtype=dtype)
+    return _GETRS[dtype]
+
+
+_GETRS: dict = {}
 
 
 @dataclass

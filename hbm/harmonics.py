@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-import scipy.fft as sfft
 
 logger = logging.getLogger(__name__)
 
@@ -281,7 +280,7 @@ class HarmonicSet:
             spec[..., 0] = xr[..., 0] * n
             # the real layout (Re x_k, Im x_k) pairs are the complex coefficients
             spec[..., self._columns] = _as_complex(xr[..., 1:]) * (0.5 * n)
-            return sfft.irfft(spec, n, axis=-1)
+            return np.fft.irfft(spec, n, axis=-1)
         xc = self.to_complex(xr)
         spec = np.zeros(xc.shape[:-1] + (n,), dtype=complex)
         spec[..., 0] += xc[..., 0]
@@ -300,7 +299,7 @@ class HarmonicSet:
         n = x.shape[-1]
         k = self.index_array
         if 2 * k[-1] < n:
-            spec = sfft.rfft(x, axis=-1)
+            spec = np.fft.rfft(x, axis=-1)
             out = np.empty(x.shape[:-1] + (self.n_real,))
             out[..., 0] = spec[..., 0].real / n
             _as_complex(out[..., 1:])[...] = spec[..., self._columns] * (2.0 / n)

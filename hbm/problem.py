@@ -230,12 +230,12 @@ class HBMProblem:
         den.imag = w[None, :] * self.cj[:, None]
         zero = self.rigid & (self.kS[0] == 0)                  # harmonic 0 only
         den[zero, 0] = 1.0
-        if np.any(den == 0):
-            raise ValueError(
-                f"Omega = {omega:.6g} rad/s hits an undamped natural frequency exactly")
         # 1 / den = conj(den) / |den|^2 (half the time of NumPy's complex division)
         mag2 = den.real * den.real
         mag2 += den.imag * den.imag
+        if not np.all(mag2):
+            raise ValueError(
+                f"Omega = {omega:.6g} rad/s hits an undamped natural frequency exactly")
         inv = np.conjugate(den, out=den)
         inv *= np.reciprocal(mag2, out=mag2)
         inv[zero, 0] = 0.0

@@ -176,6 +176,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--eps", type=float, default=EPS)
     ap.add_argument("--without-stability", action="store_true",
                     help="also trace the curve without stability (ms/point without it)")
+    ap.add_argument("--tag", default="",
+                    help="appended to the set's label (e.g. which code ran it)")
     args = ap.parse_args(argv)
     variants = parse_sets(args.set)
     if len(variants) != 1:
@@ -192,7 +194,7 @@ def main(argv: list[str] | None = None) -> dict:
     scene = study.load_scene(PUMP_SCENE, overrides)
     problem, _ = Pipeline(scene, args.cache.parent / "bench-converged", cache_dir=args.cache,
                           progress=False).problem()
-    label = label_of(scene, overrides)
+    label = label_of(scene, overrides) + (f" [{args.tag}]" if args.tag else "")
     log.info("%s: %d unknowns, tracing %g-%g rpm with stability", label, problem.n_unknowns,
              *scene.continuation.speed)
     br, timing = trace_curve(problem, scene)

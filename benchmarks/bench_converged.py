@@ -107,20 +107,23 @@ def summarize(rows: list[dict], eps: float = EPS) -> dict:
 
 def trace_curve(problem, scene, stability: bool = True) -> tuple[Any, dict]:
     """The scene's curve (with stability unless told), and its timing: ``wall_s``,
-    ``cpu_s`` (this process and its finished children) and the load average before and
-    after (the machine is shared)."""
+    ``cpu_s`` (this process and its finished children: the stability worker),
+    ``cpu_main_s`` (this process) and the load average before and after (the machine
+    is shared)."""
     import hbm
 
     c = scene.continuation
     span = c.speed[1] - c.speed[0]
     load0 = os.getloadavg()[0]
     c0 = _cpu_seconds()
+    m0 = time.process_time()
     t0 = time.perf_counter()
     br = hbm.trace(problem, c.speed[0], c.speed[1], step=c.step / span,
                    min_step=c.min_step / span, max_step=c.max_step / span, tol=c.tolerance,
                    max_points=c.max_points, stability=stability)
     wall = time.perf_counter() - t0
     return br, {"wall_s": wall, "cpu_s": _cpu_seconds() - c0,
+                "cpu_main_s": time.process_time() - m0,
                 "load_before": load0, "load_after": os.getloadavg()[0]}
 
 
@@ -243,7 +246,8 @@ def write(record: dict, eps: float) -> dict:
                     if r["set"] != record["set"]]
     records.sort(key=lambda r: r["unknowns"])
     summary_rows = [[r["set"], r["unknowns"], r.get("n_time"), r["points"], r["status"],
-                     r["wall_s"], r.get("cpu_s"), r.get("load_before"), r["ms_per_point"],
+                     r["wall_s"], r.get("cpu_s"), r.get("cpu_main_s", "-"),
+                     r.get("load_before"), r["ms_per_point"],
                      r.get("ms_per_point_no_stability"), r["folds"], r["max_err_std"],
                      r["worst_rpm"], r["within_eps"]] for r in records]
     speed_rows = [[r["set"], s["rpm"], s["ref_std"], s["std"], s["err_std"], s["ref_contact"],
@@ -259,7 +263,8 @@ def write(record: dict, eps: float) -> dict:
                     "average (1 min) when it started."),
         "tables": [{"title": "whole curve and largest error per harmonic set",
                     "columns": ["set", "unknowns", "AFT samples", "points", "status",
-                                "wall s", "CPU s", "load", "ms/point",
+                                "wall s", "CPU s", "CPU s main process", "load",
+                                "ms/point",
                                 "ms/point without stability", "folds", "max err std",
                                 "at rpm", f"<= {eps:g}"],
                     "rows": summary_rows},

@@ -24,7 +24,6 @@ The branch and its recorder live in :mod:`hbm.branch`, the events in :mod:`hbm.e
 from __future__ import annotations
 
 import logging
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -45,8 +44,7 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
-from .stability_process import StabilityProcess
-from .stability_process import available as stability_process_available
+from .stability_process import StabilityProcess, wanted
 
 logger = logging.getLogger(__name__)
 
@@ -308,7 +306,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         1e-9 * rpm_end if grazing_tol_rpm is None else float(grazing_tol_rpm),
         measure, step, min_step, max_step)
     rec = _Recorder(problem, rpm_start, rpm_end, wscale, resume)
-    if _use_process(problem, stability, stability_process):
+    if wanted(problem, stability, stability_process):
         measure.worker = StabilityProcess(problem)
     try:
         return _run(ctx, rec, bounds, resume, step, min_step, max_step, max_points, on_point,
@@ -316,13 +314,6 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     finally:
         if measure.worker is not None:
             measure.worker.close()
-
-
-def _use_process(problem: HBMProblem, stability: bool, asked: bool | None) -> bool:
-    """Whether the stability goes to a worker process (see :func:`trace`)."""
-    if not stability or asked is False or not stability_process_available():
-        return False
-    return bool(asked) or (problem.matrix_free and (os.cpu_count() or 1) > 1)
 
 
 def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | None,

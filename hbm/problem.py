@@ -230,8 +230,7 @@ class HBMProblem:
         den.imag = w[None, :] * self.cj[:, None]
         zero = self.rigid & (self.kS[0] == 0)                  # harmonic 0 only
         den[zero, 0] = 1.0
-        # 1 / den = conj(den) / |den|^2 (half the time of NumPy's complex division)
-        mag2 = den.real * den.real
+        mag2 = den.real * den.real  # 1/den = conj(den)/|den|^2: half NumPy's complex division
         mag2 += den.imag * den.imag
         if not np.all(mag2):
             raise ValueError(
@@ -239,8 +238,7 @@ class HBMProblem:
         inv = np.conjugate(den, out=den)
         inv *= np.reciprocal(mag2, out=mag2)
         inv[zero, 0] = 0.0
-        # d inv / d Omega = -inv^2 d den / d Omega,  d den / d Omega = kd (-2 w + i c_j)
-        dinv = inv * inv
+        dinv = inv * inv            # -inv^2 d den/dOmega, d den/dOmega = kd (-2 w + i c_j)
         dinv *= (2.0 * w)[None, :] - 1j * self.cj[:, None]
         dinv *= kd[None, :]
         return inv, dinv

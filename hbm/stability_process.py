@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import os
 from collections import deque
 from dataclasses import dataclass
 
@@ -29,7 +30,7 @@ from .stability import stability as point_stability
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["StabilityProcess", "Verdict", "available"]
+__all__ = ["StabilityProcess", "Verdict", "available", "wanted"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,15 @@ class Verdict:
 def available() -> bool:
     """True where a forked worker process can be used (the ``fork`` start method)."""
     return "fork" in mp.get_all_start_methods()
+
+
+def wanted(problem: HBMProblem, stability: bool, asked: bool | None) -> bool:
+    """Whether :func:`hbm.trace` measures the stability in a worker process: when asked
+    (``asked`` True) and possible; by default (None) for a matrix-free problem (a large
+    harmonic set, where a point's Newton work dwarfs the fork) on more than one core."""
+    if not stability or asked is False or not available():
+        return False
+    return bool(asked) or (problem.matrix_free and (os.cpu_count() or 1) > 1)
 
 
 def _serve(problem: HBMProblem, conn) -> None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -104,17 +105,32 @@ def summarize(rows: list[dict], eps: float = EPS) -> dict:
 
 # --------------------------------------------------------------------------- run
 
-def trace_curve(problem, scene) -> tuple[Any, float]:
-    """The scene's curve with stability, and its wall time (s)."""
+def trace_curve(problem, scene, stability: bool = True) -> tuple[Any, dict]:
+    """The scene's curve (with stability unless told), and its timing: ``wall_s``,
+    ``cpu_s`` (this process and its finished children: the stability worker),
+    ``cpu_main_s`` (this process) and the load average before and after (the machine
+    is shared)."""
     import hbm
 
     c = scene.continuation
     span = c.speed[1] - c.speed[0]
+    load0 = os.getloadavg()[0]
+    c0 = _cpu_seconds()
+    m0 = time.process_time()
     t0 = time.perf_counter()
     br = hbm.trace(problem, c.speed[0], c.speed[1], step=c.step / span,
                    min_step=c.min_step / span, max_step=c.max_step / span, tol=c.tolerance,
-                   max_points=c.max_points, stability=True)
-    return br, time.perf_counter() - t0
+                   max_points=c.max_points, stability=stability)
+    wall = time.perf_counter() - t0
+    return br, {"wall_s": wall, "cpu_s": _cpu_seconds() - c0,
+                "cpu_main_s": time.process_time() - m0,
+                "load_before": load0, "load_after": os.getloadavg()[0]}
+
+
+def _cpu_seconds() -> float:
+    """User + system CPU time of this process and its waited-for children (s)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 def speed_error(problem, branch, ref: dict) -> dict:
@@ -140,9 +156,12 @@ def speed_error(problem, branch, ref: dict) -> dict:
 
 
 def label_of(scene, overrides: dict) -> str:
-    """Name of the harmonic set, e.g. ``contiguous 12/3 (shipped)``."""
+    """Name of the harmonic set, e.g. ``contiguous 12/3 (shipped)``, with the AFT samples
+    when the scene fixes them."""
     h = scene.hbm
     name = f"{h.harmonic_set} {h.mesh_harmonics}/{h.sideband_order}"
+    if h.aft_samples:
+        name += f", {h.aft_samples} AFT samples"
     return name + (" (shipped)" if not overrides else "")
 
 
@@ -158,6 +177,10 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--cache", type=Path, default=ROOT / "out" / ".geardyn-cache",
                     help="pipeline stage cache holding the ROM")
     ap.add_argument("--eps", type=float, default=EPS)
+    ap.add_argument("--without-stability", action="store_true",
+                    help="also trace the curve without stability (ms/point without it)")
+    ap.add_argument("--tag", default="",
+                    help="appended to the set's label (e.g. which code ran it)")
     args = ap.parse_args(argv)
     variants = parse_sets(args.set)
     if len(variants) != 1:
@@ -174,11 +197,22 @@ def main(argv: list[str] | None = None) -> dict:
     scene = study.load_scene(PUMP_SCENE, overrides)
     problem, _ = Pipeline(scene, args.cache.parent / "bench-converged", cache_dir=args.cache,
                           progress=False).problem()
-    label = label_of(scene, overrides)
+    label = label_of(scene, overrides) + (f" [{args.tag}]" if args.tag else "")
     log.info("%s: %d unknowns, tracing %g-%g rpm with stability", label, problem.n_unknowns,
              *scene.continuation.speed)
-    br, wall = trace_curve(problem, scene)
-    log.info("%s: %d points in %.1f s (%s)", label, len(br), wall, br.status)
+    br, timing = trace_curve(problem, scene)
+    log.info("%s: %d points in %.1f s wall, %.1f s CPU, load %.2f -> %.2f (%s)", label,
+             len(br), timing["wall_s"], timing["cpu_s"], timing["load_before"],
+             timing["load_after"], br.status)
+    plain = {}
+    if args.without_stability:
+        br0, t_plain = trace_curve(problem, scene, stability=False)
+        plain = {"points_no_stability": len(br0), "wall_s_no_stability": t_plain["wall_s"],
+                 "cpu_s_no_stability": t_plain["cpu_s"],
+                 "ms_per_point_no_stability": 1e3 * t_plain["wall_s"] / max(len(br0), 1),
+                 "load_no_stability": t_plain["load_before"]}
+        log.info("%s without stability: %d points in %.1f s wall, %.1f s CPU", label,
+                 len(br0), t_plain["wall_s"], t_plain["cpu_s"])
     rows, skipped = [], []
     for r in ref["speeds"]:
         if not r["accepted"]:
@@ -190,9 +224,13 @@ def main(argv: list[str] | None = None) -> dict:
                  row["distance"])
         rows.append(row)
     record = {"set": label, "overrides": overrides, "unknowns": problem.n_unknowns,
-              "harmonics": len(problem.harmonics.indices), "points": len(br),
-              "status": br.status, "wall_s": wall, "ms_per_point": 1e3 * wall / max(len(br), 1),
-              "folds": len(br.folds), "speeds": rows, "not_settled": skipped,
+              "harmonics": len(problem.harmonics.indices),
+              "n_time": int(problem.harmonics.n_time), "points": len(br),
+              "status": br.status, **timing,
+              "ms_per_point": 1e3 * timing["wall_s"] / max(len(br), 1),
+              "folds": len(br.folds), "grazing": len(br.grazing),
+              "unstable": int(np.sum(~br.stable)), **plain, "speeds": rows,
+              "not_settled": skipped,
               **summarize(rows, args.eps)}
     log.info("%s: max err %.2e at %.0f rpm (<= %g: %s)", label, record["max_err_std"],
              record["worst_rpm"], args.eps, record["within_eps"])
@@ -207,9 +245,11 @@ def write(record: dict, eps: float) -> dict:
         records += [r for r in json.loads(old.read_text()).get("records", [])
                     if r["set"] != record["set"]]
     records.sort(key=lambda r: r["unknowns"])
-    summary_rows = [[r["set"], r["unknowns"], r["points"], r["status"], r["wall_s"],
-                     r["ms_per_point"], r["folds"], r["max_err_std"], r["worst_rpm"],
-                     r["within_eps"]] for r in records]
+    summary_rows = [[r["set"], r["unknowns"], r.get("n_time"), r["points"], r["status"],
+                     r["wall_s"], r.get("cpu_s"), r.get("cpu_main_s", "-"),
+                     r.get("load_before"), r["ms_per_point"],
+                     r.get("ms_per_point_no_stability"), r["folds"], r["max_err_std"],
+                     r["worst_rpm"], r["within_eps"]] for r in records]
     speed_rows = [[r["set"], s["rpm"], s["ref_std"], s["std"], s["err_std"], s["ref_contact"],
                    s["contact"], s["solutions"], s["distance"]]
                   for r in records for s in r["speeds"]]
@@ -219,10 +259,14 @@ def write(record: dict, eps: float) -> dict:
                     f"relative error of its mesh-load std against the reference time "
                     f"integrations (benchmarks/results/ti_reference_pump.json) on the attractor "
                     f"the integration settled on; target <= {eps:g} at every speed. One run "
-                    "per set on the shared machine (wall times)."),
+                    "per set on the shared machine: wall and CPU time of the trace, load "
+                    "average (1 min) when it started."),
         "tables": [{"title": "whole curve and largest error per harmonic set",
-                    "columns": ["set", "unknowns", "points", "status", "wall s", "ms/point",
-                                "folds", "max err std", "at rpm", f"<= {eps:g}"],
+                    "columns": ["set", "unknowns", "AFT samples", "points", "status",
+                                "wall s", "CPU s", "CPU s main process", "load",
+                                "ms/point",
+                                "ms/point without stability", "folds", "max err std",
+                                "at rpm", f"<= {eps:g}"],
                     "rows": summary_rows},
                    {"title": "mesh-load std against time integration per speed",
                     "columns": ["set", "rpm", "TI std N", "HBM std N", "err std",

@@ -162,6 +162,14 @@ class _Recorder:
         self.releap: int | None = None      # leap from this point (second reversal to it)
         self.stuck = 0          # reversals since the branch grew past stuck_at points,
         self.stuck_at = 0       # its largest length when a reversal was detected
+        # per point: the ticket of its stability verdict still to come from the worker
+        # process (None: measured), and the hook that collects them (_Measure.settle)
+        self.tickets: list = []
+        self.settle = None
+        # scaled states y = (u / x_scale, Omega / omega_scale) of the points, rows of a
+        # buffer grown by doubling (the events read the whole branch at every point)
+        self._x_scale = problem.x_scale
+        self._ys = np.empty((16, problem.n_unknowns + 1))
         if resume is not None:
             self.counters = {"step_cuts": int(resume.step_cuts),
                              "secant_retries": int(resume.secant_retries),
@@ -177,6 +185,9 @@ class _Recorder:
             if len(self.fold_index) != len(self.folds):     # branch rebuilt without it
                 self.fold_index = [-(10 ** 9)] * len(self.folds)
             self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
+            self.tickets = [None] * len(self.lists["rpm"])
+            for i in range(len(self.tickets)):
+                self._put_state(i)
 
     def __len__(self) -> int:
         return len(self.lists["rpm"])
@@ -184,33 +195,66 @@ class _Recorder:
     def last(self, key):
         return self.lists[key][-1]
 
-    def add(self, **values) -> None:
+    def add(self, ticket=None, **values) -> None:
         for k in _ARRAYS:
             self.lists[k].append(values[k])
         self.n_grazing.append(len(self.grazing))
+        self.tickets.append(ticket)
+        self._put_state(len(self) - 1)
+
+    def _put_state(self, i: int) -> None:
+        if i >= self._ys.shape[0]:
+            grown = np.empty((2 * self._ys.shape[0], self._ys.shape[1]))
+            grown[:i] = self._ys[:i]
+            self._ys = grown
+        self._ys[i, :-1] = self.lists["unknowns"][i] / self._x_scale
+        self._ys[i, -1] = self.lists["omega"][i] / self.meta["omega_scale"]
+
+    def states(self) -> np.ndarray:
+        """Scaled states of every point (n_points, n_unknowns + 1), a read-only view."""
+        v = self._ys[:len(self)]
+        v.flags.writeable = False
+        return v
+
+    def fill(self, ticket, **values) -> None:
+        """Set the values of the point waiting for ``ticket`` (gone after a roll-back:
+        nothing to do)."""
+        for i in range(len(self.tickets) - 1, -1, -1):
+            if self.tickets[i] == ticket:
+                for k, v in values.items():
+                    self.lists[k][i] = v
+                self.tickets[i] = None
+                return
 
     def truncate(self, n: int) -> None:
         """Keep the first ``n`` points (and the folds and grazing points found by then)."""
         for k in _ARRAYS:
             del self.lists[k][n:]
+        del self.tickets[n:]
         keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
         self.folds = [self.folds[i] for i in keep]
         self.fold_index = [self.fold_index[i] for i in keep]
         del self.grazing[self.n_grazing[n - 1]:]
         del self.n_grazing[n:]
 
-    def branch(self, status: str, message: str, next_step: float) -> Branch:
+    def branch(self, status: str, message: str, next_step: float,
+               counters: dict | None = None) -> Branch:
+        """The branch so far (every stability verdict collected first); ``counters``
+        replaces the retry counters (a branch handed out later than it was reached)."""
+        if self.settle is not None:
+            self.settle()
+        counters = self.counters if counters is None else counters
         arrays = {}
         for k in _ARRAYS:
             v = self.lists[k]
             arrays[k] = np.array(v) if v else np.zeros((0,))
         return Branch(**self.meta, **arrays, grazing=list(self.grazing), folds=list(self.folds),
                       fold_index=list(self.fold_index),
-                      step_cuts=self.counters["step_cuts"],
-                      secant_retries=self.counters["secant_retries"],
-                      corner_steps=self.counters["corner_steps"],
-                      reversals=self.counters["reversals"], leaps=self.counters["leaps"],
-                      max_condition=self.counters["max_condition"] or float("nan"),
+                      step_cuts=counters["step_cuts"],
+                      secant_retries=counters["secant_retries"],
+                      corner_steps=counters["corner_steps"],
+                      reversals=counters["reversals"], leaps=counters["leaps"],
+                      max_condition=counters["max_condition"] or float("nan"),
                       status=status, message=message, next_step=float(next_step))
 
 
@@ -233,7 +277,12 @@ def _note_condition(rec, conds) -> None:
 class _Measure:
     """The ``record`` of a :class:`TraceContext`: statistics and stability of a converged
     point, added to the recorder. Keeps the dominant Floquet subspace of the last point
-    (warm start) and, matrix-free, the reference of the fold parity."""
+    (warm start) and, matrix-free, the reference of the fold parity.
+
+    With a ``worker`` (:class:`hbm.stability_process.StabilityProcess`) the stability
+    is measured there, in the same order with the same warm starts: the point is added
+    with a ticket and its verdict filled in by :meth:`settle` (bitwise the same values).
+    """
 
     problem: HBMProblem
     wscale: float
@@ -242,6 +291,9 @@ class _Measure:
     # matrix-free: det T(0) (T.9) from the tangent, sign det J = sign det J_0 when the
     # speed component keeps the sign it had at the first point (T.9a, docs/theory.md)
     parity_ref: list = field(default_factory=list)
+    worker: object = None
+    recorder: object = None
+    submitted: int = 0
 
     def parity(self, pt, tangent):
         problem = self.problem
@@ -252,6 +304,14 @@ class _Measure:
             self.parity_ref.extend([first, tangent[-1] > 0])
         return self.parity_ref[0] != ((tangent[-1] > 0) != self.parity_ref[1])
 
+    def settle(self, wait: bool = True) -> None:
+        """Fill in the verdicts of the worker received so far (all pending if ``wait``)."""
+        if self.worker is None or self.recorder is None:
+            return
+        for ticket, v in self.worker.collect(wait):
+            self.recorder.fill(ticket, stable=v.stable, floquet_max_real=v.max_real,
+                               floquet_kind=v.code, stability_consistent=v.consistent)
+
     def __call__(self, rec: _Recorder, y: np.ndarray, it: int, res: float,
                  tangent: np.ndarray) -> None:
         problem = self.problem
@@ -259,7 +319,16 @@ class _Measure:
         u = y[:-1] * problem.x_scale
         pt = problem.point(u, omega, it, res)
         st = point_stats(problem, pt)
-        if self.stability:
+        ticket = None
+        if self.stability and self.worker is not None:
+            self.recorder = rec
+            rec.settle = self.settle
+            ticket = self.submitted
+            self.submitted += 1
+            self.worker.submit(ticket, u, omega, it, res, self.parity(pt, tangent))
+            # placeholders until the verdict arrives (Recorder.branch settles first)
+            fmax, stable, kind, consistent = float("nan"), False, 0, True
+        elif self.stability:
             stab = point_stability(problem, pt, start=self.basis,
                                    parity=self.parity(pt, tangent))
             self.basis = stab.basis
@@ -267,11 +336,14 @@ class _Measure:
             stable = stab.kind == "stable"
         else:
             fmax, stable, kind, consistent = 0.0, True, 0, True
-        rec.add(rpm=pt.rpm, omega=omega, coefficients=pt.coefficients, unknowns=u,
-                residual=res, newton_iterations=it, stable=bool(stable), floquet_max_real=fmax,
-                mesh_load_std=st.mesh_load_std, mesh_load_max=st.mesh_load_max,
-                contact=st.contact, contact_loss_fraction=st.contact_loss_fraction,
+        rec.add(ticket=ticket, rpm=pt.rpm, omega=omega, coefficients=pt.coefficients,
+                unknowns=u, residual=res, newton_iterations=it, stable=bool(stable),
+                floquet_max_real=fmax, mesh_load_std=st.mesh_load_std,
+                mesh_load_max=st.mesh_load_max, contact=st.contact,
+                contact_loss_fraction=st.contact_loss_fraction,
                 impacts_per_mesh_period=st.impacts_per_mesh_period,
                 margin_active=st.margin_active, margin_reverse=st.margin_reverse,
                 ipp=st.ipp, tangents=tangent, floquet_kind=kind,
                 stability_consistent=bool(consistent))
+        if ticket is not None:
+            self.settle(wait=False)

@@ -133,6 +133,7 @@ class LoaCondensation:
         self.eq_scale = np.full(problem.nr, L)
         self.n_unknowns = problem.nr
         self._cache: tuple = (None, None)
+        self._gpf: tuple | None = None
 
     def delta_real(self, u: np.ndarray) -> np.ndarray:
         """Real coefficients of Delta: the unknowns themselves."""
@@ -156,9 +157,13 @@ class LoaCondensation:
             g2 = g * g
             h = g2 @ inv
             dh = g2 @ dinv
-            pf = pb.pfc + omega ** 2 * pb.pfu
-            d = g @ (pf * inv)
-            dd = g @ (pf * dinv) + g @ (2.0 * omega * pb.pfu * inv)
+            if self._gpf is None:            # g_j times the modal forces (Omega-free)
+                self._gpf = (g[:, None] * pb.pfc, g[:, None] * pb.pfu)
+            gpfc, gpfu = self._gpf
+            gpf = gpfc + omega ** 2 * gpfu
+            d = np.einsum("jk,jk->k", gpf, inv)
+            dd = np.einsum("jk,jk->k", gpf, dinv) + 2.0 * omega * np.einsum("jk,jk->k", gpfu,
+                                                                            inv)
             return (h, d), (dh, dd)
         z, dz = pb.dynamic_stiffness(omega)
         f, df = pb.forcing(omega)

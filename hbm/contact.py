@@ -61,11 +61,22 @@ class KinkCorrection:
     def apply(self, x: np.ndarray) -> np.ndarray:
         """The derivative times samples ``x`` (N/m times m)."""
         n = x.shape[-1]
-        xc = x[self.columns(n)]                                    # (m, 4)
+        cols, succ = self._indices(n)
+        xc = x[cols]                                               # (m, 4)
         y = np.zeros_like(x)
-        np.add.at(y, self.nodes, np.einsum("mc,mc->m", self.blocks[:, 0], xc))
-        np.add.at(y, (self.nodes + 1) % n, np.einsum("mc,mc->m", self.blocks[:, 1], xc))
+        # the nodes are distinct, and so are their successors: no repeated index per call
+        y[self.nodes] += np.einsum("mc,mc->m", self.blocks[:, 0], xc)
+        y[succ] += np.einsum("mc,mc->m", self.blocks[:, 1], xc)
         return y
+
+    def _indices(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`columns` and the successors of the nodes on a grid of ``n`` (kept: a
+        GMRES solve applies the same correction tens of times)."""
+        cached = self.__dict__.get("_indices_cache")
+        if cached is None or cached[0] != n:
+            cached = (n, self.columns(n), (self.nodes + 1) % n)
+            object.__setattr__(self, "_indices_cache", cached)
+        return cached[1], cached[2]
 
     def scaled(self, factor: float) -> KinkCorrection:
         """The correction times ``factor`` (the contact-law homotopy)."""

@@ -44,6 +44,7 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
+from .stability_process import StabilityProcess, wanted
 
 logger = logging.getLogger(__name__)
 
@@ -245,7 +246,8 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
           max_points: int = 2000, max_iter: int = 12,
           on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
           stability: bool = True, overshoot: float = 0.25,
-          grazing_tol_rpm: float | None = None, start_fallback: bool = True) -> Branch:
+          grazing_tol_rpm: float | None = None, start_fallback: bool = True,
+          stability_process: bool | None = None) -> Branch:
     """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
 
     Parameters
@@ -279,6 +281,12 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         A branch that folds back may go past ``rpm_start`` by this fraction of
         the range (never below half of rpm_start when sweeping up) before the
         trace stops with ``"left_range"``; those points are kept.
+    stability_process
+        Measure the stability in a second process while the corrector looks for
+        the next point (:mod:`hbm.stability_process`; bitwise the same verdicts).
+        None: when ``stability`` is on, the Newton matrices are matrix-free (large
+        harmonic sets), the machine has more than one core and ``fork`` exists.
+        ``on_point`` is then called for each point once the next one is corrected.
 
     Returns
     -------
@@ -292,11 +300,27 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         if resume.status == "completed":
             return resume
     wscale = bounds.wscale if resume is None else resume.omega_scale
+    measure = _Measure(problem, wscale, stability)
     ctx = TraceContext(
         problem, _augmented(problem, wscale), wscale, tol, max_iter,
         1e-9 * rpm_end if grazing_tol_rpm is None else float(grazing_tol_rpm),
-        _Measure(problem, wscale, stability), step, min_step, max_step)
+        measure, step, min_step, max_step)
     rec = _Recorder(problem, rpm_start, rpm_end, wscale, resume)
+    if wanted(problem, stability, stability_process):
+        measure.worker = StabilityProcess(problem)
+    try:
+        return _run(ctx, rec, bounds, resume, step, min_step, max_step, max_points, on_point,
+                    start_fallback)
+    finally:
+        if measure.worker is not None:
+            measure.worker.close()
+
+
+def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | None,
+         step: float, min_step: float, max_step: float, max_points: int,
+         on_point: Callable[[Branch], None] | None, start_fallback: bool) -> Branch:
+    """The PREDICT / CORRECT / ACCEPT loop of :func:`trace`."""
+    rpm_start = bounds.rpm_start
     if resume is not None:
         ds = _resumed_step(resume, step, min_step, max_step)
     else:
@@ -308,12 +332,25 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
             on_point(rec.branch("running", "", ds))
 
     status, message = "running", ""
+    # with a stability process the branch of a point is handed to on_point once the next
+    # point is corrected (its verdict computed meanwhile): (step, counters) until then
+    deferred = None
+    asynchronous = ctx.record.worker is not None
+
+    def flush():
+        nonlocal deferred
+        if deferred is not None:
+            on_point(rec.branch("running", "", deferred[0], deferred[1]))
+            deferred = None
+
     while status == "running":
         if len(rec) >= max_points:
+            flush()
             status, message = "max_points", f"stopped after max_points = {max_points} points"
             break
         # PREDICT and CORRECT
         advanced = _advance(ctx, rec, ds)
+        flush()
         ds = advanced.ds
         if advanced.point is None:
             status, message = "step_failed", advanced.message
@@ -321,7 +358,10 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         # ACCEPT
         status, message, ds = _accept(ctx, rec, advanced, bounds, ds)
         if status == "running" and on_point:
-            on_point(rec.branch("running", "", ds))
+            if asynchronous:
+                deferred = (ds, dict(rec.counters))
+            else:
+                on_point(rec.branch("running", "", ds))
     if status != "completed":
         logger.warning("continuation stopped: %s", message)
     else:

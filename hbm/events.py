@@ -73,13 +73,12 @@ class TraceContext:
     max_step: float = 0.05
 
     def state(self, rec: _Recorder, i: int) -> np.ndarray:
-        """Scaled ``y`` of point ``i`` of the recorder."""
-        return np.concatenate([rec.lists["unknowns"][i] / self.problem.x_scale,
-                               [rec.lists["omega"][i] / self.wscale]])
+        """Scaled ``y`` of point ``i`` of the recorder (a copy)."""
+        return rec.states()[i].copy()
 
     def states(self, rec: _Recorder) -> np.ndarray:
-        """Scaled ``y`` of every point, (n_points, n_unknowns + 1)."""
-        return np.array([self.state(rec, i) for i in range(len(rec))])
+        """Scaled ``y`` of every point, (n_points, n_unknowns + 1) (read-only)."""
+        return rec.states()
 
 
 def _check_forward(rec, y, yn) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -250,6 +251,21 @@ class HarmonicSet:
         w = np.where(np.arange(self.n_real) == 0, 1.0, 2.0) / n_time
         return rows.T * w[:, None]
 
+    @cached_property
+    def index_array(self) -> np.ndarray:
+        """The indices as an integer array (built once: converting the tuple costs as
+        much as an FFT of the AFT grid)."""
+        k = np.asarray(self.indices)
+        k.setflags(write=False)
+        return k
+
+    @cached_property
+    def _columns(self) -> slice | np.ndarray:
+        """Where the indices 1.. sit in a half spectrum: a slice for a contiguous set
+        (no gather), else the index array."""
+        k = self.index_array
+        return slice(1, k.size) if k[-1] == k.size - 1 else k[1:]
+
     def synthesize(self, xr: np.ndarray, n_time: int | None = None) -> np.ndarray:
         """Samples ``x(tau_j)`` on ``tau_j = 2 pi j / N`` from the real layout, by FFT.
 
@@ -257,13 +273,15 @@ class HarmonicSet:
         ``O(N log N)``; ``xr`` may carry leading axes (..., n_real).
         """
         n = self.n_time if n_time is None else int(n_time)
-        xc = self.to_complex(xr)
-        k = np.asarray(self.indices)
+        k = self.index_array
         if 2 * k[-1] < n:                     # no aliasing: one real inverse FFT
-            spec = np.zeros(xc.shape[:-1] + (n // 2 + 1,), dtype=complex)
-            spec[..., k] = xc * (0.5 * n)
-            spec[..., 0] = xc[..., 0] * n
+            xr = np.asarray(xr, dtype=float)
+            spec = np.zeros(xr.shape[:-1] + (n // 2 + 1,), dtype=complex)
+            spec[..., 0] = xr[..., 0] * n
+            # the real layout (Re x_k, Im x_k) pairs are the complex coefficients
+            spec[..., self._columns] = _as_complex(xr[..., 1:]) * (0.5 * n)
             return np.fft.irfft(spec, n, axis=-1)
+        xc = self.to_complex(xr)
         spec = np.zeros(xc.shape[:-1] + (n,), dtype=complex)
         spec[..., 0] += xc[..., 0]
         half = 0.5 * xc[..., 1:]
@@ -279,11 +297,13 @@ class HarmonicSet:
         """
         x = np.asarray(x, dtype=float)
         n = x.shape[-1]
-        k = np.asarray(self.indices)
+        k = self.index_array
         if 2 * k[-1] < n:
-            xc = np.fft.rfft(x, axis=-1)[..., k] * (2.0 / n)
-            xc[..., 0] = xc[..., 0].real * 0.5
-            return self.to_real(xc)
+            spec = np.fft.rfft(x, axis=-1)
+            out = np.empty(x.shape[:-1] + (self.n_real,))
+            out[..., 0] = spec[..., 0].real / n
+            _as_complex(out[..., 1:])[...] = spec[..., self._columns] * (2.0 / n)
+            return out
         spec = np.fft.fft(x, axis=-1)
         xc = spec[..., k % n] * (2.0 / n)
         xc[..., 0] = spec[..., 0].real / n
@@ -321,7 +341,19 @@ def mul_rows(h: np.ndarray, j: np.ndarray) -> np.ndarray:
 
 def complex_mul(h: np.ndarray, xr: np.ndarray) -> np.ndarray:
     """Real layout of ``h_k x_k`` for a real-layout vector ``xr`` (see :func:`mul_rows`)."""
-    return mul_rows(h, xr[:, None])[:, 0]
+    xr = np.asarray(xr, dtype=float)
+    out = np.empty(xr.shape)
+    out[0] = h[0].real * xr[0]
+    _as_complex(out[1:])[...] = h[1:] * _as_complex(xr[1:])
+    return out
+
+
+def _as_complex(a: np.ndarray) -> np.ndarray:
+    """The pairs ``(Re, Im)`` along the last axis of a real array as complex numbers: a
+    view when the last axis is contiguous (writing into it writes ``a``), else a copy."""
+    if a.strides[-1] == a.itemsize and a.dtype == np.float64:
+        return a.view(np.complex128)
+    return a[..., 0::2] + 1j * a[..., 1::2]
 
 
 def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:

@@ -64,7 +64,9 @@ def factor_checked(j: np.ndarray, where: str = "Newton", warn: bool = True,
     anorm = float(np.max(np.sum(np.abs(j), axis=0))) if j.size else 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)     # singularity is handled below
-        lu, piv = sla.lu_factor(j.astype(dtype, copy=False), check_finite=False)
+        # one pass into LAPACK's column order (lu_factor would copy a C-ordered array)
+        lu, piv = sla.lu_factor(np.array(j, dtype=dtype, order="F"), overwrite_a=True,
+                                check_finite=False)
     diag = np.abs(np.diag(lu))
     if anorm == 0.0 or np.min(diag) == 0.0:
         raise ConvergenceError(f"{where}: singular Jacobian (zero pivot in its LU factors)",

@@ -225,16 +225,22 @@ class HBMProblem:
         Meaningful when :attr:`modal` (C diagonal in the eq. (17) modes).
         """
         w, kd = self.harmonic_frequencies(omega)
-        den = self.w2[:, None] - (w ** 2)[None, :] + 1j * w[None, :] * self.cj[:, None]
-        zero = np.zeros_like(den, dtype=bool)
-        zero[:, 0] = self.rigid & (self.kS[0] == 0)
-        den = np.where(zero, 1.0, den)
-        if np.any(den == 0):
+        den = np.empty((self.w2.size, w.size), dtype=complex)
+        den.real = self.w2[:, None] - (w ** 2)[None, :]
+        den.imag = w[None, :] * self.cj[:, None]
+        zero = self.rigid & (self.kS[0] == 0)                  # harmonic 0 only
+        den[zero, 0] = 1.0
+        mag2 = den.real * den.real  # 1/den = conj(den)/|den|^2: half NumPy's complex division
+        mag2 += den.imag * den.imag
+        if not np.all(mag2):
             raise ValueError(
                 f"Omega = {omega:.6g} rad/s hits an undamped natural frequency exactly")
-        inv = np.where(zero, 0.0, 1.0 / den)
-        dden = (-2.0 * w * kd)[None, :] + 1j * kd[None, :] * self.cj[:, None]
-        dinv = -inv ** 2 * dden
+        inv = np.conjugate(den, out=den)
+        inv *= np.reciprocal(mag2, out=mag2)
+        inv[zero, 0] = 0.0
+        dinv = inv * inv            # -inv^2 d den/dOmega, d den/dOmega = kd (-2 w + i c_j)
+        dinv *= (2.0 * w)[None, :] - 1j * self.cj[:, None]
+        dinv *= kd[None, :]
         return inv, dinv
 
     # ------------------------------------------------------------------ nonlinear force

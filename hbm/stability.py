@@ -128,14 +128,25 @@ def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None
         if jf is None:
             _, jf = problem.mesh_force(problem.delta_real(point.unknowns))
         root = positive_real_root(problem, jf, w0)
-        logger.debug("%.2f rpm: between two folds (T.9 root %.4g 1/s) but the variational "
-                     "equation has max Re %.4g 1/s", point.rpm, root, max_real)
+        if np.isnan(root):
+            # the branch puts the point between two folds (the tangent, T.9a) but the
+            # computed det T(0) >= 0: the point lies within round-off of a fold, whose
+            # real exponent is below what T(0) resolves; reported as that fold, 0 1/s
+            logger.debug("%.2f rpm: between two folds by the tangent but det T(0) >= 0; "
+                         "real exponent taken as 0 (variational equation: max Re %.4g "
+                         "1/s)", point.rpm, max_real)
+            root = 0.0
+        else:
+            logger.debug("%.2f rpm: between two folds (T.9 root %.4g 1/s) but the "
+                         "variational equation has max Re %.4g 1/s", point.rpm, root,
+                         max_real)
         exps = np.concatenate([[complex(root, 0.0)], exps])
         max_real = float(root)
     # round-off of the multipliers (|mu| = 1 +- 1e-15 for a rigid mode) is not growth
     w_top = float(np.sqrt(np.max(np.abs(problem.w2))))
     tiny = 1e-9 * (w0 + w_top)
-    kind = "stable" if max_real <= tiny else classify_exponent(complex(exps[0]), w0)
+    stable = max_real <= tiny and consistent          # between two folds: never stable
+    kind = "stable" if stable else classify_exponent(complex(exps[0]), w0)
     return Stability(max_real, exps, kind, bool(parity), bool(consistent), res.error, res.basis)
 
 

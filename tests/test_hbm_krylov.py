@@ -117,3 +117,30 @@ def test_fold_parity_from_the_tangent_equals_the_determinant():
         checked += 1
         flipped += exact
     assert checked > 100 and flipped > 5
+
+
+def test_contiguous_preconditioner_matrix_equals_the_gathered_build(impact_point):
+    """The strided Toeplitz/Hankel build of I + H S (contiguous sets) against the general
+    index-gathering one (HBMProblem.contact_matrix), without kink blocks."""
+    from hbm.contact import ContactStiffness, KinkCorrection
+    from hbm.harmonics import mul_rows
+    from hbm.krylov import contiguous_matrix
+
+    pb, u, w = impact_point
+    _, jop, _ = pb.scaled(u / pb.x_scale, w)
+    s = jop.stiffness.samples
+    ref = np.eye(jop.size) + mul_rows(jop.h, pb.contact_matrix(
+        ContactStiffness(s, KinkCorrection.none(s.size))))
+    fast = contiguous_matrix(jop.h, s)
+    assert np.allclose(fast, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+    assert np.array_equal(jop.dense(kinks=False), fast)
+    # a non-contiguous set keeps the general build
+    hs = HarmonicSet((0, 1, 2, 5, 9), fundamental="shaft", n_time=64)
+    pb2 = _pair(hs, "krylov")
+    u2 = np.zeros(pb2.n_unknowns)
+    u2[0] = 2.0
+    _, j2, _ = pb2.scaled(u2 / pb2.x_scale, 0.01)
+    s2 = j2.stiffness.samples
+    ref2 = np.eye(j2.size) + mul_rows(j2.h, pb2.contact_matrix(
+        ContactStiffness(s2, KinkCorrection.none(s2.size))))
+    assert np.allclose(j2.dense(kinks=False), ref2, rtol=0, atol=1e-14 * np.abs(ref2).max())

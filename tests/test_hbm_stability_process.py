@@ -1,0 +1,76 @@
+"""Stability measured in a worker process (hbm/stability_process.py): the branch is
+bitwise the one measured in-line, every branch handed to ``on_point`` carries the
+verdicts, and a failure in the worker reaches the caller."""
+
+import numpy as np
+import pytest
+
+import hbm
+from hbm import stability_process
+from hbm.harmonics import HarmonicSet
+
+Z = 20
+RPM = hbm.RPM_TO_RAD_S
+
+pytestmark = pytest.mark.skipif(not stability_process.available(),
+                                reason="needs the fork start method")
+
+
+def _pair():
+    """Unit-mass gear pair with impacts, matrix-free (as tests/test_hbm_krylov.py)."""
+    system = hbm.LinearSystem(M=[[1.0]], C=[[0.1]], K=[[0.0]], G=[1.0])
+    mesh = hbm.GearMesh(n_teeth=Z, stiffness={0: 1.0, 1: 0.2}, te={}, backlash=1.0)
+    exc = hbm.Excitation(1, constant={0: [0.1], 2: [0.04], 5: [0.06]})
+    hs = HarmonicSet(range(3 * Z + 11), fundamental="shaft")
+    return hbm.HBMProblem(system, mesh, exc, hs, "loa", linear_solver="krylov")
+
+
+def _trace(process: bool, seen: list):
+    def on_point(br):
+        seen.append((len(br), br.stable.copy(), br.floquet_max_real.copy(), br.step_cuts))
+    return hbm.trace(_pair(), 0.3 / Z / RPM, 0.06 / RPM, max_points=80, on_point=on_point,
+                     stability=True, stability_process=process)
+
+
+@pytest.fixture(scope="module")
+def both():
+    seen_inline: list = []
+    seen_process: list = []
+    return (_trace(False, seen_inline), seen_inline, _trace(True, seen_process),
+            seen_process)
+
+
+def test_the_branch_is_bitwise_the_in_line_one(both):
+    inline, _, proc, _ = both
+    assert len(inline) == len(proc) > 20
+    assert not np.all(inline.stable) and np.any(inline.stable)    # both verdicts occur
+    for k in ("stable", "floquet_max_real", "floquet_kind", "stability_consistent", "rpm",
+              "unknowns", "mesh_load_std"):
+        assert np.array_equal(getattr(inline, k), getattr(proc, k)), k
+    assert (inline.folds, inline.status, inline.step_cuts) == \
+        (proc.folds, proc.status, proc.step_cuts)
+
+
+def test_on_point_gets_the_same_branches_with_their_verdicts(both):
+    _, seen_inline, _, seen_process = both
+    assert [s[0] for s in seen_inline] == [s[0] for s in seen_process]
+    for a, b in zip(seen_inline, seen_process, strict=True):
+        assert np.all(np.isfinite(b[2]))                      # no placeholder left
+        assert np.array_equal(a[1], b[1]) and np.array_equal(a[2], b[2])
+        assert a[3] == b[3]                                   # counters of that point
+
+
+def test_a_failure_in_the_worker_is_raised(monkeypatch):
+    def broken(*args, **kwargs):
+        raise np.linalg.LinAlgError("no convergence")
+    # the worker is forked after the patch: it inherits it
+    monkeypatch.setattr(stability_process, "point_stability", broken)
+    pb = _pair()
+    worker = stability_process.StabilityProcess(pb)
+    try:
+        worker.submit(0, np.zeros(pb.n_unknowns), 1.0, 0, 0.0, None)
+        with pytest.raises(RuntimeError, match="worker process: LinAlgError: no convergence"):
+            worker.collect()
+        assert worker.pending == 0
+    finally:
+        worker.close()

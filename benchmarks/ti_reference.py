@@ -90,6 +90,7 @@ def reference_key(scene_path: Path, cache_dir: Path) -> dict[str, str | None]:
         rel = str(scene_path)
     rom_key = pl.rom_key()
     return {"scene": rel, "rom_key": rom_key, "rom_sha256": rom_sha256(cache_dir, rom_key),
+            "rom_fingerprint": rom_fingerprint(cache_dir, rom_key),
             "physics_key": stage_key("physics", physics, "")}
 
 
@@ -105,6 +106,59 @@ def rom_sha256(cache_dir: Path, rom_key: str) -> str | None:
     return m.get("files", {}).get("rom.h5", {}).get("sha256")
 
 
+#: frequencies of the receptances in the ROM fingerprint [Hz], and its tolerance
+FINGERPRINT_HZ = (370.0, 1300.0, 4100.0, 9700.0)
+FINGERPRINT_RTOL = 1e-8
+FINGERPRINT_PROJECTIONS = 6
+
+
+def rom_fingerprint(cache_dir: Path, rom_key: str) -> list[float] | None:
+    """What the dynamics see of the ROM in the cache entry of ``rom_key``, or None.
+
+    The receptances ``H(f) = B_g (K - w^2 M + i w C)^-1 [B_g; B_n]^T`` from the gear DOF
+    and the load-node rows (``nodes.h5``) to the gear DOF, at :data:`FINGERPRINT_HZ`,
+    each contracted with fixed pseudo-random vectors (real and imaginary parts). They do
+    not depend on the basis of the reduced space (order, signs or mixing of the component
+    modes), so two ROMs that differ only in round-off or in the eigen-solver's choice of
+    eigenvectors have equal fingerprints to ~1e-12.
+    """
+    import h5py
+
+    folder = Path(cache_dir) / "rom" / rom_key[:24]
+    try:
+        with h5py.File(folder / "rom.h5", "r") as f:
+            M, K, C = (f[f"rom/{n}"][()] for n in ("M", "K", "C"))
+            n_gear = f["rom/gear_dofs"].shape[0]       # physical, first in q (theory §4)
+        with h5py.File(folder / "nodes.h5", "r") as f:
+            rows = f["basis_rows"][()]
+    except (OSError, KeyError):
+        return None
+    bg = np.eye(M.shape[0])[:n_gear]
+    b_in = np.vstack([bg, rows])
+    rng = np.random.default_rng(20261124)
+    u = rng.standard_normal((FINGERPRINT_PROJECTIONS, bg.shape[0]))
+    v = rng.standard_normal((FINGERPRINT_PROJECTIONS, b_in.shape[0]))
+    out = []
+    for hz in FINGERPRINT_HZ:
+        w = 2.0 * np.pi * hz
+        H = bg @ np.linalg.solve(K - w * w * M + 1j * w * C, b_in.T)
+        z = np.einsum("pi,ij,pj->p", u, H, v)
+        out += [*z.real, *z.imag]
+    return [float(x) for x in out]
+
+
+def same_fingerprint(a: list[float] | None, b: list[float] | None,
+                     rtol: float = FINGERPRINT_RTOL) -> bool:
+    """True if both fingerprints exist and agree to ``rtol`` of their largest entry,
+    frequency by frequency."""
+    if a is None or b is None or len(a) != len(b):
+        return False
+    x = np.reshape(a, (len(FINGERPRINT_HZ), -1))
+    y = np.reshape(b, (len(FINGERPRINT_HZ), -1))
+    scale = np.maximum(np.abs(x).max(axis=1), np.abs(y).max(axis=1))
+    return bool(np.all(np.abs(x - y).max(axis=1) <= rtol * scale))
+
+
 class StaleReference(ValueError):
     """The reference was computed for another scene, ROM or physics."""
 
@@ -113,8 +167,10 @@ def check_key(got: dict, key: dict, where: str = "reference") -> None:
     """Refuse a reference key ``got`` that does not match the current ``key``.
 
     Scene and physics key must be equal. The ROM key must be equal too, unless both
-    keys carry the same ``rom_sha256``: the ROM key hashes the source of the ROM stage as
-    well, and a change of a comment there rebuilds a byte-identical ROM.
+    keys carry the same ``rom_sha256`` (the ROM key hashes the source of the ROM stage as
+    well, and a change of a comment there rebuilds a byte-identical ROM) or the same
+    ``rom_fingerprint`` to ``FINGERPRINT_RTOL`` (a change of the reduction that moves
+    the ROM by round-off, or picks other eigenvectors of the same space).
 
     Raises
     ------
@@ -131,6 +187,11 @@ def check_key(got: dict, key: dict, where: str = "reference") -> None:
         return
     same_rom = got.get("rom_sha256") is not None and got.get("rom_sha256") == key.get(
         "rom_sha256")
+    if not same_rom and same_fingerprint(got.get("rom_fingerprint"), key.get("rom_fingerprint")):
+        log.info("%s: ROM key %s and ROM file differ from the current ones, the ROM's "
+                 "receptances agree to %g: accepted", where, str(got["rom_key"])[:12],
+                 FINGERPRINT_RTOL)
+        return
     if not same_rom:
         raise StaleReference(
             f"{where}: key.rom_key = {str(got.get('rom_key'))[:16]!r} does not match the current "
@@ -430,6 +491,8 @@ def main(argv: list[str] | None = None) -> dict:
                 json.dump(raw, fh, indent=1)
                 fh.write("\n")
         old = load_reference(args.out, key)
+        if raw["key"].get("rom_fingerprint") is None:  # files written before the fingerprint
+            raw["key"]["rom_fingerprint"] = key["rom_fingerprint"]
         key = raw["key"]
         for r in old["speeds"]:
             r.pop("coefficients")

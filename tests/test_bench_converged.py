@@ -71,6 +71,53 @@ def test_reference_refuses_another_rom_or_physics(tmp_path):
         tr.load_reference(path, k2)
 
 
+def _write_rom(folder: Path, M, K, C, rows, n_gear: int) -> None:
+    import h5py
+    folder.mkdir(parents=True)
+    with h5py.File(folder / "rom.h5", "w") as f:
+        for name, a in (("M", M), ("K", K), ("C", C)):
+            f[f"rom/{name}"] = a
+        f["rom/gear_dofs"] = np.array([b"u"] * n_gear)
+    with h5py.File(folder / "nodes.h5", "w") as f:
+        f["basis_rows"] = rows
+
+
+def test_rom_fingerprint_sees_the_dynamics_not_the_basis(tmp_path):
+    """The fingerprint of a ROM whose component modes are mixed, reordered and
+    sign-flipped (the same reduced space) equals the original's to round-off, and one
+    of a ROM whose stiffness moved by 1e-6 does not: a reference stays valid across a
+    change of the eigen-solver, not across a change of the model."""
+    rng = np.random.default_rng(3)
+    n, ng = 20, 4
+    A = rng.standard_normal((n, n))
+    M = A @ A.T + n * np.eye(n)
+    B = rng.standard_normal((n, n))
+    K = 1e7 * (B @ B.T + n * np.eye(n))
+    C = 1e-4 * K + 2.0 * M
+    rows = rng.standard_normal((6, n))
+    S = np.eye(n)                                   # gear DOF stay physical
+    Q, _ = np.linalg.qr(rng.standard_normal((n - ng, n - ng)))
+    S[ng:, ng:] = Q[rng.permutation(n - ng)] * rng.choice([-1.0, 1.0], n - ng)
+    S[ng:, :ng] = rng.standard_normal((n - ng, ng))  # and any static-mode shift
+    roms = {"a": (M, K, C, rows), "b": (S.T @ M @ S, S.T @ K @ S, S.T @ C @ S, rows @ S),
+            "c": (M, K * (1 + 1e-6), C, rows)}
+    fp = {}
+    for name, (m, k, c, r) in roms.items():
+        _write_rom(tmp_path / "rom" / (name * 24), m, k, c, r, ng)
+        fp[name] = tr.rom_fingerprint(tmp_path, name * 24)
+    assert len(fp["a"]) == 2 * len(tr.FINGERPRINT_HZ) * tr.FINGERPRINT_PROJECTIONS
+    assert tr.same_fingerprint(fp["a"], fp["b"])
+    assert not tr.same_fingerprint(fp["a"], fp["c"])
+    assert tr.rom_fingerprint(tmp_path, "d" * 24) is None
+    key = {"scene": "s", "physics_key": "p", "rom_key": "a" * 24, "rom_sha256": "1" * 64,
+           "rom_fingerprint": fp["a"]}
+    tr.check_key(key, {**key, "rom_key": "b" * 24, "rom_sha256": "2" * 64,
+                       "rom_fingerprint": fp["b"]})
+    with pytest.raises(tr.StaleReference, match="ROM file differs"):
+        tr.check_key(key, {**key, "rom_key": "c" * 24, "rom_sha256": "3" * 64,
+                           "rom_fingerprint": fp["c"]})
+
+
 def test_fourier_coefficients_of_samples():
     n, t = 64, np.arange(64) / 64
     c = np.array([0.3, 1 - 2j, 0, 0.25j])

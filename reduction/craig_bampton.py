@@ -24,6 +24,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from fem.eigen import shift_invert_eps
+from reduction.interface import interface_columns, interface_eliminated
 
 log = logging.getLogger(__name__)
 
@@ -270,105 +271,46 @@ def craig_bampton(
     n_c = dofs.size
     n_i = n - n_c
     r0, r1 = K.getOwnershipRange()
-    local = np.arange(r0, r1, dtype=np.int64)
-    is_iface_local = np.isin(local, dofs)
-    interior_rows = local[~is_iface_local]  # global, ascending; order of the interior block
-    is_i = PETSc.IS().createGeneral(interior_rows.astype(PETSc.IntType), comm=pcomm)
-    # All interface columns on rank 0 in the given order: K_ic columns follow q_c.
-    cols = dofs if pcomm.getRank() == 0 else np.empty(0, dtype=np.int64)
-    is_c = PETSc.IS().createGeneral(cols.astype(PETSc.IntType), comm=pcomm)
+    iface_pos = dofs[(dofs >= r0) & (dofs < r1)] - r0  # owned interface rows, local
+    with interface_eliminated(K, M, dofs) as saved_K:  # K̃, M̃: eq. (5) without copies
+        # --- fixed-interface modes, eq. (6)
+        t0 = time.perf_counter()
+        eps = _make_eps(K, M, eps_tol, factor, blr_tol)
+        n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
+        lam, order = _kept_eigenvalues(eps, n_cm)
+        fi_hz = np.sqrt(lam) / (2.0 * math.pi)
+        _log_modes(n_cm, fi_hz, f_cut_hz)
+        t_eig = time.perf_counter() - t0
+        # --- T: local rows of the full numbering, columns (q_c, η)
+        n_r = n_c + n_cm
+        T = PETSc.Mat().createDense(((r1 - r0, n), (PETSc.DECIDE, n_r)), comm=pcomm)
+        T.setUp()
+        Tl = T.getDenseArray()
+        Tl[:] = 0.0
+        _fill_modes(eps, order, M, iface_pos, Tl[:, n_c:])
+        # --- static constraint modes, eq. (7), from the same MUMPS factor
+        t0 = time.perf_counter()
+        F = eps.getST().getKSP().getPC().getFactorMatrix()
+        stats = _factor_stats(F)
+        B = interface_columns(K, dofs, saved_K)
+        X, psi_res = _static_modes(F, K, B)
+        Tl[:, :n_c] = X.getDenseArray()
+        Tl[iface_pos, :] = 0.0
+        for k, d in enumerate(dofs):
+            if r0 <= d < r1:
+                Tl[d - r0, k] = 1.0
+        T.assemble()
+        for obj in (X, B, F):  # F: only this reference, the factor stays with eps
+            obj.destroy()
+        eps.destroy()  # the factor and the Krylov basis go before the projection
+        t_psi = time.perf_counter() - t0
 
-    K_ii = K.createSubMatrix(is_i, is_i)  # eq. (5)
-    M_ii = M.createSubMatrix(is_i, is_i)
-    K_ic = K.createSubMatrix(is_i, is_c)
-
-    # --- fixed-interface modes, eq. (6)
-    t0 = time.perf_counter()
-    eps = _make_eps(K_ii, M_ii, eps_tol, factor, blr_tol)
-    n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
-    lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
-    order = np.argsort(lam, kind="stable")[:n_cm]
-    lam = lam[order]
-    if lam[0] <= 1e-9 * lam[-1]:  # rigid-body motion of the interior: K_ii singular
-        raise RuntimeError(
-            f"fixed-interface eigenvalue {lam[0]:.3e} ~ 0 (largest kept {lam[-1]:.3e}): "
-            "K_ii is singular, the interface DOF do not restrain every rigid-body motion"
-        )
-    fi_hz = np.sqrt(lam) / (2.0 * math.pi)
-    if f_cut_hz is not None:
-        log.info(
-            "Craig-Bampton: n_CM = %d fixed-interface modes below f_cut = %.6g Hz "
-            "(highest kept %.6g Hz)", n_cm, f_cut_hz, fi_hz[-1],
-        )
-    else:
-        log.info(
-            "Craig-Bampton: n_CM = %d fixed-interface modes (user), up to %.6g Hz",
-            n_cm, fi_hz[-1],
-        )
-    t_eig = time.perf_counter() - t0
-
-    # --- assemble T: local rows of the full numbering, columns (q_c, η)
-    n_r = n_c + n_cm
-    T = PETSc.Mat().createDense(((r1 - r0, n), (PETSc.DECIDE, n_r)), comm=pcomm)
-    T.setUp()
-    Tl = T.getDenseArray()
-    Tl[:] = 0.0
-    interior_pos = interior_rows - r0
-    xr = K_ii.createVecRight()
-    y = M_ii.createVecLeft()
-    for k, j in enumerate(order):
-        eps.getEigenvector(int(j), xr)
-        M_ii.mult(xr, y)
-        mnorm = xr.dot(y)
-        s = xr.sum()  # deterministic sign across partitions
-        sign = -1.0 if s < 0 else 1.0
-        xr.scale(sign / math.sqrt(mnorm))  # mass normalisation Φᵀ M_ii Φ = I
-        Tl[interior_pos, n_c + k] = xr.getArray()
-
-    # --- static constraint modes, eq. (7), from the same MUMPS factor
-    t0 = time.perf_counter()
-    F = eps.getST().getKSP().getPC().getFactorMatrix()
-    stats = _factor_stats(F)
-    B = K_ic.convert(PETSc.Mat.Type.DENSE)
-    X = B.duplicate()
-    F.matSolve(B, X)
-    X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
-    nb = B.norm(PETSc.NormType.FROBENIUS)
-    R, psi_res = _psi_residual(K_ii, X, B, nb)
-    steps = 0
-    while not psi_res < PSI_RESIDUAL_TOL and steps < PSI_REFINE_STEPS:
-        # iterative refinement with the approximate factor: X -= F⁻¹ (K_ii X + K_ic)
-        D = X.duplicate()
-        F.matSolve(R, D)
-        X.axpy(-1.0, D)
-        D.destroy()
-        R.destroy()
-        R, psi_res = _psi_residual(K_ii, X, B, nb)
-        steps += 1
-    if steps:
-        log.info("static modes: %d refinement steps (approximate factor), residual %.2e",
-                 steps, psi_res)
-    if not psi_res < PSI_RESIDUAL_TOL:
-        raise RuntimeError(
-            f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
-            "(K_ii singular or ill-conditioned?)"
-        )
-    Tl[interior_pos, :n_c] = X.getDenseArray()
-    for k, d in enumerate(dofs):
-        if r0 <= d < r1:
-            Tl[d - r0, k] = 1.0
-    T.assemble()
-    t_psi = time.perf_counter() - t0
-
-    # --- Galerkin projection, eq. (9)
+    # --- Galerkin projection, eq. (9), with K and M restored
     t0 = time.perf_counter()
     M_r = dense_projection(M, T)
     K_r = dense_projection(K, T)
     t_proj = time.perf_counter() - t0
 
-    for obj in (R, X, B, K_ic, K_ii, M_ii, xr, y, is_i, is_c):
-        obj.destroy()
-    eps.destroy()
     timings = {
         "eigensolve": t_eig,
         "static_modes": t_psi,
@@ -381,6 +323,81 @@ def craig_bampton(
         n, n_c, n_r, psi_res, timings["total"],
     )
     return CBResult(T, M_r, K_r, dofs, n_cm, fi_hz, float(psi_res), timings, stats)
+
+
+def _kept_eigenvalues(eps: SLEPc.EPS, n_cm: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``n_cm`` smallest converged eigenvalues (ascending) and their indices in
+    ``eps``; refuses a rigid-body motion of the interior."""
+    lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
+    order = np.argsort(lam, kind="stable")[:n_cm]
+    lam = lam[order]
+    if lam[0] <= 1e-9 * lam[-1]:  # rigid-body motion of the interior: K_ii singular
+        raise RuntimeError(
+            f"fixed-interface eigenvalue {lam[0]:.3e} ~ 0 (largest kept {lam[-1]:.3e}): "
+            "K_ii is singular, the interface DOF do not restrain every rigid-body motion"
+        )
+    return lam, order
+
+
+def _log_modes(n_cm: int, fi_hz: np.ndarray, f_cut_hz) -> None:
+    if f_cut_hz is not None:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes below f_cut = %.6g Hz "
+            "(highest kept %.6g Hz)", n_cm, f_cut_hz, fi_hz[-1],
+        )
+    else:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes (user), up to %.6g Hz",
+            n_cm, fi_hz[-1],
+        )
+
+
+def _fill_modes(eps: SLEPc.EPS, order: np.ndarray, M: PETSc.Mat, iface_pos: np.ndarray,
+                out: np.ndarray) -> None:
+    """Mass-normalised eigenvectors Φ (``Φᵀ M_ii Φ = I``, interface rows 0) into the local
+    rows ``out`` (n_loc × n_cm), each with a partition-independent sign (sum >= 0)."""
+    x = M.createVecRight()
+    y = M.createVecLeft()
+    for k, j in enumerate(order):
+        eps.getEigenvector(int(j), x)
+        x.getArray()[iface_pos] = 0.0  # the start vector's interface part, if any is left
+        M.mult(x, y)
+        mnorm = x.dot(y)
+        sign = -1.0 if x.sum() < 0 else 1.0
+        x.scale(sign / math.sqrt(mnorm))
+        out[:, k] = x.getArray()
+    x.destroy()
+    y.destroy()
+
+
+def _static_modes(F: PETSc.Mat, K: PETSc.Mat, B: PETSc.Mat) -> tuple[PETSc.Mat, float]:
+    """Ψ = −K̃⁻¹ B (eq. 7) with the factor ``F`` of ``K̃``, refined with ``K̃`` itself when
+    the factor is approximate (BLR); refuses a residual >= PSI_RESIDUAL_TOL."""
+    X = B.duplicate()
+    F.matSolve(B, X)
+    X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
+    nb = B.norm(PETSc.NormType.FROBENIUS)
+    R, psi_res = _psi_residual(K, X, B, nb)
+    steps = 0
+    while not psi_res < PSI_RESIDUAL_TOL and steps < PSI_REFINE_STEPS:
+        # iterative refinement with the approximate factor: X -= F⁻¹ (K_ii X + K_ic)
+        D = X.duplicate()
+        F.matSolve(R, D)
+        X.axpy(-1.0, D)
+        D.destroy()
+        R.destroy()
+        R, psi_res = _psi_residual(K, X, B, nb)
+        steps += 1
+    R.destroy()
+    if steps:
+        log.info("static modes: %d refinement steps (approximate factor), residual %.2e",
+                 steps, psi_res)
+    if not psi_res < PSI_RESIDUAL_TOL:
+        raise RuntimeError(
+            f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
+            "(K_ii singular or ill-conditioned?)"
+        )
+    return X, psi_res
 
 
 def _factor_stats(F: PETSc.Mat) -> dict:

@@ -119,15 +119,19 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
         with h5py.File(tmp / "out" / "rom.h5", "r") as f:
             n_dof = int(f["rom/basis"].shape[0])
             f_hz = [float(v) for v in f["rom/fixed_interface_hz"][:]]
+            rom_hz = [float(v) for v in f["rom/frequencies_hz"][:20]]
         rec = {"size": size, "ranks": comm.size, "n_dof": n_dof, "n_cm": n_cm,
                "mesh_s": times.seconds.get("mesh"), "fe_s": times.seconds.get("fe"),
                "rom_s": times.seconds.get("rom"),
                "eigensolve_s": phases.get("eigensolve"),
-               "static_modes_s": phases.get("static_modes"), "wall_s": wall,
+               "eigenvectors_s": phases.get("eigenvectors"),
+               "static_modes_s": phases.get("static_modes"),
+               "projection_s": phases.get("projection"), "wall_s": wall,
                "mumps_factor": phases.get("factor", {}),
                "memory_rank0_mib": phases.get("memory_mib", {}),
                "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
                "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
+               "rom_frequencies_hz": rom_hz,
                "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
                "factorization": factorization,
                "load_avg_1min": [load_start, os.getloadavg()[0]],
@@ -321,11 +325,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="also CalculiX against the project's eigen-solve per size (serial)")
     p.add_argument("--no-reduce", action="store_true",
                    help="run no geardyn reduce case (e.g. only --calculix)")
+    p.add_argument("--add-case", type=Path, default=None,
+                   help="merge a case record written by '--case SIZE --case-out FILE' (e.g. a "
+                        "size run once by hand under a memory watchdog) into scale.json")
+    p.add_argument("--verbose", action="store_true", help="INFO logging in a --case run")
     p.add_argument("--case", default=None, help=argparse.SUPPRESS)
     p.add_argument("--ccx-case", default=None, help=argparse.SUPPRESS)
     p.add_argument("--case-out", type=Path, default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.case is None else logging.WARNING,
+    quiet = args.case is not None and not args.verbose
+    logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
                         format="%(asctime)s %(name)s: %(message)s", datefmt="%H:%M:%S")
     if args.case is not None:
         case(args.case, args.n_cm, args.case_out, args.factorization)
@@ -337,7 +346,11 @@ def main(argv: list[str] | None = None) -> int:
     old_all = json.loads(old_path.read_text()) if old_path.exists() else {}
     old, old_ccx = old_all.get("cases", []), old_all.get("calculix", [])
     cases, ccx = [], []
-    for size in args.sizes.split(","):
+    if args.add_case is not None:
+        rec = json.loads(args.add_case.read_text())
+        rec.setdefault("repeats", 1)
+        cases.append(rec)
+    for size in [] if args.add_case is not None else args.sizes.split(","):
         if args.calculix:
             rec = run_case(size, args.n_cm, 1, args.timeout * 4, kind="--ccx-case")
             if rec:

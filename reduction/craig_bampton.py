@@ -57,8 +57,8 @@ class CBResult:
     psi_residual : float
         ``‖K_ii Ψ + K_ic‖_F / ‖K_ic‖_F`` of the static modes (eq. 7).
     timings : dict
-        Wall time of each phase [s] (``eigensolve``, ``static_modes``,
-        ``projection``, ``total``), maxima over ranks.
+        Wall time of each phase [s] (``eigensolve``, ``eigenvectors`` (mass-normalised
+        into T), ``static_modes``, ``projection``, ``total``), maxima over ranks.
     factor_stats : dict
         MUMPS figures of the factorisation of ``K_ii``: ``entries`` (INFOG(29), entries
         of the factors, sum over ranks; with BLR the compressed count), ``memory_mib_max_rank``
@@ -146,23 +146,31 @@ def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
 
 
 def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "lu",
-              blr_tol: float = 0.0) -> SLEPc.EPS:
+              blr_tol: float = 0.0, out_of_core: bool = False) -> SLEPc.EPS:
     """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU (or LDLᵀ: ``factor =
     "cholesky"``) of K_ii, with block low-rank compression at ``blr_tol`` (0: full
-    rank); set up, i.e. factored. PETSc options with the prefix ``cb_`` override these."""
+    rank) and the factor out of core if asked; set up, i.e. factored. PETSc options with
+    the prefix ``cb_`` override these."""
     eps = shift_invert_eps(K_ii, M_ii, 0.0, tol, 500)
     eps.setOptionsPrefix("cb_")
+    # No purification (one more solve per eigenvector): the null space of M̃ is the
+    # interface, whose entries _fill_modes zeroes (measured: basis within 2.9e-15)
+    eps.setPurify(False)
     pc = eps.getST().getKSP().getPC()
     if factor == "cholesky":
         pc.setType(PETSc.PC.Type.CHOLESKY)
         pc.setFactorSolverType("mumps")
     opts = PETSc.Options()
     added = []
-    if blr_tol > 0:  # MUMPS reads its ICNTL/CNTL from the options when it factors
-        for key, val in (("cb_st_mat_mumps_icntl_35", 1), ("cb_st_mat_mumps_cntl_7", blr_tol)):
-            if not opts.hasName(key):
-                opts.setValue(key, val)
-                added.append(key)
+    want = []  # MUMPS reads its ICNTL/CNTL from the options when it factors
+    if blr_tol > 0:
+        want += [("cb_st_mat_mumps_icntl_35", 1), ("cb_st_mat_mumps_cntl_7", blr_tol)]
+    if out_of_core:
+        want.append(("cb_st_mat_mumps_icntl_22", 1))
+    for key, val in want:
+        if not opts.hasName(key):
+            opts.setValue(key, val)
+            added.append(key)
     try:
         eps.setFromOptions()
         eps.setUp()
@@ -215,6 +223,7 @@ def craig_bampton(
     eps_tol: float = 1e-12,
     factor: str = "lu",
     blr_tol: float = 0.0,
+    out_of_core: bool = False,
 ) -> CBResult:
     """Craig–Bampton reduction with one MUMPS factorisation of K_ii (eq. 5–9).
 
@@ -250,6 +259,10 @@ def craig_bampton(
         shift-invert then uses an approximate factor: the eigenpairs are those of a
         perturbed K_ii (measured frequency error in docs/scale.md) and the static
         modes are refined with the exact K_ii to the usual residual.
+    out_of_core : bool
+        MUMPS keeps the factor on disk (``ICNTL(22) = 1``), in the folder named by the
+        environment variable ``MUMPS_OOC_TMPDIR`` (MUMPS's default /tmp), and only the
+        active fronts in memory: the same solves, every one reading the factor back.
 
     Returns
     -------
@@ -261,6 +274,8 @@ def craig_bampton(
         raise ValueError(f"factor = {factor!r}: must be one of {FACTORS}")
     if not (math.isfinite(blr_tol) and 0.0 <= blr_tol < 1e-2):
         raise ValueError(f"blr_tol = {blr_tol}: must be 0 (full rank) or in (0, 1e-2)")
+    if out_of_core:
+        _check_ooc_dir()
     pcomm = K.getComm()
     if comm is not None:
         size = comm.getSize() if hasattr(comm, "getSize") else comm.Get_size()
@@ -275,7 +290,7 @@ def craig_bampton(
     with interface_eliminated(K, M, dofs) as saved_K:  # K̃, M̃: eq. (5) without copies
         # --- fixed-interface modes, eq. (6)
         t0 = time.perf_counter()
-        eps = _make_eps(K, M, eps_tol, factor, blr_tol)
+        eps = _make_eps(K, M, eps_tol, factor, blr_tol, out_of_core)
         n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
         lam, order = _kept_eigenvalues(eps, n_cm)
         fi_hz = np.sqrt(lam) / (2.0 * math.pi)
@@ -287,7 +302,9 @@ def craig_bampton(
         T.setUp()
         Tl = T.getDenseArray()
         Tl[:] = 0.0
+        t0 = time.perf_counter()
         _fill_modes(eps, order, M, iface_pos, Tl[:, n_c:])
+        t_vec = time.perf_counter() - t0
         # --- static constraint modes, eq. (7), from the same MUMPS factor
         t0 = time.perf_counter()
         F = eps.getST().getKSP().getPC().getFactorMatrix()
@@ -313,6 +330,7 @@ def craig_bampton(
 
     timings = {
         "eigensolve": t_eig,
+        "eigenvectors": t_vec,
         "static_modes": t_psi,
         "projection": t_proj,
         "total": time.perf_counter() - t_start,
@@ -360,7 +378,7 @@ def _fill_modes(eps: SLEPc.EPS, order: np.ndarray, M: PETSc.Mat, iface_pos: np.n
     y = M.createVecLeft()
     for k, j in enumerate(order):
         eps.getEigenvector(int(j), x)
-        x.getArray()[iface_pos] = 0.0  # the start vector's interface part, if any is left
+        x.getArray()[iface_pos] = 0.0  # the start vector's interface part (no purification)
         M.mult(x, y)
         mnorm = x.dot(y)
         sign = -1.0 if x.sum() < 0 else 1.0
@@ -400,6 +418,17 @@ def _static_modes(F: PETSc.Mat, K: PETSc.Mat, B: PETSc.Mat) -> tuple[PETSc.Mat, 
     return X, psi_res
 
 
+def _check_ooc_dir() -> None:
+    """Refuse a ``MUMPS_OOC_TMPDIR`` that is not a writable folder (MUMPS would fail in
+    the middle of the factorisation)."""
+    import os
+
+    d = os.environ.get("MUMPS_OOC_TMPDIR", "/tmp")
+    if not (os.path.isdir(d) and os.access(d, os.W_OK | os.X_OK)):
+        raise ValueError(f"MUMPS_OOC_TMPDIR = {d!r}: the out-of-core factor needs an existing, "
+                         "writable folder (environment variable; default /tmp)")
+
+
 def _factor_stats(F: PETSc.Mat) -> dict:
     """MUMPS's own figures of the factor ``F`` (empty for another solver)."""
     try:
@@ -409,7 +438,8 @@ def _factor_stats(F: PETSc.Mat) -> dict:
             e = F.getMumpsInfog(35)
             entries = e if e >= 0 else -e * 1_000_000
         out = {"entries": int(entries), "memory_mib_max_rank": int(F.getMumpsInfog(21)),
-               "memory_mib_total": int(F.getMumpsInfog(22)), "blr": bool(blr)}
+               "memory_mib_total": int(F.getMumpsInfog(22)), "blr": bool(blr),
+               "out_of_core": F.getMumpsIcntl(22) > 0}
     except (AttributeError, PETSc.Error):
         return {}
     log.info("MUMPS factor of K_ii: %.4g entries%s, %d MB max per rank, %d MB in all",

@@ -182,6 +182,7 @@ class RomData:
     cutoff: float | None
     n_check: int = 30
     factorization: str = "lu"
+    out_of_core: bool = False
 
 
 @dataclass(frozen=True)

@@ -77,3 +77,21 @@ def test_craig_bampton_leaves_k_and_m_unchanged(factor):
     T = cb.T.getDenseArray()
     np.testing.assert_array_equal(T[IFACE, :12], np.eye(12))   # identity on q_c
     np.testing.assert_array_equal(T[IFACE, 12:], 0.0)          # Φ vanishes there
+
+
+def test_out_of_core_factor_gives_the_same_reduction(tmp_path, monkeypatch):
+    """``out_of_core=True``: MUMPS factors with ICNTL(22) = 1 into $MUMPS_OOC_TMPDIR (its
+    files are gone afterwards) and gives the in-core ROM; a bad folder is refused first."""
+    chain = spring_chain(N, IFACE)
+    ref = craig_bampton(chain.M, chain.K, IFACE, n_modes=10, factor="cholesky")
+    monkeypatch.setenv("MUMPS_OOC_TMPDIR", str(tmp_path))
+    ooc = craig_bampton(chain.M, chain.K, IFACE, n_modes=10, factor="cholesky",
+                        out_of_core=True)
+    assert ooc.factor_stats["out_of_core"] and not ref.factor_stats["out_of_core"]
+    np.testing.assert_allclose(ooc.fixed_interface_hz, ref.fixed_interface_hz, rtol=1e-12)
+    for a, b in ((ooc.K_r, ref.K_r), (ooc.M_r, ref.M_r)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max())
+    assert list(tmp_path.iterdir()) == []        # MUMPS removed its factor files
+    monkeypatch.setenv("MUMPS_OOC_TMPDIR", str(tmp_path / "missing"))
+    with pytest.raises(ValueError, match="MUMPS_OOC_TMPDIR"):
+        craig_bampton(chain.M, chain.K, IFACE, n_modes=10, out_of_core=True)

@@ -53,8 +53,10 @@ def _vm_hwm_mib() -> float:
     return _vm_mib("VmHWM")
 
 
-def _overrides(size: str, n_cm: int, factorization: str = "lu") -> dict:
-    ov = {"rom.n_cm": n_cm, "rom.n_check": 0, "rom.factorization": factorization}
+def _overrides(size: str, n_cm: int, factorization: str = "lu",
+               out_of_core: bool = False) -> dict:
+    ov = {"rom.n_cm": n_cm, "rom.n_check": 0, "rom.factorization": factorization,
+          "rom.out_of_core": out_of_core}
     if size in ("coarse", "fine", "million"):
         ov["mesh.preset"] = size
     else:
@@ -77,7 +79,8 @@ class _StageTimes(logging.Handler):
                 self.seconds[name] = float(extra.split()[1])
 
 
-def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
+def case(size: str, n_cm: int, out: Path, factorization: str = "lu",
+         out_of_core: bool = False) -> None:
     """One ``reduce`` in this process (one rank of mpirun, or serial)."""
     import reduction
     import study
@@ -106,7 +109,7 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
     tmp = comm.bcast(tmp)
     load_start = os.getloadavg()[0]
     t0 = time.perf_counter()
-    study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm, factorization),
+    study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm, factorization, out_of_core),
               cache_dir=tmp / "cache",
               refresh=True, until="rom")
     wall = time.perf_counter() - t0
@@ -133,7 +136,7 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
                "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
                "rom_frequencies_hz": rom_hz,
                "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
-               "factorization": factorization,
+               "factorization": factorization, "out_of_core": out_of_core,
                "load_avg_1min": [load_start, os.getloadavg()[0]],
                "cpu_s_per_rank": cpu}
         out.write_text(json.dumps(rec))
@@ -168,11 +171,12 @@ def ccx_case(size: str, n_cm: int, out: Path) -> None:
 
 def run_case(size: str, n_cm: int, ranks: int, timeout: float,
              petsc_options: str = "", kind: str = "--case",
-             factorization: str = "lu") -> dict | None:
+             factorization: str = "lu", out_of_core: bool = False) -> dict | None:
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "case.json"
         cmd = [sys.executable, "-m", "benchmarks.bench_scale", kind, size,
                "--n-cm", str(n_cm), "--case-out", str(out), "--factorization", factorization]
+        cmd += ["--out-of-core"] if out_of_core else []
         if ranks > 1:
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + cmd
         env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
@@ -212,6 +216,7 @@ def variant(c: dict) -> str:
     """How a case differs from the default eigen-solver ('' for the default)."""
     fac = c.get("factorization", "lu")
     return " ".join(x for x in (f"rom.factorization={fac}" if fac != "lu" else "",
+                                "rom.out_of_core=true" if c.get("out_of_core") else "",
                                 c.get("petsc_options", "")) if x)
 
 
@@ -321,6 +326,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=900.0, help="per case (s)")
     p.add_argument("--factorization", default="lu", choices=("lu", "cholesky"),
                    help="rom.factorization of the reduce cases")
+    p.add_argument("--out-of-core", action="store_true",
+                   help="rom.out_of_core = true (MUMPS factor on disk in $MUMPS_OOC_TMPDIR)")
     p.add_argument("--calculix", action="store_true",
                    help="also CalculiX against the project's eigen-solve per size (serial)")
     p.add_argument("--no-reduce", action="store_true",
@@ -337,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
                         format="%(asctime)s %(name)s: %(message)s", datefmt="%H:%M:%S")
     if args.case is not None:
-        case(args.case, args.n_cm, args.case_out, args.factorization)
+        case(args.case, args.n_cm, args.case_out, args.factorization, args.out_of_core)
         return 0
     if args.ccx_case is not None:
         ccx_case(args.ccx_case, args.n_cm, args.case_out)
@@ -361,7 +368,8 @@ def main(argv: list[str] | None = None) -> int:
         for ranks in [] if args.no_reduce else [int(r) for r in args.ranks.split(",")]:
             recs = [r for r in (run_case(size, args.n_cm, ranks, args.timeout,
                                          args.petsc_options,
-                                         factorization=args.factorization)
+                                         factorization=args.factorization,
+                                         out_of_core=args.out_of_core)
                                 for _ in range(args.repeats)) if r]
             if recs:
                 rec = _median_record(recs)

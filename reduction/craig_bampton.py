@@ -145,7 +145,7 @@ def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
     return dofs.astype(np.int64)
 
 
-def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "lu",
+def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "cholesky",
               blr_tol: float = 0.0, out_of_core: bool = False) -> SLEPc.EPS:
     """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU (or LDLᵀ: ``factor =
     "cholesky"``) of K_ii, with block low-rank compression at ``blr_tol`` (0: full
@@ -221,7 +221,7 @@ def craig_bampton(
     f_cut_hz: float | None = None,
     comm=None,
     eps_tol: float = 1e-12,
-    factor: str = "lu",
+    factor: str = "cholesky",
     blr_tol: float = 0.0,
     out_of_core: bool = False,
 ) -> CBResult:
@@ -251,9 +251,10 @@ def craig_bampton(
         Only checked against the communicator of ``K``, which is the one used.
     eps_tol : float
         SLEPc relative residual tolerance of the eigenpairs.
-    factor : {"lu", "cholesky"}
-        MUMPS factorisation of ``K_ii`` (``K_ii`` is symmetric positive definite, so
-        LDLᵀ gives the same solves with about half the factor; docs/scale.md).
+    factor : {"cholesky", "lu"}
+        MUMPS factorisation of ``K_ii``: LDLᵀ (default since branch h9-scale; ``K_ii`` is
+        symmetric positive definite) or LU, the same modes to 1e-13, LDLᵀ with half the
+        factor entries (docs/scale.md).
     blr_tol : float
         MUMPS block low-rank compression threshold (``CNTL(7)``), 0 = full rank. The
         shift-invert then uses an approximate factor: the eigenpairs are those of a

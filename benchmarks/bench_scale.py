@@ -235,17 +235,18 @@ def freq_diff(case: dict, cases: list[dict]) -> float | None:
 
 
 def exponents(cases: list[dict]) -> list[dict]:
-    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count
-    and n_CM, over the sizes measured with default options."""
+    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count,
+    n_CM and variant (factorisation, out of core, PETSc options), over the sizes measured."""
     out = []
-    for ranks, n_cm in sorted({(c["ranks"], c["n_cm"]) for c in cases}):
+    groups = sorted({(c["ranks"], c["n_cm"], variant(c)) for c in cases})
+    for ranks, n_cm, var in groups:
         cs = sorted((c for c in cases if c["ranks"] == ranks and c["n_cm"] == n_cm
-                     and not variant(c) and c.get("rom_s")),
+                     and variant(c) == var and c.get("rom_s")),
                     key=lambda c: c["n_dof"])
         if len(cs) < 2:
             continue
-        row = {"ranks": ranks, "n_cm": n_cm, "sizes": len(cs), "n_dof_min": cs[0]["n_dof"],
-               "n_dof_max": cs[-1]["n_dof"]}
+        row = {"ranks": ranks, "n_cm": n_cm, "variant": var, "sizes": len(cs),
+               "n_dof_min": cs[0]["n_dof"], "n_dof_max": cs[-1]["n_dof"]}
         for key in ("rom_s", "eigensolve_s", "wall_s", "peak_rss_max_rank_mib"):
             xs = [math.log(c["n_dof"]) for c in cs]
             ys = [math.log(c[key]) for c in cs]
@@ -290,7 +291,7 @@ def tables(cases: list[dict], fits: list[dict], ccx: list[dict] | None = None) -
         ", ".join(f"{p:.0f}" for p in c.get("cpu_s_per_rank", [])),
         ", ".join(f"{p:.1f}" for p in c.get("load_avg_1min", [])),
         variant(c), _fmt_diff(freq_diff(c, cases))] for c in cases]
-    fcols = ["ranks", "n_cm", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
+    fcols = ["ranks", "n_cm", "variant", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
              "exponent_eigensolve_s", "exponent_wall_s", "exponent_peak_rss_max_rank_mib"]
     return [{"title": "geardyn reduce (mesh → fe → rom) against DOF and MPI ranks "
                       "(times in s, memory in MiB; rom.n_check = 0)",
@@ -388,11 +389,11 @@ def main(argv: list[str] | None = None) -> int:
            "--n-cm N_CM --repeats R [--petsc-options OPTS] (per row)")
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "calculix": ccx, "tables": tables(cases, fits, ccx),
-                                "not_run": ">= 1M DOF (million preset, ~1.47 M reduced DOF): "
-                                           "serial peak estimated ~29 GiB with LDLT in core, "
-                                           "~20 GiB out of core, from the measured components "
-                                           "(docs/scale.md), above the 14 GB per engineer on "
-                                           "this shared machine"})
+                                "notes": "one run per row (no median at the million "
+                                         "preset: ~1 h per run; added with --add-case from a "
+                                         "'--case million --out-of-core' run under a memory "
+                                         "watchdog, docs/scale.md); load 2-4 from other "
+                                         "engineers' jobs on the 2 cores"})
     log.info("wrote %s", path)
     return 0
 

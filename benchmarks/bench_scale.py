@@ -389,10 +389,10 @@ def main(argv: list[str] | None = None) -> int:
            "--n-cm N_CM --repeats R [--petsc-options OPTS] (per row)")
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "calculix": ccx, "tables": tables(cases, fits, ccx),
-                                "notes": "one run per row (no median at the million "
-                                         "preset: ~1 h per run; added with --add-case from a "
+                                "notes": "repeats = 1: a single run (the million "
+                                         "preset, ~30 min per run, was not repeated; added with --add-case from a "
                                          "'--case million --out-of-core' run under a memory "
-                                         "watchdog, docs/scale.md); load 2-4 from other "
+                                         "watchdog, docs/scale.md); load 1.4-4 from other "
                                          "engineers' jobs on the 2 cores"})
     log.info("wrote %s", path)
     return 0

@@ -390,7 +390,8 @@ def main(argv: list[str] | None = None) -> int:
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "calculix": ccx, "tables": tables(cases, fits, ccx),
                                 "notes": "repeats = 1: a single run (the million "
-                                         "preset, ~30 min per run, was not repeated; added with --add-case from a "
+                                         "preset, ~30 min per run, was not repeated; added "
+                                         "with --add-case from a "
                                          "'--case million --out-of-core' run under a memory "
                                          "watchdog, docs/scale.md); load 1.4-4 from other "
                                          "engineers' jobs on the 2 cores"})

@@ -53,8 +53,10 @@ def _vm_hwm_mib() -> float:
     return _vm_mib("VmHWM")
 
 
-def _overrides(size: str, n_cm: int, factorization: str = "lu") -> dict:
-    ov = {"rom.n_cm": n_cm, "rom.n_check": 0, "rom.factorization": factorization}
+def _overrides(size: str, n_cm: int, factorization: str = "lu",
+               out_of_core: bool = False) -> dict:
+    ov = {"rom.n_cm": n_cm, "rom.n_check": 0, "rom.factorization": factorization,
+          "rom.out_of_core": out_of_core}
     if size in ("coarse", "fine", "million"):
         ov["mesh.preset"] = size
     else:
@@ -77,7 +79,8 @@ class _StageTimes(logging.Handler):
                 self.seconds[name] = float(extra.split()[1])
 
 
-def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
+def case(size: str, n_cm: int, out: Path, factorization: str = "lu",
+         out_of_core: bool = False) -> None:
     """One ``reduce`` in this process (one rank of mpirun, or serial)."""
     import reduction
     import study
@@ -106,7 +109,7 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
     tmp = comm.bcast(tmp)
     load_start = os.getloadavg()[0]
     t0 = time.perf_counter()
-    study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm, factorization),
+    study.run(SCENE, tmp / "out", overrides=_overrides(size, n_cm, factorization, out_of_core),
               cache_dir=tmp / "cache",
               refresh=True, until="rom")
     wall = time.perf_counter() - t0
@@ -119,17 +122,21 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu") -> None:
         with h5py.File(tmp / "out" / "rom.h5", "r") as f:
             n_dof = int(f["rom/basis"].shape[0])
             f_hz = [float(v) for v in f["rom/fixed_interface_hz"][:]]
+            rom_hz = [float(v) for v in f["rom/frequencies_hz"][:20]]
         rec = {"size": size, "ranks": comm.size, "n_dof": n_dof, "n_cm": n_cm,
                "mesh_s": times.seconds.get("mesh"), "fe_s": times.seconds.get("fe"),
                "rom_s": times.seconds.get("rom"),
                "eigensolve_s": phases.get("eigensolve"),
-               "static_modes_s": phases.get("static_modes"), "wall_s": wall,
+               "eigenvectors_s": phases.get("eigenvectors"),
+               "static_modes_s": phases.get("static_modes"),
+               "projection_s": phases.get("projection"), "wall_s": wall,
                "mumps_factor": phases.get("factor", {}),
                "memory_rank0_mib": phases.get("memory_mib", {}),
                "peak_rss_per_rank_mib": peaks, "peak_rss_max_rank_mib": max(peaks),
                "highest_fixed_interface_hz": f_hz[-1], "fixed_interface_hz": f_hz,
+               "rom_frequencies_hz": rom_hz,
                "petsc_options": os.environ.get("PETSC_OPTIONS", ""),
-               "factorization": factorization,
+               "factorization": factorization, "out_of_core": out_of_core,
                "load_avg_1min": [load_start, os.getloadavg()[0]],
                "cpu_s_per_rank": cpu}
         out.write_text(json.dumps(rec))
@@ -164,11 +171,12 @@ def ccx_case(size: str, n_cm: int, out: Path) -> None:
 
 def run_case(size: str, n_cm: int, ranks: int, timeout: float,
              petsc_options: str = "", kind: str = "--case",
-             factorization: str = "lu") -> dict | None:
+             factorization: str = "lu", out_of_core: bool = False) -> dict | None:
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "case.json"
         cmd = [sys.executable, "-m", "benchmarks.bench_scale", kind, size,
                "--n-cm", str(n_cm), "--case-out", str(out), "--factorization", factorization]
+        cmd += ["--out-of-core"] if out_of_core else []
         if ranks > 1:
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + cmd
         env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
@@ -208,6 +216,7 @@ def variant(c: dict) -> str:
     """How a case differs from the default eigen-solver ('' for the default)."""
     fac = c.get("factorization", "lu")
     return " ".join(x for x in (f"rom.factorization={fac}" if fac != "lu" else "",
+                                "rom.out_of_core=true" if c.get("out_of_core") else "",
                                 c.get("petsc_options", "")) if x)
 
 
@@ -226,17 +235,18 @@ def freq_diff(case: dict, cases: list[dict]) -> float | None:
 
 
 def exponents(cases: list[dict]) -> list[dict]:
-    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count
-    and n_CM, over the sizes measured with default options."""
+    """Least-squares exponent p of ``t ∝ n^p`` (rom stage and peak memory) per rank count,
+    n_CM and variant (factorisation, out of core, PETSc options), over the sizes measured."""
     out = []
-    for ranks, n_cm in sorted({(c["ranks"], c["n_cm"]) for c in cases}):
+    groups = sorted({(c["ranks"], c["n_cm"], variant(c)) for c in cases})
+    for ranks, n_cm, var in groups:
         cs = sorted((c for c in cases if c["ranks"] == ranks and c["n_cm"] == n_cm
-                     and not variant(c) and c.get("rom_s")),
+                     and variant(c) == var and c.get("rom_s")),
                     key=lambda c: c["n_dof"])
         if len(cs) < 2:
             continue
-        row = {"ranks": ranks, "n_cm": n_cm, "sizes": len(cs), "n_dof_min": cs[0]["n_dof"],
-               "n_dof_max": cs[-1]["n_dof"]}
+        row = {"ranks": ranks, "n_cm": n_cm, "variant": var, "sizes": len(cs),
+               "n_dof_min": cs[0]["n_dof"], "n_dof_max": cs[-1]["n_dof"]}
         for key in ("rom_s", "eigensolve_s", "wall_s", "peak_rss_max_rank_mib"):
             xs = [math.log(c["n_dof"]) for c in cs]
             ys = [math.log(c[key]) for c in cs]
@@ -281,7 +291,7 @@ def tables(cases: list[dict], fits: list[dict], ccx: list[dict] | None = None) -
         ", ".join(f"{p:.0f}" for p in c.get("cpu_s_per_rank", [])),
         ", ".join(f"{p:.1f}" for p in c.get("load_avg_1min", [])),
         variant(c), _fmt_diff(freq_diff(c, cases))] for c in cases]
-    fcols = ["ranks", "n_cm", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
+    fcols = ["ranks", "n_cm", "variant", "sizes", "n_dof_min", "n_dof_max", "exponent_rom_s",
              "exponent_eigensolve_s", "exponent_wall_s", "exponent_peak_rss_max_rank_mib"]
     return [{"title": "geardyn reduce (mesh → fe → rom) against DOF and MPI ranks "
                       "(times in s, memory in MiB; rom.n_check = 0)",
@@ -317,18 +327,25 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=900.0, help="per case (s)")
     p.add_argument("--factorization", default="lu", choices=("lu", "cholesky"),
                    help="rom.factorization of the reduce cases")
+    p.add_argument("--out-of-core", action="store_true",
+                   help="rom.out_of_core = true (MUMPS factor on disk in $MUMPS_OOC_TMPDIR)")
     p.add_argument("--calculix", action="store_true",
                    help="also CalculiX against the project's eigen-solve per size (serial)")
     p.add_argument("--no-reduce", action="store_true",
                    help="run no geardyn reduce case (e.g. only --calculix)")
+    p.add_argument("--add-case", type=Path, default=None,
+                   help="merge a case record written by '--case SIZE --case-out FILE' (e.g. a "
+                        "size run once by hand under a memory watchdog) into scale.json")
+    p.add_argument("--verbose", action="store_true", help="INFO logging in a --case run")
     p.add_argument("--case", default=None, help=argparse.SUPPRESS)
     p.add_argument("--ccx-case", default=None, help=argparse.SUPPRESS)
     p.add_argument("--case-out", type=Path, default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.case is None else logging.WARNING,
+    quiet = args.case is not None and not args.verbose
+    logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
                         format="%(asctime)s %(name)s: %(message)s", datefmt="%H:%M:%S")
     if args.case is not None:
-        case(args.case, args.n_cm, args.case_out, args.factorization)
+        case(args.case, args.n_cm, args.case_out, args.factorization, args.out_of_core)
         return 0
     if args.ccx_case is not None:
         ccx_case(args.ccx_case, args.n_cm, args.case_out)
@@ -337,7 +354,11 @@ def main(argv: list[str] | None = None) -> int:
     old_all = json.loads(old_path.read_text()) if old_path.exists() else {}
     old, old_ccx = old_all.get("cases", []), old_all.get("calculix", [])
     cases, ccx = [], []
-    for size in args.sizes.split(","):
+    if args.add_case is not None:
+        rec = json.loads(args.add_case.read_text())
+        rec.setdefault("repeats", 1)
+        cases.append(rec)
+    for size in [] if args.add_case is not None else args.sizes.split(","):
         if args.calculix:
             rec = run_case(size, args.n_cm, 1, args.timeout * 4, kind="--ccx-case")
             if rec:
@@ -348,7 +369,8 @@ def main(argv: list[str] | None = None) -> int:
         for ranks in [] if args.no_reduce else [int(r) for r in args.ranks.split(",")]:
             recs = [r for r in (run_case(size, args.n_cm, ranks, args.timeout,
                                          args.petsc_options,
-                                         factorization=args.factorization)
+                                         factorization=args.factorization,
+                                         out_of_core=args.out_of_core)
                                 for _ in range(args.repeats)) if r]
             if recs:
                 rec = _median_record(recs)
@@ -367,11 +389,12 @@ def main(argv: list[str] | None = None) -> int:
            "--n-cm N_CM --repeats R [--petsc-options OPTS] (per row)")
     path = write_json("scale", {"command": cmd, "cases": cases, "fits": fits,
                                 "calculix": ccx, "tables": tables(cases, fits, ccx),
-                                "not_run": ">= 1M DOF (million preset, ~1.47 M reduced DOF): "
-                                           "serial peak estimated ~29 GiB with LDLT in core, "
-                                           "~20 GiB out of core, from the measured components "
-                                           "(docs/scale.md), above the 14 GB per engineer on "
-                                           "this shared machine"})
+                                "notes": "repeats = 1: a single run (the million "
+                                         "preset, ~30 min per run, was not repeated; added "
+                                         "with --add-case from a "
+                                         "'--case million --out-of-core' run under a memory "
+                                         "watchdog, docs/scale.md); load 1.4-4 from other "
+                                         "engineers' jobs on the 2 cores"})
     log.info("wrote %s", path)
     return 0
 

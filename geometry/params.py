@@ -578,8 +578,9 @@ _PRESETS: dict[str, MeshOptions] = {
     # a few hundred thousand P2 vector DOF (benchmarks)
     "fine": MeshOptions(size=0.007, shaft_factor=0.6, bore_factor=0.6, hub_factor=1.0,
                         curvature_points=16, name="fine"),
-    # over a million P2 vector DOF (measured 1 629 168; meshing 84 s, 1.0 GB; its
-    # reduction has not been run on the 2-core, 24 GB development machine: docs/scale.md)
+    # over a million P2 vector DOF (measured 1 629 168, 1 534 530 after links and clamps;
+    # meshing 84-92 s, 1.0 GB; reduced serially in 28 min, 9.7 GiB peak with the LDLT
+    # factor out of core, n_CM = 100: docs/scale.md)
     "million": MeshOptions(size=0.0037, shaft_factor=0.6, bore_factor=0.6, hub_factor=1.0,
                            curvature_points=16, name="million"),
 }

@@ -24,6 +24,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from fem.eigen import shift_invert_eps
+from reduction.interface import interface_columns, interface_eliminated
 
 log = logging.getLogger(__name__)
 
@@ -56,8 +57,8 @@ class CBResult:
     psi_residual : float
         ``‖K_ii Ψ + K_ic‖_F / ‖K_ic‖_F`` of the static modes (eq. 7).
     timings : dict
-        Wall time of each phase [s] (``eigensolve``, ``static_modes``,
-        ``projection``, ``total``), maxima over ranks.
+        Wall time of each phase [s] (``eigensolve``, ``eigenvectors`` (mass-normalised
+        into T), ``static_modes``, ``projection``, ``total``), maxima over ranks.
     factor_stats : dict
         MUMPS figures of the factorisation of ``K_ii``: ``entries`` (INFOG(29), entries
         of the factors, sum over ranks; with BLR the compressed count), ``memory_mib_max_rank``
@@ -144,24 +145,32 @@ def _check_inputs(M, K, interface_dofs, n_modes, f_cut_hz) -> np.ndarray:
     return dofs.astype(np.int64)
 
 
-def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "lu",
-              blr_tol: float = 0.0) -> SLEPc.EPS:
+def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "cholesky",
+              blr_tol: float = 0.0, out_of_core: bool = False) -> SLEPc.EPS:
     """Krylov–Schur, shift-and-invert at σ = 0, MUMPS LU (or LDLᵀ: ``factor =
     "cholesky"``) of K_ii, with block low-rank compression at ``blr_tol`` (0: full
-    rank); set up, i.e. factored. PETSc options with the prefix ``cb_`` override these."""
+    rank) and the factor out of core if asked; set up, i.e. factored. PETSc options with
+    the prefix ``cb_`` override these."""
     eps = shift_invert_eps(K_ii, M_ii, 0.0, tol, 500)
     eps.setOptionsPrefix("cb_")
+    # No purification (one more solve per eigenvector): the null space of M̃ is the
+    # interface, whose entries _fill_modes zeroes (measured: basis within 2.9e-15)
+    eps.setPurify(False)
     pc = eps.getST().getKSP().getPC()
     if factor == "cholesky":
         pc.setType(PETSc.PC.Type.CHOLESKY)
         pc.setFactorSolverType("mumps")
     opts = PETSc.Options()
     added = []
-    if blr_tol > 0:  # MUMPS reads its ICNTL/CNTL from the options when it factors
-        for key, val in (("cb_st_mat_mumps_icntl_35", 1), ("cb_st_mat_mumps_cntl_7", blr_tol)):
-            if not opts.hasName(key):
-                opts.setValue(key, val)
-                added.append(key)
+    want = []  # MUMPS reads its ICNTL/CNTL from the options when it factors
+    if blr_tol > 0:
+        want += [("cb_st_mat_mumps_icntl_35", 1), ("cb_st_mat_mumps_cntl_7", blr_tol)]
+    if out_of_core:
+        want.append(("cb_st_mat_mumps_icntl_22", 1))
+    for key, val in want:
+        if not opts.hasName(key):
+            opts.setValue(key, val)
+            added.append(key)
     try:
         eps.setFromOptions()
         eps.setUp()
@@ -212,8 +221,9 @@ def craig_bampton(
     f_cut_hz: float | None = None,
     comm=None,
     eps_tol: float = 1e-12,
-    factor: str = "lu",
+    factor: str = "cholesky",
     blr_tol: float = 0.0,
+    out_of_core: bool = False,
 ) -> CBResult:
     """Craig–Bampton reduction with one MUMPS factorisation of K_ii (eq. 5–9).
 
@@ -241,14 +251,19 @@ def craig_bampton(
         Only checked against the communicator of ``K``, which is the one used.
     eps_tol : float
         SLEPc relative residual tolerance of the eigenpairs.
-    factor : {"lu", "cholesky"}
-        MUMPS factorisation of ``K_ii`` (``K_ii`` is symmetric positive definite, so
-        LDLᵀ gives the same solves with about half the factor; docs/scale.md).
+    factor : {"cholesky", "lu"}
+        MUMPS factorisation of ``K_ii``: LDLᵀ (default since branch h9-scale; ``K_ii`` is
+        symmetric positive definite) or LU, the same modes to 1e-13, LDLᵀ with half the
+        factor entries (docs/scale.md).
     blr_tol : float
         MUMPS block low-rank compression threshold (``CNTL(7)``), 0 = full rank. The
         shift-invert then uses an approximate factor: the eigenpairs are those of a
         perturbed K_ii (measured frequency error in docs/scale.md) and the static
         modes are refined with the exact K_ii to the usual residual.
+    out_of_core : bool
+        MUMPS keeps the factor on disk (``ICNTL(22) = 1``), in the folder named by the
+        environment variable ``MUMPS_OOC_TMPDIR`` (MUMPS's default /tmp), and only the
+        active fronts in memory: the same solves, every one reading the factor back.
 
     Returns
     -------
@@ -260,6 +275,8 @@ def craig_bampton(
         raise ValueError(f"factor = {factor!r}: must be one of {FACTORS}")
     if not (math.isfinite(blr_tol) and 0.0 <= blr_tol < 1e-2):
         raise ValueError(f"blr_tol = {blr_tol}: must be 0 (full rank) or in (0, 1e-2)")
+    if out_of_core:
+        _check_ooc_dir()
     pcomm = K.getComm()
     if comm is not None:
         size = comm.getSize() if hasattr(comm, "getSize") else comm.Get_size()
@@ -270,107 +287,51 @@ def craig_bampton(
     n_c = dofs.size
     n_i = n - n_c
     r0, r1 = K.getOwnershipRange()
-    local = np.arange(r0, r1, dtype=np.int64)
-    is_iface_local = np.isin(local, dofs)
-    interior_rows = local[~is_iface_local]  # global, ascending; order of the interior block
-    is_i = PETSc.IS().createGeneral(interior_rows.astype(PETSc.IntType), comm=pcomm)
-    # All interface columns on rank 0 in the given order: K_ic columns follow q_c.
-    cols = dofs if pcomm.getRank() == 0 else np.empty(0, dtype=np.int64)
-    is_c = PETSc.IS().createGeneral(cols.astype(PETSc.IntType), comm=pcomm)
+    iface_pos = dofs[(dofs >= r0) & (dofs < r1)] - r0  # owned interface rows, local
+    with interface_eliminated(K, M, dofs) as saved_K:  # K̃, M̃: eq. (5) without copies
+        # --- fixed-interface modes, eq. (6)
+        t0 = time.perf_counter()
+        eps = _make_eps(K, M, eps_tol, factor, blr_tol, out_of_core)
+        n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
+        lam, order = _kept_eigenvalues(eps, n_cm)
+        fi_hz = np.sqrt(lam) / (2.0 * math.pi)
+        _log_modes(n_cm, fi_hz, f_cut_hz)
+        t_eig = time.perf_counter() - t0
+        # --- T: local rows of the full numbering, columns (q_c, η)
+        n_r = n_c + n_cm
+        T = PETSc.Mat().createDense(((r1 - r0, n), (PETSc.DECIDE, n_r)), comm=pcomm)
+        T.setUp()
+        Tl = T.getDenseArray()
+        Tl[:] = 0.0
+        t0 = time.perf_counter()
+        _fill_modes(eps, order, M, iface_pos, Tl[:, n_c:])
+        t_vec = time.perf_counter() - t0
+        # --- static constraint modes, eq. (7), from the same MUMPS factor
+        t0 = time.perf_counter()
+        F = eps.getST().getKSP().getPC().getFactorMatrix()
+        stats = _factor_stats(F)
+        B = interface_columns(K, dofs, saved_K)
+        X, psi_res = _static_modes(F, K, B)
+        Tl[:, :n_c] = X.getDenseArray()
+        Tl[iface_pos, :] = 0.0
+        for k, d in enumerate(dofs):
+            if r0 <= d < r1:
+                Tl[d - r0, k] = 1.0
+        T.assemble()
+        for obj in (X, B, F):  # F: only this reference, the factor stays with eps
+            obj.destroy()
+        eps.destroy()  # the factor and the Krylov basis go before the projection
+        t_psi = time.perf_counter() - t0
 
-    K_ii = K.createSubMatrix(is_i, is_i)  # eq. (5)
-    M_ii = M.createSubMatrix(is_i, is_i)
-    K_ic = K.createSubMatrix(is_i, is_c)
-
-    # --- fixed-interface modes, eq. (6)
-    t0 = time.perf_counter()
-    eps = _make_eps(K_ii, M_ii, eps_tol, factor, blr_tol)
-    n_cm = _solve_modes(eps, n_i, n_modes, f_cut_hz)
-    lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
-    order = np.argsort(lam, kind="stable")[:n_cm]
-    lam = lam[order]
-    if lam[0] <= 1e-9 * lam[-1]:  # rigid-body motion of the interior: K_ii singular
-        raise RuntimeError(
-            f"fixed-interface eigenvalue {lam[0]:.3e} ~ 0 (largest kept {lam[-1]:.3e}): "
-            "K_ii is singular, the interface DOF do not restrain every rigid-body motion"
-        )
-    fi_hz = np.sqrt(lam) / (2.0 * math.pi)
-    if f_cut_hz is not None:
-        log.info(
-            "Craig-Bampton: n_CM = %d fixed-interface modes below f_cut = %.6g Hz "
-            "(highest kept %.6g Hz)", n_cm, f_cut_hz, fi_hz[-1],
-        )
-    else:
-        log.info(
-            "Craig-Bampton: n_CM = %d fixed-interface modes (user), up to %.6g Hz",
-            n_cm, fi_hz[-1],
-        )
-    t_eig = time.perf_counter() - t0
-
-    # --- assemble T: local rows of the full numbering, columns (q_c, η)
-    n_r = n_c + n_cm
-    T = PETSc.Mat().createDense(((r1 - r0, n), (PETSc.DECIDE, n_r)), comm=pcomm)
-    T.setUp()
-    Tl = T.getDenseArray()
-    Tl[:] = 0.0
-    interior_pos = interior_rows - r0
-    xr = K_ii.createVecRight()
-    y = M_ii.createVecLeft()
-    for k, j in enumerate(order):
-        eps.getEigenvector(int(j), xr)
-        M_ii.mult(xr, y)
-        mnorm = xr.dot(y)
-        s = xr.sum()  # deterministic sign across partitions
-        sign = -1.0 if s < 0 else 1.0
-        xr.scale(sign / math.sqrt(mnorm))  # mass normalisation Φᵀ M_ii Φ = I
-        Tl[interior_pos, n_c + k] = xr.getArray()
-
-    # --- static constraint modes, eq. (7), from the same MUMPS factor
-    t0 = time.perf_counter()
-    F = eps.getST().getKSP().getPC().getFactorMatrix()
-    stats = _factor_stats(F)
-    B = K_ic.convert(PETSc.Mat.Type.DENSE)
-    X = B.duplicate()
-    F.matSolve(B, X)
-    X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
-    nb = B.norm(PETSc.NormType.FROBENIUS)
-    R, psi_res = _psi_residual(K_ii, X, B, nb)
-    steps = 0
-    while not psi_res < PSI_RESIDUAL_TOL and steps < PSI_REFINE_STEPS:
-        # iterative refinement with the approximate factor: X -= F⁻¹ (K_ii X + K_ic)
-        D = X.duplicate()
-        F.matSolve(R, D)
-        X.axpy(-1.0, D)
-        D.destroy()
-        R.destroy()
-        R, psi_res = _psi_residual(K_ii, X, B, nb)
-        steps += 1
-    if steps:
-        log.info("static modes: %d refinement steps (approximate factor), residual %.2e",
-                 steps, psi_res)
-    if not psi_res < PSI_RESIDUAL_TOL:
-        raise RuntimeError(
-            f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
-            "(K_ii singular or ill-conditioned?)"
-        )
-    Tl[interior_pos, :n_c] = X.getDenseArray()
-    for k, d in enumerate(dofs):
-        if r0 <= d < r1:
-            Tl[d - r0, k] = 1.0
-    T.assemble()
-    t_psi = time.perf_counter() - t0
-
-    # --- Galerkin projection, eq. (9)
+    # --- Galerkin projection, eq. (9), with K and M restored
     t0 = time.perf_counter()
     M_r = dense_projection(M, T)
     K_r = dense_projection(K, T)
     t_proj = time.perf_counter() - t0
 
-    for obj in (R, X, B, K_ic, K_ii, M_ii, xr, y, is_i, is_c):
-        obj.destroy()
-    eps.destroy()
     timings = {
         "eigensolve": t_eig,
+        "eigenvectors": t_vec,
         "static_modes": t_psi,
         "projection": t_proj,
         "total": time.perf_counter() - t_start,
@@ -383,6 +344,92 @@ def craig_bampton(
     return CBResult(T, M_r, K_r, dofs, n_cm, fi_hz, float(psi_res), timings, stats)
 
 
+def _kept_eigenvalues(eps: SLEPc.EPS, n_cm: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``n_cm`` smallest converged eigenvalues (ascending) and their indices in
+    ``eps``; refuses a rigid-body motion of the interior."""
+    lam = np.array([eps.getEigenvalue(j).real for j in range(eps.getConverged())])
+    order = np.argsort(lam, kind="stable")[:n_cm]
+    lam = lam[order]
+    if lam[0] <= 1e-9 * lam[-1]:  # rigid-body motion of the interior: K_ii singular
+        raise RuntimeError(
+            f"fixed-interface eigenvalue {lam[0]:.3e} ~ 0 (largest kept {lam[-1]:.3e}): "
+            "K_ii is singular, the interface DOF do not restrain every rigid-body motion"
+        )
+    return lam, order
+
+
+def _log_modes(n_cm: int, fi_hz: np.ndarray, f_cut_hz) -> None:
+    if f_cut_hz is not None:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes below f_cut = %.6g Hz "
+            "(highest kept %.6g Hz)", n_cm, f_cut_hz, fi_hz[-1],
+        )
+    else:
+        log.info(
+            "Craig-Bampton: n_CM = %d fixed-interface modes (user), up to %.6g Hz",
+            n_cm, fi_hz[-1],
+        )
+
+
+def _fill_modes(eps: SLEPc.EPS, order: np.ndarray, M: PETSc.Mat, iface_pos: np.ndarray,
+                out: np.ndarray) -> None:
+    """Mass-normalised eigenvectors Φ (``Φᵀ M_ii Φ = I``, interface rows 0) into the local
+    rows ``out`` (n_loc × n_cm), each with a partition-independent sign (sum >= 0)."""
+    x = M.createVecRight()
+    y = M.createVecLeft()
+    for k, j in enumerate(order):
+        eps.getEigenvector(int(j), x)
+        x.getArray()[iface_pos] = 0.0  # the start vector's interface part (no purification)
+        M.mult(x, y)
+        mnorm = x.dot(y)
+        sign = -1.0 if x.sum() < 0 else 1.0
+        x.scale(sign / math.sqrt(mnorm))
+        out[:, k] = x.getArray()
+    x.destroy()
+    y.destroy()
+
+
+def _static_modes(F: PETSc.Mat, K: PETSc.Mat, B: PETSc.Mat) -> tuple[PETSc.Mat, float]:
+    """Ψ = −K̃⁻¹ B (eq. 7) with the factor ``F`` of ``K̃``, refined with ``K̃`` itself when
+    the factor is approximate (BLR); refuses a residual >= PSI_RESIDUAL_TOL."""
+    X = B.duplicate()
+    F.matSolve(B, X)
+    X.scale(-1.0)  # Ψ = −K_ii⁻¹ K_ic
+    nb = B.norm(PETSc.NormType.FROBENIUS)
+    R, psi_res = _psi_residual(K, X, B, nb)
+    steps = 0
+    while not psi_res < PSI_RESIDUAL_TOL and steps < PSI_REFINE_STEPS:
+        # iterative refinement with the approximate factor: X -= F⁻¹ (K_ii X + K_ic)
+        D = X.duplicate()
+        F.matSolve(R, D)
+        X.axpy(-1.0, D)
+        D.destroy()
+        R.destroy()
+        R, psi_res = _psi_residual(K, X, B, nb)
+        steps += 1
+    R.destroy()
+    if steps:
+        log.info("static modes: %d refinement steps (approximate factor), residual %.2e",
+                 steps, psi_res)
+    if not psi_res < PSI_RESIDUAL_TOL:
+        raise RuntimeError(
+            f"static modes: relative residual {psi_res:.3e} >= {PSI_RESIDUAL_TOL:g} "
+            "(K_ii singular or ill-conditioned?)"
+        )
+    return X, psi_res
+
+
+def _check_ooc_dir() -> None:
+    """Refuse a ``MUMPS_OOC_TMPDIR`` that is not a writable folder (MUMPS would fail in
+    the middle of the factorisation)."""
+    import os
+
+    d = os.environ.get("MUMPS_OOC_TMPDIR", "/tmp")
+    if not (os.path.isdir(d) and os.access(d, os.W_OK | os.X_OK)):
+        raise ValueError(f"MUMPS_OOC_TMPDIR = {d!r}: the out-of-core factor needs an existing, "
+                         "writable folder (environment variable; default /tmp)")
+
+
 def _factor_stats(F: PETSc.Mat) -> dict:
     """MUMPS's own figures of the factor ``F`` (empty for another solver)."""
     try:
@@ -392,7 +439,8 @@ def _factor_stats(F: PETSc.Mat) -> dict:
             e = F.getMumpsInfog(35)
             entries = e if e >= 0 else -e * 1_000_000
         out = {"entries": int(entries), "memory_mib_max_rank": int(F.getMumpsInfog(21)),
-               "memory_mib_total": int(F.getMumpsInfog(22)), "blr": bool(blr)}
+               "memory_mib_total": int(F.getMumpsInfog(22)), "blr": bool(blr),
+               "out_of_core": F.getMumpsIcntl(22) > 0}
     except (AttributeError, PETSc.Error):
         return {}
     log.info("MUMPS factor of K_ii: %.4g entries%s, %d MB max per rank, %d MB in all",

@@ -97,7 +97,8 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
     r = scene.rom
     km, xi = scene.mesh_stiffness.mean, scene.damping.modal_ratio
     kw = {"f_cut_hz": r.cutoff} if r.cutoff else {"n_modes": r.n_cm}
-    cb = craig_bampton(model.M, model.K, model.gear_dofs, factor=r.factorization, **kw)
+    cb = craig_bampton(model.M, model.K, model.gear_dofs, factor=r.factorization,
+                       out_of_core=r.out_of_core, **kw)
     rom = build_rom(cb, model.G, km, xi)
     if r.n_check > 0:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,

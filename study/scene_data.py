@@ -181,7 +181,8 @@ class RomData:
     n_cm: int
     cutoff: float | None
     n_check: int = 30
-    factorization: str = "lu"
+    factorization: str = "cholesky"
+    out_of_core: bool = False
 
 
 @dataclass(frozen=True)

@@ -139,10 +139,16 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="keep modes below this frequency instead of n_cm"),
         "n_check": _f(30, "", 0, 5000, kind="int",
                       doc="coupled modes compared with the full model (Fig. 9); 0: skip"),
-        "factorization": _c("lu", ("lu", "cholesky"),
+        "factorization": _c("cholesky", ("lu", "cholesky"),
                             "MUMPS factorisation of K_ii in the Craig–Bampton eigen-solve: "
-                            "`cholesky` (LDLᵀ) gives the same modes with about half the factor "
-                            "memory and time (docs/scale.md)"),
+                            "`cholesky` (LDLᵀ, K_ii is symmetric positive definite) gives the "
+                            "same modes as `lu` (1e-13) with half the factor entries and less "
+                            "time (docs/scale.md)"),
+        "out_of_core": Spec("bool", False,
+                            doc="MUMPS factor of K_ii out of core (ICNTL(22) = 1): written to "
+                                "the folder `$MUMPS_OOC_TMPDIR` (default /tmp; must exist and be "
+                                "writable), only the active fronts stay in memory; same modes, "
+                                "~10 % more time (docs/scale.md)"),
     },
     "hbm": {
         "mesh_harmonics": _f(3, "", 1, 200, kind="int", doc="mesh harmonics kZ, k = 1…n"),

@@ -200,3 +200,36 @@ def test_displacement_from_numpy_equals_from_vec(shaft: fem.FEModel) -> None:
     assert np.array_equal(u_vec.x.array, u_root.x.array)
     with pytest.raises(ValueError, match="n_red"):
         shaft.displacement(arr[:-1])
+
+
+def test_projection_keeps_no_operand_alive():
+    """``fem.model.project`` gives ``Pᵀ A P`` and drops PETSc's product data: afterwards
+    ``A`` and ``P`` are referenced only by the caller (before, ``K̄`` held ``K P`` and,
+    through it, the full P2 ``K``: docs/scale.md)."""
+    from petsc4py import PETSc
+
+    from fem.model import project
+
+    rng = np.random.default_rng(4)
+    n, m = 30, 12
+    Ad = rng.standard_normal((n, n))
+    Ad = Ad + Ad.T
+    Pd = np.zeros((n, m))
+    Pd[np.arange(n), rng.integers(0, m, n)] = rng.standard_normal(n)
+    A, P = (PETSc.Mat().createAIJ(D.shape, csr=_csr_of(D)) for D in (Ad, Pd))
+    for X in (A, P):
+        X.assemble()
+    out = project(A, P)
+    assert A.getRefCount() == 1 and P.getRefCount() == 1
+    ia, ja, va = out.getValuesCSR()
+    got = np.zeros((m, m))
+    for i in range(m):
+        got[i, ja[ia[i]:ia[i + 1]]] = va[ia[i]:ia[i + 1]]
+    np.testing.assert_allclose(got, Pd.T @ Ad @ Pd, rtol=1e-13, atol=1e-13 * np.abs(Ad).max())
+
+
+def _csr_of(D):
+    nz = D != 0
+    ia = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+    ja = np.nonzero(nz)[1].astype(np.int32)
+    return ia, ja, D[nz]

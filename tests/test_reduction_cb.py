@@ -45,14 +45,15 @@ def test_fixed_interface_modes_match_dense(chain, dense):
 
 
 def test_cholesky_factor_gives_the_same_reduction(chain, dense):
-    """rom.factorization = 'cholesky': MUMPS LDLᵀ of K_ii, one factorisation (also with
-    the cut-off restarts); modes, Schur complement and ROM equal the LU ones and SciPy's."""
+    """rom.factorization = 'cholesky' (the default): MUMPS LDLᵀ of K_ii, one factorisation
+    (also with the cut-off restarts); modes, Schur complement and ROM equal the LU ones and
+    SciPy's."""
     PETSc.Log.begin()
     ev = PETSc.Log.Event("MatCholFctrNum")
     before = ev.getPerfInfo()["count"]
-    ch = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0, factor="cholesky")
+    ch = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0)
     assert ev.getPerfInfo()["count"] - before == 1
-    lu = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0)
+    lu = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=200.0, factor="lu")
     ref = _interior_hz(dense)
     assert ch.n_cm == lu.n_cm == np.count_nonzero(ref <= 200.0)
     np.testing.assert_allclose(ch.fixed_interface_hz, ref[: ch.n_cm], rtol=1e-9)
@@ -81,7 +82,7 @@ def test_cutoff_keeps_all_modes_below_with_one_factorisation(chain, dense):
     ev = PETSc.Log.Event("MatLUFactorNum")
     before = ev.getPerfInfo()["count"]
     f_cut = 200.0  # needs ~80 modes: the eigensolve is restarted with a larger space
-    cb = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=f_cut)
+    cb = craig_bampton(chain.M, chain.K, IFACE, f_cut_hz=f_cut, factor="lu")
     assert ev.getPerfInfo()["count"] - before == 1
     ref = _interior_hz(dense)
     assert cb.n_cm == np.count_nonzero(ref <= f_cut)

@@ -171,6 +171,7 @@ BROKEN = [
     ({"rom": {"n_cm": 0}}, "rom.n_cm = 0"),
     ({"rom": {"factorization": "ldlt"}},
      "rom.factorization = 'ldlt': must be one of 'lu', 'cholesky'"),
+    ({"rom": {"out_of_core": "yes"}}, "rom.out_of_core = 'yes': must be true or false"),
 ]
 
 

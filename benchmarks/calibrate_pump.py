@@ -78,6 +78,13 @@ def _load(path: Path) -> dict:
 
 
 def _save(path: Path, data: dict) -> None:
+    """Write the evaluations with a table of them for BENCHMARKS.md (benchmarks.report)."""
+    data = {**data, "benchmark": "calibrate_pump",
+            "command": ".venv/bin/python -m benchmarks.calibrate_pump scan|calibrate ...",
+            "summary": "TE amplitudes of the pump against the paper's resonance speeds "
+                       "(docs/theory.md §13.2): every evaluation, cheap 3/1 set unless "
+                       "overridden.",
+            "tables": [{"title": "evaluations", "columns": COLUMNS, "rows": table_rows(data)}]}
     with atomic_write(path, "w") as fh:
         fh.write(json.dumps(data, indent=1, sort_keys=True))
 
@@ -186,26 +193,35 @@ def calibrate(ev: Evaluator, start: tuple[float, ...], slope: float, iterations:
             "reason": f"{iterations} iterations"}
 
 
-def show(data: dict) -> str:
-    """Markdown table of every evaluation."""
-    lines = ["| TE H_Z, H_2Z, H_3Z (µm) | overrides | resonances (rpm) | errors | peak std (N) "
-             "| grazing (rpm) | windows (rpm) | s | status |",
-             "|---|---|---|---|---|---|---|---|---|"]
+COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "overrides", "resonances (rpm)", "errors",
+           "peak std (N)", "grazing (rpm)", "windows (rpm)", "s", "status"]
+
+
+def table_rows(data: dict) -> list[list[str]]:
+    """One row of :data:`COLUMNS` per evaluation."""
+    rows = []
     for ev in data["evaluations"].values():
         ov = dict(ev["overrides"])
         amps = ov.pop("transmission_error.amplitudes_um")
         for k in (*CHEAP, "continuation.max_points"):
             ov.pop(k, None)
         e = errors(ev)
-        lines.append(
-            f"| {', '.join(f'{a:.4g}' for a in amps)} | "
-            f"{', '.join(f'{k}={v}' for k, v in ov.items()) or '–'} | "
-            f"{', '.join(f'{r:.0f}' for r in ev.get('resonances_rpm', []))} | "
-            f"{'–' if e is None else ', '.join(f'{100 * v:+.1f} %' for v in e)} | "
-            f"{', '.join(f'{r:.1f}' for r in ev.get('resonances_N', []))} | "
-            f"{', '.join(f'{g:.0f}' for g in ev.get('grazing_rpm', []))} | "
-            f"{', '.join(f'{a:.0f}–{b:.0f}' for a, b in ev.get('windows_rpm', [])) or 'none'} | "
-            f"{ev['seconds']} | {ev['status'][:40]} |")
+        rows.append([
+            ", ".join(f"{a:.4g}" for a in amps),
+            ", ".join(f"{k}={v}" for k, v in ov.items()) or "–",
+            ", ".join(f"{r:.0f}" for r in ev.get("resonances_rpm", [])),
+            "–" if e is None else ", ".join(f"{100 * v:+.1f} %" for v in e),
+            ", ".join(f"{r:.1f}" for r in ev.get("resonances_N", [])),
+            ", ".join(f"{g:.0f}" for g in ev.get("grazing_rpm", [])),
+            ", ".join(f"{a:.0f}–{b:.0f}" for a, b in ev.get("windows_rpm", [])) or "none",
+            str(ev["seconds"]), ev["status"][:40]])
+    return rows
+
+
+def show(data: dict) -> str:
+    """Markdown table of every evaluation."""
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(r) + " |" for r in table_rows(data)]
     return "\n".join(lines)
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from benchmarks.bench_verify import (
+    PUMP_SCENE,
     _rhs,
     _state_norm,
     initial_state,
@@ -39,7 +40,6 @@ from benchmarks.common import machine, write_json
 
 logger = logging.getLogger("bench_stability")
 ROOT = Path(__file__).resolve().parents[1]
-PUMP_SCENE = ROOT / "scenes" / "pump.toml"
 
 
 def measured_rate(problem, point, periods: int, rtol: float = 1e-10) -> dict:

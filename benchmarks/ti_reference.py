@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.bench_verify import (
+    PUMP_SCENE,
     contact_class,
     hbm_load,
     initial_state,
@@ -54,7 +55,6 @@ from geometry.files import atomic_write
 
 log = logging.getLogger("ti_reference")
 ROOT = Path(__file__).resolve().parents[1]
-PUMP_SCENE = ROOT / "scenes" / "pump.toml"
 DEFAULT_OUT = RESULTS / "ti_reference_pump.json"
 DEFAULT_SPEEDS = (852.0, 1007.0, 1200.0, 1390.0, 1600.0, 2218.0, 2504.0, 2970.0, 3500.0,
                   4500.0, 6875.0)

@@ -13,6 +13,7 @@ from .newton import COND_WARN
 from .postprocess import point_stats
 from .problem import HBMProblem
 from .stability import stability as point_stability
+from .stability_process import Verdict
 
 # the tracer's log: one name for the continuation and its modules
 logger = logging.getLogger("hbm.continuation")
@@ -332,8 +333,8 @@ class _Measure:
             stab = point_stability(problem, pt, start=self.basis,
                                    parity=self.parity(pt, tangent))
             self.basis = stab.basis
-            fmax, kind, consistent = stab.max_real, stab.code, stab.consistent
-            stable = stab.kind == "stable"
+            v = Verdict.of(stab)
+            fmax, kind, consistent, stable = v.max_real, v.code, v.consistent, v.stable
         else:
             fmax, stable, kind, consistent = 0.0, True, 0, True
         rec.add(ticket=ticket, rpm=pt.rpm, omega=omega, coefficients=pt.coefficients,

@@ -42,6 +42,12 @@ class Verdict:
     consistent: bool
     stable: bool
 
+    @classmethod
+    def of(cls, stab) -> Verdict:
+        """The verdict of a :class:`hbm.stability.Stability`."""
+        return cls(float(stab.max_real), int(stab.code), bool(stab.consistent),
+                   stab.kind == "stable")
+
 
 def available() -> bool:
     """True where a forked worker process can be used (the ``fork`` start method)."""
@@ -72,8 +78,7 @@ def _serve(problem: HBMProblem, conn) -> None:
             if not np.isfinite(stab.max_real):
                 raise ValueError(f"largest Floquet real part {stab.max_real}")
             basis = stab.basis
-            conn.send(Verdict(float(stab.max_real), int(stab.code), bool(stab.consistent),
-                              stab.kind == "stable"))
+            conn.send(Verdict.of(stab))
         except Exception as exc:  # noqa: BLE001  (handed to the parent, raised there)
             conn.send(RuntimeError(f"stability at {omega:.6g} rad/s in the worker "
                                    f"process: {type(exc).__name__}: {exc}"))

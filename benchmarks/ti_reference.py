@@ -117,7 +117,8 @@ def rom_fingerprint(cache_dir: Path, rom_key: str) -> list[float] | None:
 
     The receptances ``H(f) = B_g (K - w^2 M + i w C)^-1 [B_g; B_n]^T`` from the gear DOF
     and the load-node rows (``nodes.h5``) to the gear DOF, at :data:`FINGERPRINT_HZ`,
-    each contracted with fixed pseudo-random vectors (real and imaginary parts). They do
+    each contracted with fixed pseudo-random vectors (real and imaginary parts; SI
+    receptances, m/N and rad/(N·m) mixed, so compare them relatively). They do
     not depend on the basis of the reduced space (order, signs or mixing of the component
     modes), so two ROMs that differ only in round-off or in the eigen-solver's choice of
     eigenvectors have equal fingerprints to ~1e-12.

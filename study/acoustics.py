@@ -279,7 +279,8 @@ def reduced_radiation_matrix(model, T, facets: np.ndarray, PT=None) -> np.ndarra
 
 def block_u_rows(model, PT, blocks: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``u`` per unit ROM coordinate at points given as weighted sums of DOF blocks
-    (n × 3 × n_r), from the distributed ``P T``: one AIJ row per point and component
+    (n × 3 × n_r; m per unit of the ROM coordinate, the basis' own units), from the
+    distributed ``P T``: one AIJ row per point and component
     (global P2 DOF numbers as columns) times ``P T``, so ghost DOF come through PETSc
     (collective on ``model.comm``).
 

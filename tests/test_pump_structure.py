@@ -49,3 +49,28 @@ def test_summary_of_a_spectrum():
     assert (s["top_hz"], s["top_rho"], s["n"], s["highest_hz"]) == (4000.0, 0.32, 3, 5000.0)
     assert s["sum_rho"] == pytest.approx(0.57)
     assert ps.summary([])["n"] == 0
+
+
+def test_grounded_gears_adds_the_flywheel_and_lateral_ground_of_its_closed_forms():
+    from benchmarks.grounded_gears import ROTATIONS, TRANSLATIONS, ground_gears
+
+    # 12 uncoupled unit DOF (the two gears of the ROM, Fig. 1 frame), no stiffness
+    J, m = 2.0e-3, 1.5
+    M = np.diag([m, m, m, 1e-3, 1e-3, J] * 2)
+    K = np.zeros((12, 12))
+    G = np.zeros(12)
+    G[[1, 5, 7, 11]] = [1.0, 0.047, -1.0, 0.047]
+    dI, Ir, kt, dm, ky = 1.0e-3, 0.05, 2.0e6, 0.5, 1.0e9
+    Me, Ke, Ge = ground_gears(M, K, G, dI, Ir, kt, dm, ky)
+    assert Me.shape == Ke.shape == (14, 14) and np.array_equal(Ge[:12], G) and not Ge[12:].any()
+    w2 = np.sort(np.linalg.eigvals(np.linalg.solve(Me, Ke)).real)
+    # each gear on its flywheel: 0 and kt (1/(J + dI) + 1/Ir); each translation: ky/(m + dm)
+    expected = sorted([0.0, 0.0, kt * (1 / (J + dI) + 1 / Ir), kt * (1 / (J + dI) + 1 / Ir)]
+                      + [ky / (m + dm)] * len(TRANSLATIONS) + [0.0] * 6)
+    assert w2 == pytest.approx(expected, rel=1e-10, abs=1e-6)
+    assert len(ROTATIONS) == 2
+    # no static torque reaches ground through the flywheel: K has the rigid rotation of
+    # gear + flywheel in its null space
+    v = np.zeros(14)
+    v[[5, 12]] = 1.0
+    assert np.allclose(Ke @ v, 0.0)

@@ -76,6 +76,14 @@ class ShaftParams:
     station_z : tuple of 6 floats or None
         Local ``z`` of the station mid-planes [m]; ``None`` puts three stations
         evenly in each body span.
+    rotor_radius : float
+        Radius of the rotor sections [m]: the part of each body span farther than
+        ``rotor_gap`` from its ends (the pumping rotors that carry the force
+        stations, as a solid cylinder). ``0`` (default): no rotor, the body radius
+        over the whole span.
+    rotor_gap : float
+        Axial length at each end of a body span kept at ``body_radius`` [m] (the
+        shoulders between the rotor and the journal or hub seat).
     """
 
     coupling_radius: float = 0.0125
@@ -91,6 +99,8 @@ class ShaftParams:
     tail_length: float = 0.020
     station_width: float = 0.004
     station_z: tuple[float, ...] | None = None
+    rotor_radius: float = 0.0
+    rotor_gap: float = 0.0
 
     def __post_init__(self) -> None:
         if self.station_z is not None and not isinstance(self.station_z, tuple):
@@ -135,7 +145,7 @@ class ShaftParams:
     def segments(self) -> list[tuple[float, float, float, str]]:
         """Axial segments ``(z0, z1, radius, label)`` in local coordinates [m].
 
-        Labels: ``coupling``, ``bearing_a``, ``body``, ``station_k``, ``hub``,
+        Labels: ``coupling``, ``bearing_a``, ``body``, ``rotor``, ``station_k``, ``hub``,
         ``bearing_b``, ``tail``; consecutive segments touch.
         """
         segs: list[tuple[float, float, float, str]] = []
@@ -156,19 +166,30 @@ class ShaftParams:
                 continue
             z0, z1 = z, z + length
             if label == "body":
-                cur = z0
-                for zc, k in stations:
-                    if z0 <= zc - hw and zc + hw <= z1:
-                        if zc - hw > cur:
-                            segs.append((cur, zc - hw, radius, "body"))
-                        segs.append((zc - hw, zc + hw, radius, f"station_{k}"))
-                        cur = zc + hw
-                if z1 > cur:
-                    segs.append((cur, z1, radius, "body"))
+                for b0, b1, r, lab in self._body_parts(z0, z1):
+                    cur = b0
+                    for zc, k in stations:
+                        if b0 <= zc - hw and zc + hw <= b1:
+                            if zc - hw > cur:
+                                segs.append((cur, zc - hw, r, lab))
+                            segs.append((zc - hw, zc + hw, r, f"station_{k}"))
+                            cur = zc + hw
+                    if b1 > cur:
+                        segs.append((cur, b1, r, lab))
             else:
                 segs.append((z0, z1, radius, label))
             z = z1
         return segs
+
+    def _body_parts(self, z0: float, z1: float) -> list[tuple[float, float, float, str]]:
+        """A body span ``[z0, z1]`` split into shoulder, rotor, shoulder (or whole)."""
+        if self.rotor_radius <= 0.0:
+            return [(z0, z1, self.body_radius, "body")]
+        g = self.rotor_gap
+        parts = [(z0, z0 + g, self.body_radius, "body"),
+                 (z0 + g, z1 - g, self.rotor_radius, "rotor"),
+                 (z1 - g, z1, self.body_radius, "body")]
+        return [p for p in parts if p[1] > p[0]]
 
     @property
     def max_radius(self) -> float:
@@ -184,6 +205,13 @@ class ShaftParams:
         _non_negative(owner, "tail_length", self.tail_length)
         if self.tail_length > 0.0:
             _positive(owner, "tail_radius", self.tail_radius)
+        _non_negative(owner, "rotor_radius", self.rotor_radius)
+        if self.rotor_radius > 0.0:
+            _non_negative(owner, "rotor_gap", self.rotor_gap)
+            half = 0.5 * min(self.span_a, self.span_b)
+            if self.rotor_gap >= half:
+                raise ValueError(f"{owner}.rotor_gap = {self.rotor_gap!r}: must be < half the "
+                                 f"shorter body span = {half:g} m (no rotor left)")
         if self.station_z is not None and not all(_is_number(z) for z in self.station_z):
             raise ValueError(f"{owner}.station_z = {self.station_z!r}: must hold "
                              f"{N_STATIONS} numbers (m)")
@@ -200,6 +228,15 @@ class ShaftParams:
                     f"{owner}.station_z[{k}] = {zc!r}: the station ring "
                     f"[z-{hw:g}, z+{hw:g}] must lie inside a body span "
                     f"[{spans[0][0]:g}, {spans[0][1]:g}] or [{spans[1][0]:g}, {spans[1][1]:g}] m")
+        if self.rotor_radius > 0.0:
+            g = self.rotor_gap
+            steps = [spans[0][0] + g, spans[0][1] - g, spans[1][0] + g, spans[1][1] - g]
+            ends = ", ".join(f"{v:g}" for v in steps)
+            for k, zc in enumerate(centres):
+                if any(zc - hw < zs < zc + hw for zs in steps):
+                    raise ValueError(f"{owner}.station_z[{k}] = {zc!r}: the station ring "
+                                     f"[z-{hw:g}, z+{hw:g}] straddles a rotor end (rotor_gap "
+                                     f"= {g:g} m puts them at {ends} m)")
         srt = sorted(centres)
         for z0, z1 in zip(srt[:-1], srt[1:], strict=True):
             if z1 - z0 < self.station_width:

@@ -91,7 +91,7 @@ def build_shaft(params: ShaftParams, name: str,
 
     part = PartEntities(volume=vol)
     for za, zb, r, label in params.segments():
-        if label in ("body", "tail", "coupling"):  # coupling: its end face, below
+        if label in ("body", "rotor", "tail", "coupling"):  # coupling: its end face, below
             continue
         tags = lateral(z0 + za, z0 + zb, r)
         if len(tags) != 1:

@@ -49,6 +49,39 @@ def test_shaft_volume_is_sum_of_cylinders():
     assert shaft_volume(sp) == pytest.approx(expected, rel=1e-12)
 
 
+def test_rotor_sections_default_off_and_volume_hand_computed():
+    base = ShaftParams()
+    # rotor_radius = 0 (default): the rotor gap is ignored, the segments are the plain shaft's
+    assert ShaftParams(rotor_gap=0.01).segments() == base.segments()
+    assert "rotor" not in {s[3] for s in base.segments()}
+    R, g = 0.030, 0.008
+    sp = dataclasses.replace(base, rotor_radius=R, rotor_gap=g)
+    sp.validate()
+    segs = sp.segments()
+    for (_, z1, _, _), (z0, _, _, _) in zip(segs[:-1], segs[1:], strict=True):
+        assert z0 == pytest.approx(z1)
+    # the default stations (quarter points of the spans) all lie on the rotors
+    assert all(r == R for _, _, r, lab in segs if lab.startswith("station_"))
+    assert sp.max_radius == R
+    # volume: the plain shaft plus the rotor annuli over span - 2 gaps on both spans
+    extra = math.pi * (R**2 - base.body_radius**2) * (base.span_a + base.span_b - 4 * g)
+    assert shaft_volume(sp) == pytest.approx(shaft_volume(base) + extra, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("shaft", "field"),
+    [
+        (ShaftParams(rotor_radius=-0.02), "rotor_radius"),
+        (ShaftParams(rotor_radius=0.03, rotor_gap=-0.001), "rotor_gap"),
+        (ShaftParams(rotor_radius=0.03, rotor_gap=0.033), "rotor_gap"),  # >= span/2
+        (ShaftParams(rotor_radius=0.03, rotor_gap=0.015), "straddles a rotor end"),
+    ],
+)
+def test_bad_rotor_is_refused_naming_the_field(shaft, field):
+    with pytest.raises(ValueError, match=field):
+        shaft.validate()
+
+
 def test_housing_volume_hand_computed():
     h = HousingParams(rib_count=0)
     t = h.wall_thickness

@@ -35,12 +35,14 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
     REVISIT_RATIO,
     TraceContext,
     _check_events,
+    _closed_loop,
     _distinct_solution,
     _leap,
     _past_fold,
     _reversal_point,
     _revisit,
 )
+from .loops import _leave_loop
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -228,6 +230,10 @@ def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
     if hit is not None:
         ds, message = _undo_reversal(ctx, rec, yn, hit, ds)
         return ("reversal" if message else "running"), message, ds
+    hit = _closed_loop(ctx, rec, yn, tn)
+    if hit is not None:
+        ds, message = _leave_loop(ctx, rec, hit, yn, ds)
+        return ("loop" if message else "running"), message, ds
     crossed = bounds.crossed(yn[-1] * ctx.wscale)
     if crossed is not None:
         status, message, wb = crossed

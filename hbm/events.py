@@ -381,3 +381,44 @@ def _locate(ctx: TraceContext, ya: np.ndarray, yb: np.ndarray, which: int) -> fl
     w = 0.5 * (ylo[-1] + yhi[-1]) * wscale
     return float(w / RPM_TO_RAD_S)
 
+
+@dataclass(frozen=True)
+class _Range:
+    """The speed range of a trace (rad/s): a branch folding back may leave it through its
+    start by ``overshoot`` of the range (never below half of rpm_start sweeping up)."""
+
+    rpm_start: float
+    rpm_end: float
+    overshoot: float
+
+    @property
+    def w_start(self) -> float:
+        return self.rpm_start * RPM_TO_RAD_S
+
+    @property
+    def w_end(self) -> float:
+        return self.rpm_end * RPM_TO_RAD_S
+
+    @property
+    def dirn(self) -> float:
+        return 1.0 if self.w_end > self.w_start else -1.0
+
+    @property
+    def wscale(self) -> float:
+        return abs(self.w_end - self.w_start)
+
+    @property
+    def w_floor(self) -> float:
+        w_floor = self.w_start - self.dirn * self.overshoot * self.wscale
+        return max(w_floor, 0.5 * self.w_start) if self.dirn > 0 else w_floor
+
+    def crossed(self, wn: float) -> tuple[str, str, float] | None:
+        """``(status, message, bound)`` if the speed ``wn`` lies past a bound, else None."""
+        if self.dirn * (wn - self.w_end) > 0:
+            return "completed", f"reached rpm_end = {self.rpm_end}", self.w_end
+        if self.dirn * (wn - self.w_floor) < 0:
+            return "left_range", (
+                f"the branch turned back and left the range through rpm_start = "
+                f"{self.rpm_start} (by more than overshoot = {self.overshoot} of the range)"
+            ), self.w_floor
+        return None

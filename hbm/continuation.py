@@ -44,7 +44,7 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
     _reversal_point,
     _revisit,
 )
-from .loops import _leave_loop
+from .loops import _back_into_loop, _leave_loop
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -187,11 +187,12 @@ def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
                  yn[-1] * ctx.wscale / RPM_TO_RAD_S, rec.last("rpm"), advanced.predictor, ds,
                  it)
     hit = _revisit(ctx, rec, yn)
-    if hit is not None:
+    if hit is not None and not _back_into_loop(rec, hit):
         ds, message = _undo_reversal(ctx, rec, yn, hit, ds)
         return ("reversal" if message else "running"), message, ds
-    hit = _closed_loop(ctx, rec, yn, tn)
-    if hit is not None:
+    if hit is None:
+        hit = _closed_loop(ctx, rec, yn, tn)
+    if hit is not None:     # closed a loop, or walked back into the one just left
         ds, message = _leave_loop(ctx, rec, hit, yn, ds)
         return ("loop" if message else "running"), message, ds
     crossed = bounds.crossed(yn[-1] * ctx.wscale)

@@ -37,6 +37,8 @@ MAX_LOOPS = 8     # closed loops and re-entries handled before the trace stops
 # loop's points lie 0.02-0.1 chords from it, the last point before the corner where the
 # branch turned onto the loop 0.34 and 0.97; chord: the shorter of the point's two)
 LOOP_ENTRY_RATIO = 0.25
+# a walk back over the loop within this many points of its exit is a failed exit
+LOOP_EXIT_POINTS = 8
 # exit steps from the entry point, in chords of the step that arrived there
 LOOP_EXIT_FACTORS = (0.5, 1.0, 1.5, 2.0, 0.25, 3.0)
 
@@ -81,6 +83,15 @@ def _entry(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray) -> int:
             return i
         i -= 1
     return i
+
+
+def _back_into_loop(rec: _Recorder, hit: int) -> bool:
+    """True if a walk back over the segment ``hit`` goes back over the last closed loop
+    within ``LOOP_EXIT_POINTS`` points of leaving it: that exit failed (the next is
+    tried, :func:`_leave_loop`), rather than a reversal to undo."""
+    j = _known_loop(rec, hit)
+    return j is not None and j == len(rec.loops) - 1 and \
+        len(rec) - rec.loops[j][3] <= LOOP_EXIT_POINTS
 
 
 def _exits(ctx: TraceContext, rec: _Recorder, entry: int) -> list[_Exit]:

@@ -94,38 +94,6 @@ def _shape(p, b):
     return up + lo, ((p > b) | (p < -b)).astype(float), 0.5 * (up * up + lo * lo)
 
 
-def _pair_weight(pm, a, z, pp, th, th_a, th_z, b):
-    """Weight of the end term of the crossing in ``(a, z)`` (stencil ``pm, a, z, pp``)
-    and its derivatives with respect to the four samples.
-
-    When the previous or the next interval crosses the same kink, the two crossings are
-    a dip (or peak) ``s = 1 +- (theta' - theta)`` samples wide; the weight is
-    ``3 s^2 - 2 s^3`` below one sample (C1, 0 at the birth of the pair) and 1 beyond.
-    """
-    n = a.size
-    s = np.full(n, np.inf)
-    ds = np.zeros((n, 4))
-    level = np.where((a - b) * (z - b) <= 0.0, b, -b)
-    dth = np.stack([np.zeros(n), th_a, th_z, np.zeros(n)], axis=1)
-    for (u, v), sign, cu, cv in (((pm, a), -1.0, 0, 1), ((z, pp), 1.0, 2, 3)):
-        d = v - u
-        ok = ((u - level) * (v - level) <= 0.0) & (d != 0.0)
-        safe = np.where(ok, d, 1.0)
-        t = (level - u) / safe
-        cand = 1.0 + sign * (t - th)
-        better = ok & (cand < s)
-        s = np.where(better, cand, s)
-        g = -sign * dth
-        g[:, cu] += sign * (t - 1.0) / safe       # d t / d u
-        g[:, cv] += sign * (-t / safe)            # d t / d v
-        ds = np.where(better[:, None], g, ds)
-    close = s < 1.0
-    s = np.where(close, np.clip(s, 0.0, None), 1.0)
-    w = (3.0 - 2.0 * s) * s * s
-    w_p = (6.0 * s * (1.0 - s))[:, None] * ds
-    return w, w_p
-
-
 def _crossing(a, z, d, b):
     """Mean position ``theta`` in (0, 1) of the kinks crossed from ``a`` to ``z`` and
     its derivatives with respect to ``a`` and ``z``."""
@@ -189,19 +157,14 @@ def kink_correction(p: np.ndarray, k: np.ndarray, b: float) -> KinkCorrection:
     m0, m1 = 0.5 * (z - pm), 0.5 * (pp - a)                 # slopes at j and j+1
     slope = (1.0 - th) * m0 + th * m1
     kc = (1.0 - th) * ka + th * kz
-    # a dip (or peak) narrower than a sample: the end terms of its two crossings are
-    # blended out by a C1 weight of their distance (otherwise their sum is first order in
-    # the depth at the birth of the pair, where the dip adds only O(depth^1.5))
-    w, w_p = _pair_weight(pm, a, z, pp, th, th_a, th_z, b)
-    d2 = w * kc * jump * slope / 12.0
+    d2 = kc * jump * slope / 12.0
     # derivatives of d1 + d2 with respect to p at (j-1, j, j+1, j+2)
     dth = np.stack([np.zeros_like(th), th_a, th_z, np.zeros_like(th)], axis=1)
     dslope = (m1 - m0)[:, None] * dth
     dslope += np.stack([-0.5 * (1.0 - th), -0.5 * th, 0.5 * (1.0 - th), 0.5 * th], axis=1)
     dd = np.stack([np.zeros_like(th), d1_a, d1_z, np.zeros_like(th)], axis=1)
-    dd += (w * jump / 12.0)[:, None] * ((kz - ka)[:, None] * dth * slope[:, None]
-                                        + kc[:, None] * dslope)
-    dd += (kc * jump * slope / 12.0)[:, None] * w_p
+    dd += (jump / 12.0)[:, None] * ((kz - ka)[:, None] * dth * slope[:, None]
+                                    + kc[:, None] * dslope)
     delta = d1 + d2
     values = np.zeros(n)
     np.add.at(values, nodes, delta * (1.0 - th))

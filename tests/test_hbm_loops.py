@@ -221,3 +221,26 @@ def test_crossing_the_old_path_once_is_not_a_closed_loop():
     poly = _Polyline(_states(_ROUND[:-1] + [(1.1, -0.1)]), cross)
     t = np.array([1.0, 1.0]) / np.sqrt(2)
     assert events._closed_loop(poly, poly, np.array([0.0, 1.2]), t) is None
+
+
+def test_a_walk_back_into_the_loop_just_left_is_a_failed_exit():
+    """Within LOOP_EXIT_POINTS points of leaving the last loop, a walk back over it
+    makes the trace try the next exit (not undo a reversal); later, or over an older
+    loop or another part of the branch, it is an ordinary reversal."""
+    import hbm.loops as loops
+
+    class Rec:
+        def __init__(self, n):
+            self.n = n
+            # (first, last, entry, restart): an older loop and the last one
+            self.loops = [(10, 30, 9, 31), (50, 80, 49, 81)]
+
+        def __len__(self):
+            return self.n
+
+    near = Rec(81 + loops.LOOP_EXIT_POINTS)
+    assert loops._back_into_loop(near, 60)          # on the last loop, just after its exit
+    assert loops._back_into_loop(near, 49)          # its entry chord
+    assert not loops._back_into_loop(near, 20)      # the older loop
+    assert not loops._back_into_loop(near, 40)      # the branch between the loops
+    assert not loops._back_into_loop(Rec(82 + loops.LOOP_EXIT_POINTS), 60)   # too late

@@ -38,7 +38,8 @@ class GrazingPoint:
 _ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
            "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
            "contact_loss_fraction", "impacts_per_mesh_period", "margin_active",
-           "margin_reverse", "ipp", "tangents", "floquet_kind", "stability_consistent")
+           "margin_reverse", "ipp", "tangents", "floquet_kind", "stability_consistent",
+           "loop")
 
 
 @dataclass
@@ -84,6 +85,15 @@ class Branch:
         Failed continuation steps (each halved the step); among the retries,
         those made with the secant predictor, and the points accepted by the
         spherical corrector past a corner of the branch.
+    loop
+        Per point: 0 on the branch, ``j >= 1`` on the ``j``-th closed loop (a loop the
+        branch went round and closed on itself in the same direction; its points are
+        solutions and are kept, docs/hbm.md "Closed loops").
+    loops
+        One ``(first, last, entry, restart)`` per closed loop: its first and last point,
+        the point the trace went back to (where it had entered the loop), and the index
+        where the copies of that point and its predecessor restart the branch (the
+        segment from ``restart - 1`` to ``restart`` was not traced). Empty without loops.
     reversals, leaps
         Reversals detected (the branch walking back over points already traced;
         the points after the turn are dropped and the trace re-predicted from it
@@ -96,7 +106,9 @@ class Branch:
         ``"completed"`` (reached rpm_end), ``"left_range"`` (turned back out
         through rpm_start), ``"max_points"``, ``"step_failed"``,
         ``"reversal"`` (kept walking back over its own branch after
-        ``MAX_REVERSALS`` recoveries), ``"start_failed"``; the message says why
+        ``MAX_REVERSALS`` recoveries), ``"loop"`` (closed on itself in the same
+        direction and no step from the loop's entry point left it), ``"start_failed"``;
+        the message says why
         in words. Every status but ``"completed"`` means the curve is incomplete.
     """
 
@@ -124,6 +136,8 @@ class Branch:
     tangents: np.ndarray
     floquet_kind: np.ndarray
     stability_consistent: np.ndarray
+    loop: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    loops: list = field(default_factory=list)
     grazing: list = field(default_factory=list)
     folds: list = field(default_factory=list)
     fold_index: list = field(default_factory=list)
@@ -163,6 +177,10 @@ class _Recorder:
         self.releap: int | None = None      # leap from this point (second reversal to it)
         self.stuck = 0          # reversals since the branch grew past stuck_at points,
         self.stuck_at = 0       # its largest length when a reversal was detected
+        # closed loops: (first, last, entry, restart) each (Branch.loops); the segment
+        # (restart - 1, restart) joins the loop's end to the copies and was not traced
+        self.loops: list[tuple[int, int, int, int]] = []
+        self.loop_tries: dict[int, int] = {}   # loop number -> exits tried from its entry
         # per point: the ticket of its stability verdict still to come from the worker
         # process (None: measured), and the hook that collects them (_Measure.settle)
         self.tickets: list = []
@@ -178,8 +196,14 @@ class _Recorder:
                              "reversals": int(getattr(resume, "reversals", 0)),
                              "leaps": int(getattr(resume, "leaps", 0)),
                              "max_condition": float(np.nan_to_num(resume.max_condition))}
+            n = len(resume)
             for k in _ARRAYS:
-                self.lists[k] = list(getattr(resume, k))
+                v = getattr(resume, k, None)
+                self.lists[k] = list(v) if v is not None and len(v) == n else (
+                    [0] * n if k == "loop" else list(v))
+            self.loops = [tuple(int(x) for x in row)
+                          for row in np.asarray(getattr(resume, "loops", []),
+                                                dtype=np.int64).reshape(-1, 4)]
             self.grazing = list(resume.grazing)
             self.folds = list(resume.folds)
             self.fold_index = list(resume.fold_index)
@@ -197,6 +221,7 @@ class _Recorder:
         return self.lists[key][-1]
 
     def add(self, ticket=None, **values) -> None:
+        values.setdefault("loop", 0)
         for k in _ARRAYS:
             self.lists[k].append(values[k])
         self.n_grazing.append(len(self.grazing))
@@ -210,6 +235,19 @@ class _Recorder:
             self._ys = grown
         self._ys[i, :-1] = self.lists["unknowns"][i] / self._x_scale
         self._ys[i, -1] = self.lists["omega"][i] / self.meta["omega_scale"]
+
+    def untraced(self) -> np.ndarray:
+        """Mask over the segments ``(i, i + 1)``: True where the trace did not go from
+        ``i`` to ``i + 1`` (it went back to a closed loop's entry point instead)."""
+        m = np.zeros(max(len(self) - 1, 0), dtype=bool)
+        for *_, restart in self.loops:
+            if 0 < restart <= m.size:
+                m[restart - 1] = True
+        return m
+
+    def restart(self) -> int:
+        """Index of the first point of the current piece (after the last loop exit)."""
+        return self.loops[-1][3] if self.loops else 0
 
     def states(self) -> np.ndarray:
         """Scaled states of every point (n_points, n_unknowns + 1), a read-only view."""
@@ -237,6 +275,7 @@ class _Recorder:
         self.fold_index = [self.fold_index[i] for i in keep]
         del self.grazing[self.n_grazing[n - 1]:]
         del self.n_grazing[n:]
+        self.loops = [lp for lp in self.loops if lp[0] < n]
 
     def branch(self, status: str, message: str, next_step: float,
                counters: dict | None = None) -> Branch:
@@ -249,7 +288,8 @@ class _Recorder:
         for k in _ARRAYS:
             v = self.lists[k]
             arrays[k] = np.array(v) if v else np.zeros((0,))
-        return Branch(**self.meta, **arrays, grazing=list(self.grazing), folds=list(self.folds),
+        return Branch(**self.meta, **arrays, loops=[tuple(lp) for lp in self.loops],
+                      grazing=list(self.grazing), folds=list(self.folds),
                       fold_index=list(self.fold_index),
                       step_cuts=counters["step_cuts"],
                       secant_retries=counters["secant_retries"],

@@ -13,8 +13,9 @@ Every step of :func:`trace` reads PREDICT / CORRECT / ACCEPT:
   piecewise-linear branch), the secant through the last two points, a patient
   corrector (docs/hbm.md); then a corner leap. Corrector: Newton on the augmented
   system ``R_hat = 0, t . (y - y_pred) = 0`` (pseudo-arc-length, :mod:`hbm.corrector`).
-- ACCEPT: a point walking back over the branch is undone (:func:`_undo_reversal`), one
-  past a bound of the range is landed on it (:func:`_land`); otherwise the grazing and
+- ACCEPT: a point walking back over the branch is undone (:func:`_undo_reversal`), a
+  closed loop kept and left through its entry point (:mod:`hbm.loops`), a point past a
+  bound of the range is landed on it (:func:`_land`); otherwise the grazing and
   fold events since the last point are located and the point recorded
   (:func:`hbm.events._check_events`), and the step adapted to the corrector's effort.
 
@@ -35,12 +36,15 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
     REVISIT_RATIO,
     TraceContext,
     _check_events,
+    _closed_loop,
     _distinct_solution,
     _leap,
     _past_fold,
+    _Range,
     _reversal_point,
     _revisit,
 )
+from .loops import _back_into_loop, _leave_loop
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -174,48 +178,6 @@ def _land(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, tn: np.ndarray,
         return f" (no converged point exactly on the bound: {exc})"
 
 
-@dataclass(frozen=True)
-class _Range:
-    """The speed range of a trace (rad/s): a branch folding back may leave it through its
-    start by ``overshoot`` of the range (never below half of rpm_start sweeping up)."""
-
-    rpm_start: float
-    rpm_end: float
-    overshoot: float
-
-    @property
-    def w_start(self) -> float:
-        return self.rpm_start * RPM_TO_RAD_S
-
-    @property
-    def w_end(self) -> float:
-        return self.rpm_end * RPM_TO_RAD_S
-
-    @property
-    def dirn(self) -> float:
-        return 1.0 if self.w_end > self.w_start else -1.0
-
-    @property
-    def wscale(self) -> float:
-        return abs(self.w_end - self.w_start)
-
-    @property
-    def w_floor(self) -> float:
-        w_floor = self.w_start - self.dirn * self.overshoot * self.wscale
-        return max(w_floor, 0.5 * self.w_start) if self.dirn > 0 else w_floor
-
-    def crossed(self, wn: float) -> tuple[str, str, float] | None:
-        """``(status, message, bound)`` if the speed ``wn`` lies past a bound, else None."""
-        if self.dirn * (wn - self.w_end) > 0:
-            return "completed", f"reached rpm_end = {self.rpm_end}", self.w_end
-        if self.dirn * (wn - self.w_floor) < 0:
-            return "left_range", (
-                f"the branch turned back and left the range through rpm_start = "
-                f"{self.rpm_start} (by more than overshoot = {self.overshoot} of the range)"
-            ), self.w_floor
-        return None
-
-
 def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
             ds: float) -> tuple[str, str, float]:
     """ACCEPT the corrected point: undo a reversal, land on a bound crossed, or record
@@ -225,9 +187,14 @@ def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
                  yn[-1] * ctx.wscale / RPM_TO_RAD_S, rec.last("rpm"), advanced.predictor, ds,
                  it)
     hit = _revisit(ctx, rec, yn)
-    if hit is not None:
+    if hit is not None and not _back_into_loop(rec, hit):
         ds, message = _undo_reversal(ctx, rec, yn, hit, ds)
         return ("reversal" if message else "running"), message, ds
+    if hit is None:
+        hit = _closed_loop(ctx, rec, yn, tn)
+    if hit is not None:     # closed a loop, or walked back into the one just left
+        ds, message = _leave_loop(ctx, rec, hit, yn, ds)
+        return ("loop" if message else "running"), message, ds
     crossed = bounds.crossed(yn[-1] * ctx.wscale)
     if crossed is not None:
         status, message, wb = crossed

@@ -36,6 +36,12 @@ REVISIT_RATIO = 0.1
 # while the chords are ~1e-2, mostly speed) the piece coming back is a distinct solution.
 SAME_SOLUTION = 1e-5
 LEAP_FACTORS = (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)   # corner leap: lengths in last chords
+# A closed loop (the branch arriving back on its own path in the same direction) has at
+# least this many points: the last LOOP_MIN_POINTS segments are not searched.
+LOOP_MIN_POINTS = 6
+# The step after a point that closed a loop must land on one of the next LOOP_CONFIRM
+# segments of the old path (a branch going round again, not crossing its path once).
+LOOP_CONFIRM = 3
 
 
 @dataclass
@@ -87,6 +93,22 @@ def _check_forward(rec, y, yn) -> None:
         raise _StepRejected("step goes back over the branch (a reversal was undone here)")
 
 
+def _nearest_segment(ys: np.ndarray, y: np.ndarray,
+                     skip: np.ndarray | None = None) -> tuple[int, float, np.ndarray]:
+    """Segment ``(i, i + 1)`` of the polyline ``ys`` nearest to ``y``: ``(i, distance,
+    foot)``; segments where ``skip`` is True are left out (distance inf if all are)."""
+    a, b = ys[:-1], ys[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                               1e-300), 0.0, 1.0)
+    foot = a + t[:, None] * ab
+    d = np.linalg.norm(foot - y, axis=1)
+    if skip is not None:
+        d[skip[:d.size]] = np.inf
+    i = int(np.argmin(d))
+    return i, float(d[i]), foot[i]
+
+
 def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
 
@@ -101,27 +123,67 @@ def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     if n < 3:
         return None
     ys = ctx.states(rec)
-    a, b = ys[:n - 2], ys[1:n - 1]
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", yn - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
-                                                                1e-300), 0.0, 1.0)
-    foot = a + t[:, None] * ab
-    d = np.linalg.norm(foot - yn, axis=1)
-    i = int(np.argmin(d))
+    i, d, foot = _nearest_segment(ys[:n - 1], yn, _untraced(rec))
     chord = float(np.linalg.norm(yn - ys[-1]))
-    if not d[i] < REVISIT_RATIO * chord:
+    if not d < REVISIT_RATIO * chord:
         return None
-    if (yn - ys[-1]) @ ab[i] > 0:
+    if (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0:
         # the step goes the way the old segment went: a branch that winds past its own
         # earlier loops (a spiral near a resonance with impacts), not a walk back. A walk
         # back runs against the old segment, also when it turned gradually (no single
         # step going back) or came round a loop onto the old branch.
         return None
-    if _distinct_solution(ctx.evaluate, foot[i], yn, ctx.tol, ctx.max_iter):
+    if _distinct_solution(ctx.evaluate, foot, yn, ctx.tol, ctx.max_iter):
         logger.info("point at scaled speed %.9g lies %.2g chords from the branch traced but "
                     "is another solution there (a sharp fold): not a revisit", yn[-1],
-                    d[i] / chord)
+                    d / chord)
         return None
+    return i
+
+
+def _untraced(rec) -> np.ndarray | None:
+    """The recorder's mask of segments not traced (joins after a closed loop), if any."""
+    untraced = getattr(rec, "untraced", None)
+    return untraced() if untraced is not None else None
+
+
+def _closed_loop(ctx: TraceContext, rec: _Recorder, yn: np.ndarray,
+                 tn: np.ndarray) -> int | None:
+    """Index i of the old segment (i, i+1) on which the branch closed a loop, or None.
+
+    The branch has closed on itself when ``yn`` lies on a segment traced at least
+    ``LOOP_MIN_POINTS`` points ago (distance below ``REVISIT_RATIO`` times its chord),
+    the step runs the way that segment went (against it is a walk back,
+    :func:`_revisit`), ``yn`` is the same solution as the old branch at its speed (Newton
+    at that speed from the old path lands within ``SAME_SOLUTION`` of ``yn`` relative to
+    the state norm, :func:`_distinct_solution`), and one more step along ``tn`` lands on
+    the old path again, on one of the next ``LOOP_CONFIRM`` segments, the same way: the
+    branch goes round the loop again rather than crossing its earlier path once.
+    """
+    n = len(rec)
+    upto = n - LOOP_MIN_POINTS          # segments (i, i+1) with i < upto
+    if upto < 1:
+        return None
+    ys = ctx.states(rec)
+    skip = _untraced(rec)
+    i, d, foot = _nearest_segment(ys[:upto + 1], yn, skip)
+    chord = float(np.linalg.norm(yn - ys[-1]))
+    if not (d < REVISIT_RATIO * chord and (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0):
+        return None
+    if _distinct_solution(ctx.evaluate, foot, yn, ctx.tol, ctx.max_iter):
+        return None
+    try:
+        y2, *_ = _correct(ctx.evaluate, yn + chord * tn, tn, ctx.tol, ctx.max_iter)
+    except (ConvergenceError, np.linalg.LinAlgError):
+        return None
+    j, d2, _ = _nearest_segment(ys[:upto + 1], y2, skip)
+    step = float(np.linalg.norm(y2 - yn))
+    if not (i <= j <= i + LOOP_CONFIRM and d2 < REVISIT_RATIO * step
+            and (y2 - yn) @ (ys[j + 1] - ys[j]) > 0):
+        return None
+    logger.info("the branch closed on itself at rpm %.6g: the new point and the next lie on "
+                "the path traced from point %d on, going the same way (a closed loop)",
+                yn[-1] * ctx.wscale / RPM_TO_RAD_S, i)
     return i
 
 
@@ -162,20 +224,15 @@ def _past_fold(ctx: TraceContext, rec: _Recorder, hit: int) -> bool:
     if not (hit < f < n - 1 and f >= 1):
         return False
     ys = ctx.states(rec)
-    a, b = ys[:f], ys[1:f + 1]
-    ab = b - a
-    y = ys[-1]
-    t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
-                                                               1e-300), 0.0, 1.0)
-    foot = a + t[:, None] * ab
-    i = int(np.argmin(np.linalg.norm(foot - y, axis=1)))
-    return _distinct_solution(ctx.evaluate, foot[i], y, ctx.tol, ctx.max_iter)
+    _, _, foot = _nearest_segment(ys[:f + 1], ys[-1], _untraced(rec))
+    return _distinct_solution(ctx.evaluate, foot, ys[-1], ctx.tol, ctx.max_iter)
 
 
 def _reversal_point(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, hit: int) -> int:
     """The point after the revisited segment ``hit`` where the path turned the most."""
     n = len(rec)
-    lo = max(hit + 1, 1)
+    # never back past the restart after a closed loop (the copies of its entry point)
+    lo = max(hit + 1, 1, (rec.restart() + 1) if rec.loops else 0)
     if lo >= n:
         return n - 1
     ys = np.vstack([ctx.states(rec)[lo - 1:], yn])
@@ -324,3 +381,44 @@ def _locate(ctx: TraceContext, ya: np.ndarray, yb: np.ndarray, which: int) -> fl
     w = 0.5 * (ylo[-1] + yhi[-1]) * wscale
     return float(w / RPM_TO_RAD_S)
 
+
+@dataclass(frozen=True)
+class _Range:
+    """The speed range of a trace (rad/s): a branch folding back may leave it through its
+    start by ``overshoot`` of the range (never below half of rpm_start sweeping up)."""
+
+    rpm_start: float
+    rpm_end: float
+    overshoot: float
+
+    @property
+    def w_start(self) -> float:
+        return self.rpm_start * RPM_TO_RAD_S
+
+    @property
+    def w_end(self) -> float:
+        return self.rpm_end * RPM_TO_RAD_S
+
+    @property
+    def dirn(self) -> float:
+        return 1.0 if self.w_end > self.w_start else -1.0
+
+    @property
+    def wscale(self) -> float:
+        return abs(self.w_end - self.w_start)
+
+    @property
+    def w_floor(self) -> float:
+        w_floor = self.w_start - self.dirn * self.overshoot * self.wscale
+        return max(w_floor, 0.5 * self.w_start) if self.dirn > 0 else w_floor
+
+    def crossed(self, wn: float) -> tuple[str, str, float] | None:
+        """``(status, message, bound)`` if the speed ``wn`` lies past a bound, else None."""
+        if self.dirn * (wn - self.w_end) > 0:
+            return "completed", f"reached rpm_end = {self.rpm_end}", self.w_end
+        if self.dirn * (wn - self.w_floor) < 0:
+            return "left_range", (
+                f"the branch turned back and left the range through rpm_start = "
+                f"{self.rpm_start} (by more than overshoot = {self.overshoot} of the range)"
+            ), self.w_floor
+        return None

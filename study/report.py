@@ -45,6 +45,18 @@ def _unresolved(rpm: list[float]) -> list[str]:
             "(docs/convergence.md)"]
 
 
+def _loops(br) -> list[str]:
+    """Report lines for the closed loops of the branch (kept, marked in results.h5)."""
+    out = []
+    for j, (first, last, entry, _) in enumerate(getattr(br, "loops", [])):
+        rpm = br.rpm[int(first):int(last) + 1]
+        out.append(f"- closed loop {j + 1}: {int(last) - int(first) + 1} points, "
+                   f"{rpm.min():.2f}–{rpm.max():.2f} rpm (the branch went round it and came "
+                   f"back onto its own path; kept, `continuation/loop` = {j + 1}); the curve "
+                   f"goes on from its entry point at {br.rpm[int(entry)]:.2f} rpm")
+    return out
+
+
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
@@ -72,6 +84,7 @@ def write_report(result) -> Path:
                  f"- **incomplete curve**: the continuation stopped at "
                  f"{result.branch.rpm[-1]:.1f} rpm before {sc.continuation.speed[1]:g} rpm: "
                  f"{result.branch.message}"]),
+             *_loops(result.branch),
              f"- largest relative residual {s['max_residual']:.2e} "
              f"(tolerance {sc.continuation.tolerance:g})",
              f"- largest std of the dynamic mesh load {s['max_mesh_load_std']:.4g} N at "

@@ -195,7 +195,8 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
                 return None
             c = f["continuation"]
             arrays = {k: c[k][()] for k in _branch_array_fields() if k in c}
-            missing = set(_branch_array_fields()) - set(arrays) - {"reversals", "leaps"}
+            missing = set(_branch_array_fields()) - set(arrays) - {"reversals", "leaps", "loop",
+                                                                 "loops"}
             if missing:
                 raise KeyError(f"continuation datasets missing: {sorted(missing)}")
             grazing = [GrazingPoint(float(r), k.decode() if isinstance(k, bytes) else str(k),

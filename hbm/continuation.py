@@ -44,7 +44,7 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
     _reversal_point,
     _revisit,
 )
-from .loops import _back_into_loop, _leave_loop
+from .loops import _back_into_loop, _leave_loop, resume_point
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -289,6 +289,12 @@ def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | Non
     """The PREDICT / CORRECT / ACCEPT loop of :func:`trace`."""
     rpm_start = bounds.rpm_start
     if resume is not None:
+        keep = resume_point(resume.rpm, resume.loops, resume.status)
+        if keep < len(rec):
+            logger.warning("resuming a branch that stopped walking back (%s): back to point "
+                           "%d at rpm %.6g, before the speeds it could not leave",
+                           resume.status, keep, resume.rpm[keep - 1])
+            rec.truncate(keep)
         ds = _resumed_step(resume, step, min_step, max_step)
     else:
         failed = _first_point(ctx, rec, rpm_start, bounds.dirn, start_fallback, max_points)

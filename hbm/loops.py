@@ -218,3 +218,41 @@ def _leave_loop(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray,
                     f"step from its entry point at rpm {rpm:.6g} left it; the curve is "
                     f"complete up to there only")
     return max(ctx.min_step, min(step, ctx.max_step)), ""
+
+
+# a resumed branch that stopped walking back (status "reversal" or "loop") was caught in
+# the speed window of its last this-many points; --resume restarts before that window
+TRAP_POINTS = 10
+TRAPPED = ("reversal", "loop")
+
+
+def resume_point(rpm: np.ndarray, loops, status: str) -> int:
+    """Number of points of a stopped branch to keep when it is resumed.
+
+    A branch that stopped on a walk back (``status`` in ``TRAPPED``) ends in a speed
+    window it could not leave: resuming from its last point repeats the trap whatever the
+    step. The window is the speed range of its last ``TRAP_POINTS`` points, widened by
+    every closed loop (``loops`` rows ``(first, last, entry, restart)``) that overlaps it;
+    the points kept end where the branch last entered that window, before any of those
+    loops, so that the resumed run (with other steps) traces the window afresh. Other
+    statuses keep every point.
+    """
+    n = len(rpm)
+    if status not in TRAPPED or n < 3:
+        return n
+    tail = rpm[max(n - TRAP_POINTS, 0):]
+    lo, hi = float(tail.min()), float(tail.max())
+    spans = [(first, float(rpm[first:last + 1].min()), float(rpm[first:last + 1].max()))
+             for first, last, *_ in loops]
+    firsts = []
+    grown = True
+    while grown:
+        grown = False
+        for first, a, b in spans:
+            if a <= hi and b >= lo and first not in firsts:
+                firsts.append(first)
+                lo, hi, grown = min(lo, a), max(hi, b), True
+    i = n - 1
+    while i > 0 and lo <= rpm[i] <= hi:
+        i -= 1
+    return max(min([i + 1, *firsts]), 1)

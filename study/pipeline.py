@@ -376,7 +376,8 @@ class Pipeline:
                 f"({branch.status}): {branch.message} (results.h5 holds {len(branch)} points; "
                 "rerun with --resume after changing the continuation steps/tolerance — a run "
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
-                "point)", result))
+                "point, or, after a walk back or a closed loop it could not leave, from the "
+                "point before the speeds where it was caught)", result))
         if s.scene.kind == "fe" and s.outputs.housing_field:
             result.mesh_dir = self.run_mesh()
         t = time.perf_counter()

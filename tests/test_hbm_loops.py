@@ -21,6 +21,7 @@ import hbm.continuation as cont
 import hbm.events as events
 from hbm.branch import _Recorder
 from hbm.events import TraceContext
+from hbm.loops import resume_point
 from hbm.problem import RPM_TO_RAD_S
 
 W0, C, R = 1.5, 0.05, 0.1                     # circle (w - W0)^2 + (x1 - C)^2 = R^2
@@ -66,6 +67,17 @@ def _circle_tangent():
     return t / np.linalg.norm(t)
 
 
+def _context():
+    """The algebraic problem, the range w = 1 -> 2 and the trace context."""
+    stub = SimpleNamespace(harmonics=SimpleNamespace(indices=(0,)), condensation="algebraic",
+                           x_scale=np.ones(2), n_unknowns=2,
+                           scaled=lambda x, omega, j=True: _residual(np.append(x, omega), j))
+    bounds = cont._Range(1.0 / RPM_TO_RAD_S, 2.0 / RPM_TO_RAD_S, 0.25)
+    ctx = TraceContext(stub, _residual, bounds.wscale, TOL, 12, 1e-9, _record, STEP, 1e-6,
+                       STEP)
+    return stub, bounds, ctx
+
+
 def _trace(monkeypatch, max_points=400):
     """Trace w = 1 -> 2 by the continuation's own PREDICT/CORRECT and ACCEPT, the tangent
     of the last point before W_B turned onto the circle."""
@@ -79,12 +91,7 @@ def _trace(monkeypatch, max_points=400):
         return orig(ctx, rec, yn, tn, *args)
 
     monkeypatch.setattr(cont, "_check_events", turn)
-    stub = SimpleNamespace(harmonics=SimpleNamespace(indices=(0,)), condensation="algebraic",
-                           x_scale=np.ones(2), n_unknowns=2,
-                           scaled=lambda x, omega, j=True: _residual(np.append(x, omega), j))
-    bounds = cont._Range(1.0 / RPM_TO_RAD_S, 2.0 / RPM_TO_RAD_S, 0.25)
-    ctx = TraceContext(stub, _residual, bounds.wscale, TOL, 12, 1e-9, _record, STEP, 1e-6,
-                       STEP)
+    stub, bounds, ctx = _context()
     rec = _Recorder(stub, bounds.rpm_start, bounds.rpm_end, bounds.wscale)
     _record(rec, np.array([0.0, 0.0, 1.0]), 0, 0.0, np.array([0.0, 0.0, 1.0]))
     status, message, ds = "running", "", STEP
@@ -153,6 +160,45 @@ def test_exits_exhausted_stop_cleanly_keeping_the_points(monkeypatch):
     assert len(br.loops) == 1 and np.sum(br.loop == 1) >= 30
     assert np.all(br.residual < TOL)
     assert br.omega.max() < W0 + R + STEP
+
+
+def test_resuming_a_branch_caught_in_a_loop_restarts_before_it(monkeypatch):
+    """--resume of a branch that stopped with status "loop": the points kept end before
+    the loop's speeds (resuming from its last point would repeat the trap), and the
+    resumed trace reaches the end of the range along the line."""
+    with monkeypatch.context() as m:
+        m.setattr("hbm.loops._on_loop", lambda *a: True)
+        stopped = _trace(monkeypatch)
+    assert stopped.status == "loop"
+    keep = resume_point(stopped.rpm, stopped.loops, stopped.status)
+    first, last = stopped.loops[0][:2]
+    assert 1 < keep <= first
+    # the last point kept lies before the loop's speed range, which starts at the circle's
+    # leftmost speed W0 - R; the next point lies inside it
+    lowest = stopped.rpm[first:last + 1].min()
+    assert stopped.rpm[keep - 1] < lowest <= stopped.rpm[keep]
+    assert lowest * RPM_TO_RAD_S == pytest.approx(W0 - R, abs=STEP ** 2 / R)  # sagitta
+    assert stopped.omega[keep - 1] == pytest.approx(W0 - R, abs=STEP)
+    stub, bounds, ctx = _context()
+    rec = _Recorder(stub, bounds.rpm_start, bounds.rpm_end, bounds.wscale, stopped)
+    br = cont._run(ctx, rec, bounds, stopped, STEP, 1e-6, STEP, 400, None, False)
+    assert br.status == "completed", br.message
+    assert br.omega[-1] == pytest.approx(2.0, abs=1e-12)
+    np.testing.assert_array_equal(br.omega[:keep], stopped.omega[:keep])
+    assert len(br.loops) == 0 and not br.loop.any()
+    assert np.abs(br.unknowns).max() < 1e-12 and np.all(br.residual < TOL)
+
+
+def test_resume_point_keeps_every_point_unless_the_branch_was_trapped():
+    """Statuses other than a walk back keep every point; a reversal trapped in the speed
+    window of its last points goes back to where the branch last entered that window."""
+    rpm = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 4.9, 5.0, 4.95, 5.0, 4.9, 5.0, 4.95, 5.0, 4.9])
+    for status in ("step_failed", "max_points", "running", "completed"):
+        assert resume_point(rpm, [], status) == len(rpm)
+    assert resume_point(rpm, [], "reversal") == 4           # ends at 4.0, before 4.9-5.0
+    # a closed loop reaching down to 3.5 overlapping that window widens it
+    rpm2 = np.concatenate([rpm[:4], [3.5, 4.2, 5.0], rpm[4:]])
+    assert resume_point(rpm2, [(4, 6, 3, 7)], "loop") == 3   # ends at 3.0, before 3.5
 
 
 # ------------------------------------------------ the detection on given polylines

@@ -16,13 +16,15 @@ import hbm
 import hbm.continuation as cont
 
 
-def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1) -> list:
-    """Store the reversed tangent for the first ``times`` points accepted beyond rpm_flip."""
+def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1, active=lambda: True) -> list:
+    """Store the reversed tangent for the first ``times`` points accepted beyond rpm_flip
+    (while ``active()``)."""
     orig = cont._check_events
     done: list[float] = []
 
     def flipped(ctx, rec, yn, tn, *args):
-        if len(done) < times and yn[-1] * rec.meta["omega_scale"] / RPM > rpm_flip:
+        if active() and len(done) < times and \
+                yn[-1] * rec.meta["omega_scale"] / RPM > rpm_flip:
             done.append(yn[-1] * rec.meta["omega_scale"] / RPM)
             tn = -tn
         return orig(ctx, rec, yn, tn, *args)
@@ -83,13 +85,39 @@ def test_repeated_reversals_stop_with_reason_and_keep_points(reference, monkeypa
     pb, _ = reference
     _flip_once_at(monkeypatch, 0.5 / RPM, times=10 ** 6)    # every point flips
     snapshots = []
-    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, on_point=snapshots.append)
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, on_point=snapshots.append,
+                   retry_steps=())
     assert br.status == "reversal"
     assert "walked back over its own points" in br.message
     assert br.reversals == cont.MAX_REVERSALS + 1
     assert len(br) >= 2 and np.all(br.residual < 1e-8)
     assert br.rpm[-1] > 0.5 / RPM - 1e-9 and snapshots[-1].status == "reversal"
     assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+
+
+def test_a_trace_caught_by_reversals_is_retried_from_before_the_trap(reference,
+                                                                    monkeypatch):
+    """Every point beyond 0.5 flips during the first attempt, which stops walking back;
+    the retry (another initial step) resumes from before the speeds where it was caught
+    and, the flips gone, gives the undisturbed curve."""
+    pb, ref = reference
+    runs = []
+    run = cont._run
+
+    def counted(*args, **kwargs):
+        runs.append(args[4])                    # the initial step of each attempt
+        return run(*args, **kwargs)
+
+    monkeypatch.setattr(cont, "_run", counted)
+    flips = _flip_once_at(monkeypatch, 0.5 / RPM, times=10 ** 6, active=lambda: len(runs) == 1)
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, step=0.01)
+    assert flips and len(runs) == 2
+    assert runs[1] == pytest.approx(0.01 * cont.RETRY_STEPS[0])
+    assert br.status == "completed", br.message
+    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
+    assert len(br.grazing) == len(ref.grazing)
+    np.testing.assert_allclose(br.mesh_load_std.max(), ref.mesh_load_std.max(), rtol=1e-3)
 
 
 def test_resume_after_a_step_change_continues_from_the_last_point(reference):

@@ -44,7 +44,7 @@ from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by
     _reversal_point,
     _revisit,
 )
-from .loops import TRAPPED, _back_into_loop, _leave_loop, resume_point
+from .loops import RETRIED, TRAPPED, _back_into_loop, _leave_loop, resume_point
 from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
@@ -262,10 +262,10 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         harmonic sets), the machine has more than one core and ``fork`` exists.
         ``on_point`` is then called for each point once the next one is corrected.
     retry_steps
-        A trace stopped by a walk back or a closed loop it could not leave (status
-        ``"reversal"`` or ``"loop"``) is resumed from before the speeds where it was
-        caught (:func:`hbm.loops.resume_point`) with ``step`` times each factor in turn,
-        until one gets through; ``()`` stops at the first failure.
+        A trace stopped by a walk back, a closed loop it could not leave or a failed step
+        (status ``"reversal"``, ``"loop"``, ``"step_failed"``) is resumed from before the
+        speeds where it was caught (:func:`hbm.loops.resume_point`) with ``step`` times
+        each factor in turn, until one gets through; ``()`` stops at the first failure.
 
     Returns
     -------
@@ -291,14 +291,14 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         branch = _run(ctx, rec, bounds, resume, step, min_step, max_step, max_points,
                       on_point, start_fallback)
         for factor in retry_steps:
-            if branch.status not in TRAPPED:
+            if branch.status not in RETRIED:
                 break
             logger.warning("retrying the trace from before the speeds where it was caught, "
                            "initial step x %g", factor)
             rec = _Recorder(problem, rpm_start, rpm_end, wscale, branch)
             branch = _run(ctx, rec, bounds, branch, min(max(step * factor, min_step),
                                                         max_step),
-                          min_step, max_step, max_points, on_point, start_fallback)
+                          min_step, max_step, max_points, on_point, start_fallback, RETRIED)
         return branch
     finally:
         if measure.worker is not None:
@@ -307,14 +307,16 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
 
 def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | None,
          step: float, min_step: float, max_step: float, max_points: int,
-         on_point: Callable[[Branch], None] | None, start_fallback: bool) -> Branch:
-    """The PREDICT / CORRECT / ACCEPT loop of :func:`trace`."""
+         on_point: Callable[[Branch], None] | None, start_fallback: bool,
+         trapped: tuple[str, ...] = TRAPPED) -> Branch:
+    """The PREDICT / CORRECT / ACCEPT loop of :func:`trace`; a ``resume`` whose status is
+    in ``trapped`` restarts from before the speeds where it stopped."""
     rpm_start = bounds.rpm_start
     if resume is not None:
-        keep = resume_point(resume.rpm, resume.loops, resume.status)
+        keep = resume_point(resume.rpm, resume.loops, resume.status, trapped)
         if keep < len(rec):
-            logger.warning("resuming a branch that stopped walking back (%s): back to point "
-                           "%d at rpm %.6g, before the speeds it could not leave",
+            logger.warning("resuming a branch that stopped (%s): back to point %d at rpm "
+                           "%.6g, before the speeds it could not leave",
                            resume.status, keep, resume.rpm[keep - 1])
             rec.truncate(keep)
         ds = _resumed_step(resume, step, min_step, max_step)

@@ -224,12 +224,16 @@ def _leave_loop(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray,
 # the speed window of its last this-many points; --resume restarts before that window
 TRAP_POINTS = 10
 TRAPPED = ("reversal", "loop")
+# what trace() retries by itself: also a corrector stall (a fresh run with another step
+# usually passes it: the contiguous 2/3 pump set at 1364.8 rpm, docs/hbm.md)
+RETRIED = (*TRAPPED, "step_failed")
 
 
-def resume_point(rpm: np.ndarray, loops, status: str) -> int:
+def resume_point(rpm: np.ndarray, loops, status: str,
+                 trapped: tuple[str, ...] = TRAPPED) -> int:
     """Number of points of a stopped branch to keep when it is resumed.
 
-    A branch that stopped on a walk back (``status`` in ``TRAPPED``) ends in a speed
+    A branch that stopped on a walk back (``status`` in ``trapped``) ends in a speed
     window it could not leave: resuming from its last point repeats the trap whatever the
     step. The window is the speed range of its last ``TRAP_POINTS`` points, widened by
     every closed loop (``loops`` rows ``(first, last, entry, restart)``) that overlaps it;
@@ -238,7 +242,7 @@ def resume_point(rpm: np.ndarray, loops, status: str) -> int:
     statuses keep every point.
     """
     n = len(rpm)
-    if status not in TRAPPED or n < 3:
+    if status not in trapped or n < 3:
         return n
     tail = rpm[max(n - TRAP_POINTS, 0):]
     lo, hi = float(tail.min()), float(tail.max())

@@ -120,6 +120,36 @@ def test_a_trace_caught_by_reversals_is_retried_from_before_the_trap(reference,
     np.testing.assert_allclose(br.mesh_load_std.max(), ref.mesh_load_std.max(), rtol=1e-3)
 
 
+def test_a_failed_step_is_retried_from_before_it(reference, monkeypatch):
+    """The first attempt's corrector fails past 0.8 (a stall): the trace stops with
+    ``step_failed``, is retried from before the speeds where it stopped and gives the
+    undisturbed curve; with ``retry_steps=()`` it stops there, keeping its points."""
+    pb, ref = reference
+    runs = []
+    run, advance = cont._run, cont._advance
+
+    def counted(*args, **kwargs):
+        runs.append(args[4])
+        return run(*args, **kwargs)
+
+    def stalled(ctx, rec, ds):
+        if len(runs) == 1 and rec.last("rpm") > 0.8 / RPM:
+            return cont._Step(None, ds, "tangent", "corrector stalled (test)")
+        return advance(ctx, rec, ds)
+
+    monkeypatch.setattr(cont, "_run", counted)
+    monkeypatch.setattr(cont, "_advance", stalled)
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, retry_steps=())
+    assert br.status == "step_failed" and br.rpm[-1] > 0.8 / RPM
+    assert np.all(br.residual < 1e-8)
+    runs.clear()
+    br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
+    assert len(runs) == 2 and br.status == "completed", br.message
+    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
+    assert len(br.grazing) == len(ref.grazing)
+
+
 def test_resume_after_a_step_change_continues_from_the_last_point(reference):
     pb, ref = reference
     part = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False, max_points=15)

@@ -71,17 +71,11 @@ def spectrum(M: np.ndarray, K: np.ndarray, G: np.ndarray, km: float,
 
 def dynamic_factor_peak(M: np.ndarray, K: np.ndarray, G: np.ndarray, km: float,
                         f_hz: np.ndarray, xi: float = 0.05) -> tuple[float, float]:
-    """Frequency [Hz] and height of the peak of the dynamic factor D(f) (T.32) on the
-    grid ``f_hz``."""
-    from reduction import modal_damping
+    """Frequency [Hz] and height of the peak of the dynamic factor D(f) (T.32,
+    :func:`reduction.dynamic_factor`) on the grid ``f_hz``."""
+    from reduction import dynamic_factor
 
-    C = modal_damping(M, K, G, km, xi)
-    Kc = K + km * np.outer(G, G)
-    d = np.empty(f_hz.size)
-    for i, f in enumerate(f_hz):
-        w = 2.0 * np.pi * f
-        x = np.linalg.solve(Kc - w * w * M + 1j * w * C, G)
-        d[i] = abs(km * (G @ x) - 1.0)                                # (T.32)
+    d = dynamic_factor(M, K, G, km, f_hz, xi)
     j = int(np.argmax(d))
     return float(f_hz[j]), float(d[j])
 

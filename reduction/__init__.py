@@ -15,7 +15,9 @@ from reduction.coupled import (
     campbell,
     couple,
     coupled_modes,
+    dynamic_factor,
     mesh_energy,
+    mesh_softening,
     modal_damping,
 )
 from reduction.craig_bampton import CBResult, craig_bampton, cutoff_from_speed, dense_projection
@@ -39,10 +41,12 @@ __all__ = [
     "coupled_modes",
     "craig_bampton",
     "dense_projection",
+    "dynamic_factor",
     "cutoff_from_speed",
     "load_basis",
     "load_rom",
     "mesh_energy",
+    "mesh_softening",
     "modal_damping",
     "reconstruct",
     "reduce_fe_model",

@@ -91,6 +91,8 @@ class PaperInputs:
     ipp: dict[float, IppAt | str] = field(default_factory=dict)
     spectrum: SpectrumAt | str | None = None
     mesh_mode: tuple[float, float] | None = None
+    #: dynamic-factor peak [Hz] and its shift ratio under k̄/2 (T.33)
+    softening: tuple[float, float] | None = None
 
 
 def _pct(a: float, b: float) -> str:
@@ -243,6 +245,13 @@ def paper_markdown(inp: PaperInputs) -> str:
         f, rho = inp.mesh_mode
         rows.append(f"| mode with most mesh energy | {mm.value[0]:.0f} Hz, ρ = "
                     f"{mm.value[1]:.2f} | {f:.0f} Hz, ρ = {rho:.2f} | {mm.source} |")
+    if inp.softening is not None:
+        f, r = inp.softening
+        paper_r = (1.0 - mm.value[1] / 2.0) ** 0.5
+        rows.append(f"| resonance shift when k̄ is halved, f½/f (T.33: how much of the "
+                    f"stiffness seen at the mesh the mesh supplies) | {paper_r:.2f} if its "
+                    f"ρ = {mm.value[1]:.2f} mode were alone (derived, not stated) | "
+                    f"{r:.2f} (dynamic-factor peak {f:.0f} Hz) | docs/theory.md §13.4 |")
     rows += _resonance_rows(inp) + _grazing_rows(inp) + _effect_rows(inp) + _ipp_rows(inp)
     rows.append(_spectrum_row(inp))
     lines = [f"# {inp.scene}: the paper's Sect. 4 beside this run", "",

@@ -44,6 +44,20 @@ def test_spectrum_and_dynamic_factor_match_the_two_gear_closed_form():
     assert fh / fp == pytest.approx(math.sqrt(1 - rho / 2), rel=1e-3)
 
 
+def test_mesh_softening_is_the_single_mode_shift():
+    """reduction.mesh_softening on the two gears: the D peak at the mode's natural
+    frequency and, under k̄/2, the ratio √(1 − ρ/2) of T.33 (grid step 0.125 % of f)."""
+    from reduction import mesh_softening
+
+    M, K, G = _two_gears()
+    km = 2.0e8
+    f_n = math.sqrt((K[0, 0] + 2 * km) / M[0, 0]) / (2 * math.pi)
+    rho = 2 * km / (2 * km + K[0, 0])
+    f_peak, ratio = mesh_softening(M, K, G, km, xi=0.01)
+    assert f_peak == pytest.approx(f_n, rel=2e-3)
+    assert ratio == pytest.approx(math.sqrt(1 - rho / 2), rel=3e-3)
+
+
 def test_summary_of_a_spectrum():
     s = ps.summary([(3600.0, 0.2), (4000.0, 0.32), (5000.0, 0.05)])
     assert (s["top_hz"], s["top_rho"], s["n"], s["highest_hz"]) == (4000.0, 0.32, 3, 5000.0)

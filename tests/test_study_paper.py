@@ -120,6 +120,7 @@ def _inputs():
                1070.0: "outside the computed range"}
     orders = np.array([0, 2, 4, 76, 152])
     inp.spectrum = SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76)
+    inp.softening = (4070.0, 0.70)
     return inp
 
 
@@ -134,6 +135,10 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     errs = [(a - b) / b for a, b in zip(found, (1070.0, 1570.0, 3000.0), strict=True)]
     assert ", ".join(f"{100 * e:+.1f} %" for e in errs) in row
     assert "within 3 %: no" in row          # 1000 vs 1070 is -6.5 %
+    shift = next(ln for ln in md.splitlines() if ln.startswith("| resonance shift"))
+    # paper side: √(1 − 0.32/2) = 0.917, the single-mode shift of T.33
+    assert "| 0.92 if its ρ = 0.32 mode were alone" in shift
+    assert "| 0.70 (dynamic-factor peak 4070 Hz) |" in shift
     ratio = next(ln for ln in md.splitlines() if ln.startswith("| resonance ratios"))
     assert f"1.00 : {found[1] / found[0]:.2f} : {found[2] / found[0]:.2f}" in ratio
     assert "1.00 : 1.47 : 2.80" in ratio

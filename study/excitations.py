@@ -198,9 +198,10 @@ def comparison_inputs(scene: Scene, results: dict):
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
         j = int(np.argmax(rom.mesh_energy))
         inp.mesh_mode = (float(rom.frequencies_hz[j]), float(rom.mesh_energy[j]))
-        from reduction import mesh_softening
+        from reduction.coupled import mesh_softening
 
-        inp.softening = mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, rom.xi)
+        inp.softening = mesh_softening(rom.M, rom.K, rom.G, rom.km_mean,
+                                       scene.damping.modal_ratio)
     return inp
 
 

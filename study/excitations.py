@@ -196,13 +196,19 @@ def comparison_inputs(scene: Scene, results: dict):
         inp.spectrum = _range_text(r)
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
-        j = int(np.argmax(rom.mesh_energy))
-        inp.mesh_mode = (float(rom.frequencies_hz[j]), float(rom.mesh_energy[j]))
-        from reduction.coupled import mesh_softening
-
-        inp.softening = mesh_softening(rom.M, rom.K, rom.G, rom.km_mean,
-                                       scene.damping.modal_ratio)
+        inp.mesh_mode, inp.softening = rom_measures(rom, scene.damping.modal_ratio)
     return inp
+
+
+def rom_measures(rom, xi: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Of a cached ROM (:class:`study.fe_stages.RomData`): the mode with most mesh energy
+    ``(Hz, ρ)`` (eq. 31) and the dynamic-factor peak with its shift under k̄/2
+    ``(Hz, f½/f)`` (T.33), for modal damping ratio ``xi``."""
+    from reduction.coupled import mesh_softening
+
+    j = int(np.argmax(rom.mesh_energy))
+    return ((float(rom.frequencies_hz[j]), float(rom.mesh_energy[j])),
+            mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, xi))
 
 
 def _change(new: float | None, ref: float | None) -> float | None:

@@ -58,6 +58,27 @@ def test_mesh_softening_is_the_single_mode_shift():
     assert ratio == pytest.approx(math.sqrt(1 - rho / 2), rel=3e-3)
 
 
+def test_paper_md_measures_of_a_cached_rom():
+    """study.excitations.rom_measures on an object with only the fields of the cached ROM
+    (RomData): the top mode of eq. (31) and the T.33 shift of the two-gear closed form."""
+    from types import SimpleNamespace
+
+    from reduction import coupled_modes, mesh_energy
+    from study.excitations import rom_measures
+
+    M, K, G = _two_gears()
+    km = 2.0e8
+    rom = SimpleNamespace(M=M, K=K, C=None, G=G, km_mean=km,
+                          frequencies_hz=coupled_modes(M, K, G, km).frequencies_hz,
+                          mesh_energy=mesh_energy(M, K, G, km))
+    (f, rho), (f_peak, ratio) = rom_measures(rom, 0.01)
+    f_n = math.sqrt((K[0, 0] + 2 * km) / M[0, 0]) / (2 * math.pi)
+    rho_n = 2 * km / (2 * km + K[0, 0])
+    assert (f, rho) == pytest.approx((f_n, rho_n), rel=1e-10)
+    assert f_peak == pytest.approx(f_n, rel=2e-3)
+    assert ratio == pytest.approx(math.sqrt(1 - rho_n / 2), rel=3e-3)
+
+
 def test_summary_of_a_spectrum():
     s = ps.summary([(3600.0, 0.2), (4000.0, 0.32), (5000.0, 0.05)])
     assert (s["top_hz"], s["top_rho"], s["n"], s["highest_hz"]) == (4000.0, 0.32, 3, 5000.0)

@@ -19,6 +19,10 @@ Every step of :func:`trace` reads PREDICT / CORRECT / ACCEPT:
   fold events since the last point are located and the point recorded
   (:func:`hbm.events._check_events`), and the step adapted to the corrector's effort.
 
+A trace that stops on a walk back, a closed loop it cannot leave or a failed step is
+resumed from before the speeds where it was caught, with another initial step
+(``retry_steps``, :func:`hbm.loops.resume_point`).
+
 The branch and its recorder live in :mod:`hbm.branch`, the events in :mod:`hbm.events`.
 """
 

@@ -19,9 +19,8 @@ Every step of :func:`trace` reads PREDICT / CORRECT / ACCEPT:
   fold events since the last point are located and the point recorded
   (:func:`hbm.events._check_events`), and the step adapted to the corrector's effort.
 
-A trace that stops on a walk back, a closed loop it cannot leave or a failed step is
-resumed from before the speeds where it was caught, with another initial step
-(``retry_steps``, :func:`hbm.loops.resume_point`).
+A trace stopped by a walk back, a closed loop or a failed step is resumed from before
+where it was caught with another initial step (``retry_steps``, :mod:`hbm.loops`).
 
 The branch and its recorder live in :mod:`hbm.branch`, the events in :mod:`hbm.events`.
 """
@@ -39,6 +38,7 @@ from .corrector import _augmented, _StepRejected, _tangent
 from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by the tests)
     REVISIT_RATIO,
     TraceContext,
+    _branch_gaps,
     _check_events,
     _closed_loop,
     _distinct_solution,
@@ -190,12 +190,13 @@ def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
     logger.debug("accepted rpm %.6g from rpm %.6g (%s, step %.3g, %d iterations)",
                  yn[-1] * ctx.wscale / RPM_TO_RAD_S, rec.last("rpm"), advanced.predictor, ds,
                  it)
-    hit = _revisit(ctx, rec, yn)
+    gaps = _branch_gaps(ctx, rec, yn)
+    hit = _revisit(ctx, rec, yn, gaps)
     if hit is not None and not _back_into_loop(rec, hit):
         ds, message = _undo_reversal(ctx, rec, yn, hit, ds)
         return ("reversal" if message else "running"), message, ds
     if hit is None:
-        hit = _closed_loop(ctx, rec, yn, tn)
+        hit = _closed_loop(ctx, rec, yn, tn, gaps)
     if hit is not None:     # closed a loop, or walked back into the one just left
         ds, message = _leave_loop(ctx, rec, hit, yn, ds)
         return ("loop" if message else "running"), message, ds

@@ -93,10 +93,10 @@ def _check_forward(rec, y, yn) -> None:
         raise _StepRejected("step goes back over the branch (a reversal was undone here)")
 
 
-def _nearest_segment(ys: np.ndarray, y: np.ndarray,
-                     skip: np.ndarray | None = None) -> tuple[int, float, np.ndarray]:
-    """Segment ``(i, i + 1)`` of the polyline ``ys`` nearest to ``y``: ``(i, distance,
-    foot)``; segments where ``skip`` is True are left out (distance inf if all are)."""
+def _segment_gaps(ys: np.ndarray, y: np.ndarray,
+                  skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of ``y`` to every segment ``(i, i + 1)`` of the polyline ``ys`` (inf where
+    ``skip`` is True) and the nearest point (foot) of each: ``(distances, feet)``."""
     a, b = ys[:-1], ys[1:]
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
@@ -105,11 +105,33 @@ def _nearest_segment(ys: np.ndarray, y: np.ndarray,
     d = np.linalg.norm(foot - y, axis=1)
     if skip is not None:
         d[skip[:d.size]] = np.inf
-    i = int(np.argmin(d))
+    return d, foot
+
+
+def _nearest_segment(ys: np.ndarray, y: np.ndarray, skip: np.ndarray | None = None,
+                     gaps: tuple[np.ndarray, np.ndarray] | None = None
+                     ) -> tuple[int, float, np.ndarray]:
+    """Segment ``(i, i + 1)`` of the polyline ``ys`` nearest to ``y``: ``(i, distance,
+    foot)``; segments where ``skip`` is True are left out (distance inf if all are).
+    ``gaps``: :func:`_segment_gaps` of ``y`` to a polyline that begins with ``ys``,
+    computed once for several of its beginnings (:func:`_branch_gaps`)."""
+    d, foot = _segment_gaps(ys, y, skip) if gaps is None else gaps
+    i = int(np.argmin(d[:len(ys) - 1]))
     return i, float(d[i]), foot[i]
 
 
-def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
+def _branch_gaps(ctx: TraceContext, rec: _Recorder,
+                 yn: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`_segment_gaps` of a new point to the branch but its last segment, shared by
+    the walk-back and closed-loop tests of one point (None below 3 points)."""
+    n = len(rec)
+    if n < 3:
+        return None
+    return _segment_gaps(ctx.states(rec)[:n - 1], yn, _untraced(rec))
+
+
+def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray,
+             gaps: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
 
     Every segment but the last is checked; ``yn`` is near the branch when its distance
@@ -117,13 +139,14 @@ def _revisit(ctx: TraceContext, rec: _Recorder, yn: np.ndarray) -> int | None:
     the step from the last point runs against the segment's direction. A
     near point is a revisit only if it is the same solution as the old branch at its
     speed (:func:`_distinct_solution`); otherwise it is another piece of the branch lying
-    close by (past a sharp fold) and None is returned.
+    close by (past a sharp fold) and None is returned. ``gaps``: :func:`_branch_gaps` of
+    ``yn``, if computed already.
     """
     n = len(rec)
     if n < 3:
         return None
     ys = ctx.states(rec)
-    i, d, foot = _nearest_segment(ys[:n - 1], yn, _untraced(rec))
+    i, d, foot = _nearest_segment(ys[:n - 1], yn, _untraced(rec), gaps)
     chord = float(np.linalg.norm(yn - ys[-1]))
     if not d < REVISIT_RATIO * chord:
         return None
@@ -147,8 +170,8 @@ def _untraced(rec) -> np.ndarray | None:
     return untraced() if untraced is not None else None
 
 
-def _closed_loop(ctx: TraceContext, rec: _Recorder, yn: np.ndarray,
-                 tn: np.ndarray) -> int | None:
+def _closed_loop(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, tn: np.ndarray,
+                 gaps: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """Index i of the old segment (i, i+1) on which the branch closed a loop, or None.
 
     The branch has closed on itself when ``yn`` lies on a segment traced at least
@@ -159,6 +182,7 @@ def _closed_loop(ctx: TraceContext, rec: _Recorder, yn: np.ndarray,
     the state norm, :func:`_distinct_solution`), and one more step along ``tn`` lands on
     the old path again, on one of the next ``LOOP_CONFIRM`` segments, the same way: the
     branch goes round the loop again rather than crossing its earlier path once.
+    ``gaps``: :func:`_branch_gaps` of ``yn``, if computed already.
     """
     n = len(rec)
     upto = n - LOOP_MIN_POINTS          # segments (i, i+1) with i < upto
@@ -166,7 +190,7 @@ def _closed_loop(ctx: TraceContext, rec: _Recorder, yn: np.ndarray,
         return None
     ys = ctx.states(rec)
     skip = _untraced(rec)
-    i, d, foot = _nearest_segment(ys[:upto + 1], yn, skip)
+    i, d, foot = _nearest_segment(ys[:upto + 1], yn, skip, gaps)
     chord = float(np.linalg.norm(yn - ys[-1]))
     if not (d < REVISIT_RATIO * chord and (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0):
         return None

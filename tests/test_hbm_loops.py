@@ -117,8 +117,8 @@ def test_closed_loop_is_kept_and_left_through_the_branch_point(monkeypatch):
     calls = []
     orig = cont._closed_loop
 
-    def spy(ctx, rec, yn, tn):
-        hit = orig(ctx, rec, yn, tn)
+    def spy(ctx, rec, yn, tn, *args):
+        hit = orig(ctx, rec, yn, tn, *args)
         if hit is not None:
             calls.append(yn.copy())
         return hit

@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import write_json
 from geometry.files import atomic_write
 
 log = logging.getLogger("calibrate_pump")
@@ -79,14 +80,13 @@ def _load(path: Path) -> dict:
 
 def _save(path: Path, data: dict) -> None:
     """Write the evaluations with a table of them for BENCHMARKS.md (benchmarks.report)."""
-    data = {**data, "benchmark": "calibrate_pump",
-            "command": ".venv/bin/python -m benchmarks.calibrate_pump scan|calibrate ...",
-            "summary": "TE amplitudes of the pump against the paper's resonance speeds "
-                       "(docs/theory.md §13.2): every evaluation, cheap 3/1 set unless "
-                       "overridden.",
-            "tables": [{"title": "evaluations", "columns": COLUMNS, "rows": table_rows(data)}]}
-    with atomic_write(path, "w") as fh:
-        fh.write(json.dumps(data, indent=1, sort_keys=True))
+    write_json("calibrate_pump", {
+        **data, "command": ".venv/bin/python -m benchmarks.calibrate_pump scan|calibrate ...",
+        "summary": "TE amplitudes of the pump against the paper's resonance speeds "
+                   "(docs/theory.md §13.2): every evaluation, cheap 3/1 set unless "
+                   "overridden.",
+        "tables": [{"title": "evaluations", "columns": COLUMNS, "rows": table_rows(data)}]},
+        path)
 
 
 def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path) -> dict:

@@ -66,11 +66,12 @@ def machine() -> dict[str, Any]:
     }
 
 
-def write_json(name: str, payload: dict[str, Any]) -> Path:
-    """Write ``benchmarks/results/<name>.json`` atomically and return its path."""
-    RESULTS.mkdir(parents=True, exist_ok=True)
+def write_json(name: str, payload: dict[str, Any], path: Path | None = None) -> Path:
+    """Write ``benchmarks/results/<name>.json`` (or ``path``) atomically and return its
+    path."""
+    path = RESULTS / f"{name}.json" if path is None else Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     payload = {"benchmark": name, "machine": machine(), **payload}
-    path = RESULTS / f"{name}.json"
     with atomic_write(path, "w") as fh:
         json.dump(payload, fh, indent=2, default=float)
         fh.write("\n")

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from benchmarks.common import write_json
 
 log = logging.getLogger("grounded_gears")
 ROOT = Path(__file__).resolve().parent.parent
@@ -163,14 +163,12 @@ def save(path: Path, runs: list[dict]) -> None:
              ", ".join(f"{v:.0f}" for v in r["grazing_rpm"]),
              ", ".join(f"{lo:.0f}–{hi:.0f}" for lo, hi in r["windows_rpm"]) or "none",
              f"{r['span_rpm']:.0f}"] for r in runs]
-    data = {"benchmark": "grounded_gears",
-            "command": ".venv/bin/python -m benchmarks.grounded_gears --dI .. --Ir .. --kt .. "
-                       "--dm .. --ky .. [--set ..] --json benchmarks/results/grounded_gears.json",
-            "summary": "Three excitation cases (3/1 set) on the pump ROM with its gears tied to "
-                       "flywheels and a lateral ground (docs/theory.md §13.4, an idealisation).",
-            "runs": runs, "tables": [{"title": "runs", "columns": COLUMNS, "rows": rows}]}
-    with atomic_write(path, "w") as fh:
-        fh.write(json.dumps(data, indent=1))
+    write_json("grounded_gears", {
+        "command": ".venv/bin/python -m benchmarks.grounded_gears --dI .. --Ir .. --kt .. "
+                   "--dm .. --ky .. [--set ..] --json benchmarks/results/grounded_gears.json",
+        "summary": "Three excitation cases (3/1 set) on the pump ROM with its gears tied to "
+                   "flywheels and a lateral ground (docs/theory.md §13.4, an idealisation).",
+        "runs": runs, "tables": [{"title": "runs", "columns": COLUMNS, "rows": rows}]}, path)
 
 
 def main(argv: list[str] | None = None) -> int:

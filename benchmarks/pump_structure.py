@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from benchmarks.common import write_json
 
 log = logging.getLogger("pump_structure")
 ROOT = Path(__file__).resolve().parent.parent
@@ -144,13 +144,12 @@ def table_rows(data: dict, kms: tuple[str, ...] | None = None) -> list[list[str]
 
 
 def _save(path: Path, data: dict) -> None:
-    data = {**data, "benchmark": "pump_structure",
-            "command": ".venv/bin/python -m benchmarks.pump_structure measure NAME ...",
-            "summary": "Mesh-energy spectrum (eq. 31, modes with ρ > 3 %) of candidate pump "
-                       "structures at several k̄ (docs/theory.md §13.4).",
-            "tables": [{"title": "candidates", "columns": COLUMNS, "rows": table_rows(data)}]}
-    with atomic_write(path, "w") as fh:
-        fh.write(json.dumps(data, indent=1, sort_keys=True))
+    write_json("pump_structure", {
+        **data, "command": ".venv/bin/python -m benchmarks.pump_structure measure NAME ...",
+        "summary": "Mesh-energy spectrum (eq. 31, modes with ρ > 3 %) of candidate pump "
+                   "structures at several k̄ (docs/theory.md §13.4).",
+        "tables": [{"title": "candidates", "columns": COLUMNS, "rows": table_rows(data)}]},
+        path)
 
 
 def show(data: dict, kms: tuple[str, ...] | None = None) -> str:

@@ -18,6 +18,7 @@ from .pump import (
     DriveParams,
     GearParams,
     MaterialParams,
+    RotorParams,
     build_pump_model,
     pump_spec,
 )
@@ -39,6 +40,7 @@ __all__ = [
     "ModelSpec",
     "Node",
     "Prolongation",
+    "RotorParams",
     "axial_spring",
     "build_model",
     "build_prolongation",

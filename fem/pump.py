@@ -4,7 +4,8 @@ Node names (the contract with ``reduction`` and ``study``), for s in ("in", "out
 ``{s}/gear`` (linked to ``{s}/hub``; DOF in the gear-pair frame of Fig. 1),
 ``{s}/bearing_a|b`` (linked to the journal seats), ``housing/bore_{s}_a|b``
 (linked to the bores, joined to the shaft bearing nodes by bearing springs),
-``{s}/station_1..6`` and ``{s}/coupling``. ``housing/feet`` is clamped.
+``{s}/station_1..6`` and ``{s}/coupling``; with lumped rotors (:class:`RotorParams`)
+also ``{s}/rotor`` (rotation about the shaft axis only). ``housing/feet`` is clamped.
 """
 
 from __future__ import annotations
@@ -139,12 +140,66 @@ class DriveParams:
         _check("drive", "impeller_mass", self.impeller_mass, 0.0, lo_open=False)
 
 
+@dataclass(frozen=True)
+class RotorParams:
+    """Lumped rotor parts on each gear (both shafts alike; all zero: none).
+
+    An idealised stand-in for heavy, stiffly held bodies beside the gears, which the
+    shaft and housing geometry does not model (docs/theory.md §13.5):
+
+    * ``inertia`` (kg m^2): a rotor on its own node ``{s}/rotor`` that turns about the
+      shaft axis only, joined to the gear's rotation by ``torsional_stiffness``
+      (N m/rad). It is not grounded, so it carries no static torque (F_s = T/r_b);
+    * ``gear_inertia`` (kg m^2) and ``gear_mass`` (kg): polar inertia and mass added
+      rigidly on the gear node (hub and rotor end next to the gear);
+    * ``lateral_stiffness`` (N/m): a radial spring from the gear node to ground (a
+      bearing beside the gear on a rigid seat).
+    """
+
+    inertia: float = 0.0
+    torsional_stiffness: float = 0.0
+    gear_inertia: float = 0.0
+    gear_mass: float = 0.0
+    lateral_stiffness: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("inertia", "torsional_stiffness", "gear_inertia", "gear_mass",
+                     "lateral_stiffness"):
+            _check("rotors", name, getattr(self, name), 0.0, lo_open=False)
+        if (self.inertia > 0) != (self.torsional_stiffness > 0):
+            raise ValueError(f"rotors.inertia = {self.inertia} and rotors.torsional_stiffness"
+                             f" = {self.torsional_stiffness}: both > 0 (a rotor on its "
+                             "spring) or both 0 (no rotor)")
+
+    @property
+    def active(self) -> bool:
+        """True when any part is added."""
+        return any(v > 0 for v in (self.inertia, self.gear_inertia, self.gear_mass,
+                                   self.lateral_stiffness))
+
+
+def add_rotors(spec: ModelSpec, shaft: str, centre: np.ndarray, rotors: RotorParams) -> None:
+    """The lumped rotor parts of :class:`RotorParams` on ``{shaft}/gear`` (shaft axis z)."""
+    gear = f"{shaft}/gear"
+    if rotors.gear_mass > 0 or rotors.gear_inertia > 0:
+        spec.add_mass(gear, rigid_body_mass(rotors.gear_mass, [0.0, 0.0, rotors.gear_inertia]))
+    if rotors.lateral_stiffness > 0:
+        spec.add_spring(gear, axial_spring(rotors.lateral_stiffness, 0.0))
+    if rotors.inertia > 0:
+        node = f"{shaft}/rotor"
+        spec.add_node(node, centre, fixed=np.array([True] * 5 + [False]))
+        spec.add_mass(node, rigid_body_mass(0.0, [0.0, 0.0, rotors.inertia]))
+        spec.add_spring(gear, axial_spring(0.0, 0.0, torsional=rotors.torsional_stiffness),
+                        other=node)
+
+
 def pump_spec(
     groups: dict[str, tuple[int, int]],
     centres: dict[str, np.ndarray],
     gears: GearParams,
     bearings: BearingParams,
     drive: DriveParams,
+    rotors: RotorParams | None = None,
 ) -> ModelSpec:
     """Nodes, links, clamp and lumped parts of the pump (see module docstring)."""
     for name in ("housing/feet", *(f"{s}/hub" for s in SHAFTS)):
@@ -180,6 +235,8 @@ def pump_spec(
             spec.add_link(name, name)
         spec.add_node(f"{s}/coupling", centre(f"{s}/coupling"))
         spec.add_link(f"{s}/coupling", f"{s}/coupling")
+        if rotors is not None and rotors.active:
+            add_rotors(spec, s, centre(f"{s}/gear"), rotors)
     spec.add_clamp("housing/feet")
     spec.add_torsion_to_ground("in/coupling", drive.motor_torsional_stiffness, [0, 0, 1.0])
     if drive.impeller_inertia > 0 or drive.impeller_mass > 0:
@@ -197,6 +254,7 @@ def build_pump_model(
     comm: MPI.Comm = MPI.COMM_WORLD,
     quadrature_degree: int | None = None,
     fe_mesh: FEMesh | None = None,
+    rotors: RotorParams | None = None,
 ) -> FEModel:
     """Build the pump's FEModel from a ``geometry.MeshedModel`` (gmsh model alive).
 
@@ -210,6 +268,8 @@ def build_pump_model(
         See :func:`fem.elasticity.assemble_elasticity`.
     fe_mesh : FEMesh, optional
         An already distributed mesh (with ``groups`` and ``centres``).
+    rotors : RotorParams, optional
+        Lumped rotor parts on the gears (default: none).
 
     Returns
     -------
@@ -224,7 +284,7 @@ def build_pump_model(
     drive = DriveParams() if drive is None else drive
     if fe_mesh is None:
         fe_mesh = load_meshed_model(meshed, comm)
-    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive)
+    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors)
     mats = {k: v for k, v in materials.by_volume().items() if k in fe_mesh.groups}
     return build_model(fe_mesh, mats, spec, quadrature_degree=quadrature_degree,
                        gear_nodes=("in/gear", "out/gear"), G=gears.G())  # fmt: skip

@@ -1,10 +1,10 @@
 """Scene FE sections -> the FE packages' parameter dataclasses.
 
-``[geometry]``, ``[mesh]``, ``[materials]``, ``[bearings]`` and ``[drive]`` become
-:class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
-:class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`
-and :class:`fem.GearParams` (:func:`fe_parameters`). Keys are the dataclass field
-names in SI units, or the field name with a unit suffix of
+``[geometry]``, ``[mesh]``, ``[materials]``, ``[bearings]``, ``[drive]`` and
+``[rotors]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
+:class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`,
+:class:`fem.RotorParams` and :class:`fem.GearParams` (:func:`fe_parameters`). Keys
+are the dataclass field names in SI units, or the field name with a unit suffix of
 :data:`study.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
 ``radial_N_per_um = 100``). geometry and fem are imported inside
 :func:`fe_parameters`, so importing this module loads neither.
@@ -33,6 +33,7 @@ class FEParams:
     bearings: Any
     drive: Any
     gears: Any
+    rotors: Any
 
 
 def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | None = None,
@@ -125,6 +126,7 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
                                             fem.BearingParams))
         drive = fem.DriveParams(**_convert("drive", fe.get("drive", {}), fem.DriveParams))
+        rotors = fem.RotorParams(**_convert("rotors", fe.get("rotors", {}), fem.RotorParams))
         gears = fem.GearParams(base_radius_1=gear.base_radius, base_radius_2=gear.base_radius,
                                pressure_angle=gear.pressure_angle, helix_angle=gear.helix_angle,
                                face_width=gear.face_width, outer_radius=gear.tip_radius)
@@ -132,4 +134,4 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         raise
     except (TypeError, ValueError) as exc:
         raise SceneError(f"FE parameters: {exc}") from exc
-    return FEParams(pump, opts, mats, bear, drive, gears)
+    return FEParams(pump, opts, mats, bear, drive, gears, rotors)

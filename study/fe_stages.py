@@ -78,7 +78,8 @@ def fe_stage(scene, mesh_dir: Path, comm=None):
         if comm.rank == 0:  # the other ranks receive their cells from rank 0
             gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
         fe_mesh = load_gmsh_mesh(None, comm, 0, groups=groups, centres=centres)
-    return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh)
+    return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh,
+                            rotors=p.rotors)
 
 
 def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:

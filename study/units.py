@@ -19,4 +19,4 @@ TO_SI = {  # suffix -> factor to SI
 
 #: Suffixes allowed on the FE sections' SI field names (``wall_thickness_mm``), in the
 #: order error messages list them; their factors are those of :data:`TO_SI`.
-FE_SUFFIXES = ("mm", "um", "GPa", "MPa", "deg", "N_per_um")
+FE_SUFFIXES = ("mm", "um", "GPa", "MPa", "deg", "N_per_um", "kgm2", "kg")

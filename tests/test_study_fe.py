@@ -35,6 +35,8 @@ def test_pump_scene_loads():
     ({"mesh": {"preset": "medium"}}, "preset"),
     ({"bearings": {"radiall": 1e8}}, "did you mean 'radial'"),
     ({"drive": {"impeller_inertia": "big"}}, "impeller_inertia"),
+    ({"rotors": {"inertia_kgm2": 0.05}}, "rotors.torsional_stiffness"),
+    ({"rotors": {"lateral_stiffness_N_per_um": -2.0}}, "rotors.lateral_stiffness = -2000000"),
 ])
 def test_broken_fe_sections(patch, message):
     import tomllib
@@ -50,6 +52,20 @@ def test_broken_fe_sections(patch, message):
     with pytest.raises(SceneError) as err:
         scene_from_dict(raw)
     assert message in str(err.value)
+
+
+def test_rotors_enter_the_fe_key_only_when_given(tmp_path):
+    from study.pipeline import Pipeline
+    from study.scene import load_scene
+
+    base = Pipeline(load_scene(PUMP), tmp_path)
+    rot = load_scene(PUMP, {"rotors.inertia_kgm2": 0.05, "rotors.torsional_stiffness": 2.4e6})
+    assert rot.fe["rotors"] == {"inertia_kgm2": 0.05, "torsional_stiffness": 2.4e6}
+    with_rotors = Pipeline(rot, tmp_path)
+    assert with_rotors.mesh_key() == base.mesh_key()
+    assert with_rotors.fe_key() != base.fe_key()
+    # scenes without [rotors] keep the keys they had before the section existed
+    assert "rotors" not in load_scene(PUMP).fe
 
 
 FAST = {"rom.n_cm": 20, "rom.n_check": 6, "continuation.speed_rpm": [600.0, 640.0],

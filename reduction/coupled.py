@@ -186,16 +186,18 @@ def dynamic_factor(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
 
 
 def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
-                   xi=0.05, points: int = 1201) -> tuple[float, float]:
+                   xi=0.05, points: int = 1201, f_min: float = 0.0) -> tuple[float, float]:
     """Peak of the dynamic factor and its shift when k̄ is halved (T.33).
 
     Returns ``(f_peak [Hz], f_half / f_peak)``: the frequency of the largest D(f) near the
-    mode with most mesh energy (eq. 31), searched on ``points`` frequencies from 0.25 to
-    1.75 times that mode's, and the ratio of the peak at ``k̄/2`` to it. A single mode of
-    mesh energy ρ gives ``√(1 − ρ/2)``: 0.92 for ρ = 0.32, 0.75 for ρ = 0.87.
+    mode with most mesh energy (eq. 31) among those at or above ``f_min`` [Hz], searched
+    on ``points`` frequencies from 0.25 to 1.75 times that mode's, and the ratio of the
+    peak at ``k̄/2`` to it. A single mode of mesh energy ρ gives ``√(1 − ρ/2)``: 0.92 for
+    ρ = 0.32, 0.75 for ρ = 0.87.
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
     rho = _mesh_energy_of(modes, K_r, G, km_mean)
+    rho = np.where(modes.frequencies_hz >= f_min, rho, 0.0)
     f_top = float(modes.frequencies_hz[int(np.argmax(rho))])
     if not f_top > 0.0:
         raise ValueError("mesh_softening: no mode with mesh energy")

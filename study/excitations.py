@@ -196,19 +196,25 @@ def comparison_inputs(scene: Scene, results: dict):
         inp.spectrum = _range_text(r)
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
-        inp.mesh_mode, inp.softening = rom_measures(rom, scene.damping.modal_ratio)
+        f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed
+        inp.mesh_mode, inp.reached_mode, inp.softening = rom_measures(
+            rom, scene.damping.modal_ratio, f_min)
+        inp.reached_from = f_min
     return inp
 
 
-def rom_measures(rom, xi: float) -> tuple[tuple[float, float], tuple[float, float]]:
+def rom_measures(rom, xi: float, f_min: float = 0.0) -> tuple[tuple[float, float], ...]:
     """Of a cached ROM (:class:`study.fe_stages.RomData`): the mode with most mesh energy
-    ``(Hz, ρ)`` (eq. 31) and the dynamic-factor peak with its shift under k̄/2
-    ``(Hz, f½/f)`` (T.33), for modal damping ratio ``xi``."""
+    ``(Hz, ρ)`` (eq. 31), the same among the modes at or above ``f_min`` [Hz] (those the
+    mesh harmonics reach), and the dynamic-factor peak near the latter with its shift
+    under k̄/2 ``(Hz, f½/f)`` (T.33), for modal damping ratio ``xi``."""
     from reduction.coupled import mesh_softening
 
-    j = int(np.argmax(rom.mesh_energy))
-    return ((float(rom.frequencies_hz[j]), float(rom.mesh_energy[j])),
-            mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, xi))
+    f, rho = np.asarray(rom.frequencies_hz), np.asarray(rom.mesh_energy)
+    j = int(np.argmax(rho))
+    k = int(np.argmax(np.where(f >= f_min, rho, 0.0)))
+    return ((float(f[j]), float(rho[j])), (float(f[k]), float(rho[k])),
+            mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, xi, f_min=f_min))
 
 
 def _change(new: float | None, ref: float | None) -> float | None:

@@ -91,6 +91,9 @@ class PaperInputs:
     ipp: dict[float, IppAt | str] = field(default_factory=dict)
     spectrum: SpectrumAt | str | None = None
     mesh_mode: tuple[float, float] | None = None
+    #: the same among the modes the mesh harmonics reach (f >= ``reached_from`` Hz)
+    reached_mode: tuple[float, float] | None = None
+    reached_from: float = 0.0
     #: dynamic-factor peak [Hz] and its shift ratio under k̄/2 (T.33)
     softening: tuple[float, float] | None = None
 
@@ -244,6 +247,11 @@ def paper_markdown(inp: PaperInputs) -> str:
     if inp.mesh_mode is not None:
         f, rho = inp.mesh_mode
         rows.append(f"| mode with most mesh energy | {mm.value[0]:.0f} Hz, ρ = "
+                    f"{mm.value[1]:.2f} | {f:.0f} Hz, ρ = {rho:.2f} | {mm.source} |")
+    if inp.reached_mode is not None and inp.reached_mode != inp.mesh_mode:
+        f, rho = inp.reached_mode
+        rows.append(f"| mode with most mesh energy that the mesh harmonics reach (f ≥ H_Z at "
+                    f"the lowest speed, {inp.reached_from:.0f} Hz) | {mm.value[0]:.0f} Hz, ρ = "
                     f"{mm.value[1]:.2f} | {f:.0f} Hz, ρ = {rho:.2f} | {mm.source} |")
     if inp.softening is not None:
         f, r = inp.softening

@@ -71,12 +71,36 @@ def test_paper_md_measures_of_a_cached_rom():
     rom = SimpleNamespace(M=M, K=K, C=None, G=G, km_mean=km,
                           frequencies_hz=coupled_modes(M, K, G, km).frequencies_hz,
                           mesh_energy=mesh_energy(M, K, G, km))
-    (f, rho), (f_peak, ratio) = rom_measures(rom, 0.01)
+    (f, rho), reached, (f_peak, ratio) = rom_measures(rom, 0.01)
     f_n = math.sqrt((K[0, 0] + 2 * km) / M[0, 0]) / (2 * math.pi)
     rho_n = 2 * km / (2 * km + K[0, 0])
-    assert (f, rho) == pytest.approx((f_n, rho_n), rel=1e-10)
+    assert (f, rho) == pytest.approx((f_n, rho_n), rel=1e-10) and reached == (f, rho)
     assert f_peak == pytest.approx(f_n, rel=2e-3)
     assert ratio == pytest.approx(math.sqrt(1 - rho_n / 2), rel=3e-3)
+
+
+def test_paper_md_measures_only_the_modes_the_mesh_harmonics_reach():
+    """A low mode with more mesh energy than the mesh mode (a heavy rotor on each gear,
+    T.35) is reported, but the T.33 shift is taken at the mode at or above f_min."""
+    from types import SimpleNamespace
+
+    from reduction import coupled_modes, mesh_energy
+    from study.excitations import rom_measures
+
+    m, ks, mr, kt, km = 0.8, 1.0e6, 40.0, 6.0e8, 2.0e8
+    M = np.diag([m, m, mr, mr])  # the two gears, then a heavy body on each
+    K = np.array([[ks + kt, 0, -kt, 0], [0, ks + kt, 0, -kt], [-kt, 0, kt, 0],
+                  [0, -kt, 0, kt]])
+    G = np.array([1.0, 1.0, 0.0, 0.0])
+    f_all = coupled_modes(M, K, G, km).frequencies_hz
+    rho = mesh_energy(M, K, G, km)
+    rom = SimpleNamespace(M=M, K=K, C=None, G=G, km_mean=km, frequencies_hz=f_all,
+                          mesh_energy=rho)
+    top, reached, (f_peak, _) = rom_measures(rom, 0.01, f_min=1000.0)
+    j = int(np.argmax(np.where(f_all >= 1000.0, rho, 0.0)))
+    assert top[0] < 1000.0 and top[1] > reached[1]
+    assert reached == pytest.approx((f_all[j], rho[j]), rel=1e-12)
+    assert f_peak == pytest.approx(f_all[j], rel=5e-3)
 
 
 def test_summary_of_a_spectrum():

@@ -341,23 +341,64 @@ def parse_scene(text: str, name: str = "scene") -> Scene:
     return scene_from_dict(raw, name, text)
 
 
-def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
-    """Read, override (``{"section.key": value}``) and validate a scene file.
-
-    Raises
-    ------
-    SceneError
-        File missing/unreadable, invalid TOML, or any invalid field.
-    """
-    p = Path(path)
+def _read(p: Path) -> tuple[dict, str]:
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"scene file {str(p)!r}: cannot be read ({exc.strerror})") from exc
     try:
-        raw = tomllib.loads(text)
+        return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"scene file {str(p)!r} is not valid TOML: {exc}") from exc
+
+
+def _merged(base: dict, top: dict) -> dict:
+    """``top`` over ``base``: tables merge key by key, anything else (values, arrays of
+    tables such as ``[[external.aero]]``) is replaced whole."""
+    out = copy.deepcopy(base)
+    for key, val in top.items():
+        if isinstance(val, dict) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], val)
+        else:
+            out[key] = copy.deepcopy(val)
+    return out
+
+
+def _resolve(p: Path, chain: tuple[Path, ...] = ()) -> tuple[dict, str]:
+    """Raw table and record text of scene file ``p`` with its ``[scene] extends`` chain
+    (a path relative to the file) applied: the file's keys over its base's."""
+    raw, text = _read(p)
+    info = raw.get("scene", {})
+    base = info.pop("extends", None) if isinstance(info, dict) else None
+    if base is None:
+        return raw, text
+    if not isinstance(base, str) or not base:
+        raise SceneError(f"scene.extends = {base!r}: must be the path of a scene file, "
+                         "relative to this one")
+    bp = (p.parent / base).resolve()
+    if bp in chain or bp == p.resolve() or len(chain) > 8:
+        raise SceneError(f"scene.extends = {base!r} in {str(p)!r}: circular or deeper than "
+                         "8 files")
+    if not bp.is_file():
+        raise SceneError(f"scene.extends = {base!r} in {str(p)!r}: no such file {str(bp)!r}")
+    base_raw, base_text = _resolve(bp, (*chain, p.resolve()))
+    return _merged(base_raw, raw), f"{text}\n# ---- scene.extends = {base!r}: ----\n{base_text}"
+
+
+def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
+    """Read, override (``{"section.key": value}``) and validate a scene file.
+
+    ``[scene] extends = "base.toml"`` (relative to the file) reads that scene first and
+    puts this file's keys over it: tables merge key by key, values and arrays of tables
+    (``[[external.aero]]``) are replaced whole. The record text holds both files.
+
+    Raises
+    ------
+    SceneError
+        File missing/unreadable, invalid TOML, a bad ``extends``, or any invalid field.
+    """
+    p = Path(path)
+    raw, text = _resolve(p)
     if overrides:
         raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, p.stem, text)

@@ -312,3 +312,33 @@ def test_harmonic_set_option_reaches_the_builder():
     raw = tomllib.loads((ROOT / "scenes" / "pump.toml").read_text())
     del raw["hbm"]["harmonic_set"]
     assert scene_from_dict(raw, "pump").hbm.harmonic_set == "combinations"
+
+
+def test_a_scene_extends_another_key_by_key(tmp_path):
+    from study.scene import SceneError, load_scene
+
+    base = tmp_path / "base.toml"
+    base.write_text(
+        '[scene]\nname = "base"\nkind = "lumped"\n[gear]\nteeth = 40\nbacklash_um = 40.0\n'
+        "[load]\ntorque_Nm = 10.0\n[mesh_stiffness]\nmean_N_per_um = 200.0\n"
+        "[continuation]\nspeed_rpm = [500.0, 900.0]\n"
+        '[[external.aero]]\nshaft = "in"\norder = 2\ntorque_Nm = [0.0, 0.0, 0.5]\n'
+        '[[external.aero]]\nshaft = "out"\norder = 2\ntorque_Nm = [0.0, 0.0, 0.5]\n')
+    sub = tmp_path / "sub" / "derived.toml"
+    sub.parent.mkdir()
+    sub.write_text('[scene]\nextends = "../base.toml"\nname = "derived"\n[gear]\n'
+                   'backlash_um = 20.0\n[[external.aero]]\nshaft = "in"\norder = 4\n'
+                   "torque_Nm = [0.0, 0.0, 0.1]\n")
+    s = load_scene(sub)
+    assert s.name == "derived" and s.gear.teeth == 40          # table merged key by key
+    assert s.gear.backlash == pytest.approx(20e-6) and s.load.torque == 10.0
+    assert [(a.shaft, a.order) for a in s.external.aero] == [("in", 4)]  # replaced whole
+    assert 'extends = "../base.toml"' in s.text and "teeth = 40" in s.text
+    assert load_scene(sub, {"gear.teeth": 50}).gear.teeth == 50
+    base.write_text(base.read_text().replace('name = "base"',
+                                             'name = "base"\nextends = "sub/derived.toml"'))
+    with pytest.raises(SceneError, match="circular"):
+        load_scene(sub)
+    sub.write_text('[scene]\nextends = "nothere.toml"\n')
+    with pytest.raises(SceneError, match="no such file"):
+        load_scene(sub)

@@ -19,6 +19,7 @@ import math
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -161,11 +162,12 @@ class StageCache:
         should write each file from one rank), then rank 0 checksums and renames the
         entry while the others wait; every rank gets the entry's path.
         """
+        t0 = time.perf_counter()
         if comm is None or comm.size == 1:
             tmp = self._begin(stage, key)
             try:
                 produce(tmp)
-                return self._commit(stage, key, tmp, info)
+                return self._commit(stage, key, tmp, info, time.perf_counter() - t0)
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise
@@ -178,9 +180,11 @@ class StageCache:
             raise
         comm.barrier()
 
+        seconds = time.perf_counter() - t0
+
         def commit() -> Path:
             try:
-                return self._commit(stage, key, tmp, info)
+                return self._commit(stage, key, tmp, info, seconds)
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise
@@ -191,11 +195,21 @@ class StageCache:
         (self.root / stage).mkdir(exist_ok=True)
         return Path(tempfile.mkdtemp(prefix=f".{key[:12]}.", dir=self.root / stage))
 
-    def _commit(self, stage: str, key: str, tmp: Path, info: dict | None) -> Path:
+    def seconds(self, stage: str, key: str) -> float | None:
+        """Wall time [s] the entry took to produce, as its manifest records it (None for a
+        missing entry or one written before the manifests kept it)."""
+        try:
+            man = json.loads((self.entry(stage, key) / "manifest.json").read_text())
+            return float(man["seconds"]) if man.get("key") == key else None
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+
+    def _commit(self, stage: str, key: str, tmp: Path, info: dict | None,
+                seconds: float | None = None) -> Path:
         files = {p.name: {"size": p.stat().st_size, "sha256": _sha256(p)}
                  for p in sorted(tmp.iterdir()) if p.is_file()}
         man = {"format": CACHE_FORMAT, "stage": stage, "key": key, "files": files,
-               "info": canonical(info or {})}
+               "info": canonical(info or {}), "seconds": seconds}
         (tmp / "manifest.json").write_text(json.dumps(man, indent=1))
         d = self.entry(stage, key)
         if d.exists():

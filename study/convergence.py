@@ -53,7 +53,8 @@ housing_err
 The recommendation of a knob is its cheapest value whose errors are all within
 ``tol`` (no unmatched grazing). Costs are the wall times of the stages the knob
 changes (mesh: mesh+fe+rom+hbm; n_cm: fe+rom+hbm; others: hbm), measured when the
-stage ran; the stage times of cached entries are kept in ``<cache>/timings.json``.
+stage ran; the stage times of cached entries are kept in ``<cache>/timings.json`` and in
+each entry's manifest (:meth:`study.cache.StageCache.seconds`).
 """
 
 from __future__ import annotations
@@ -136,9 +137,10 @@ class _Timings:
             key = pipe.keys.get(st)
             if key is None:
                 continue
-            if key not in self.data:
+            seconds = self.data.get(key, pipe.cache.seconds(st, key))
+            if seconds is None:  # cached by a run that did not time it
                 return None
-            total += float(self.data[key])
+            total += float(seconds)
         return total
 
 

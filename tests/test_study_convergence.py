@@ -179,6 +179,28 @@ def test_sdof_cli(sdof_study):
     assert bad.returncode == 2 and "n_cm" in bad.stderr
 
 
+def test_a_stage_cached_by_a_plain_run_keeps_its_cost(tmp_path):
+    """The hbm entry of a plain run records its wall time in its manifest, so a later
+    study that finds it cached still has its cost (and can recommend it)."""
+    import json
+
+    import study
+    from study.cache import StageCache
+
+    cache = tmp_path / "cache"
+    study.run(SDOF, tmp_path / "plain", cache_dir=cache,
+              overrides={"hbm.mesh_harmonics": 4, "outputs.plots": [],
+                         "outputs.report": False})
+    (entry,) = (cache / "hbm").iterdir()
+    key = json.loads((entry / "manifest.json").read_text())["key"]
+    seconds = StageCache(cache).seconds("hbm", key)
+    assert seconds is not None and 0.0 < seconds < 60.0
+    res = run_convergence(SDOF, tmp_path / "conv", knobs={"harmonics": [4, 8]},
+                          only=["harmonics"], cache_dir=cache)
+    row = next(r for r in res.rows if r.setting.value == 4)
+    assert row.seconds == pytest.approx(seconds, rel=1e-12)
+
+
 # --------------------------------------------------------------------------- pump
 
 @pytest.mark.slow

@@ -35,6 +35,32 @@ Run (one heavy run at a time; 4–50 s per evaluation)::
     ... show                                # the table of every evaluation
     ... plot                                # out/calibrate/calibrate_pump.png
 
+**Grazing target, ``--scene scenes/pump-paper.toml``** (the TE shape against the
+paper's grazings): the same evaluations on another scene are kept in a section of the
+JSON named after the scene (``pump-paper``), with the TE phases. ``screen`` searches
+amplitudes *and* phases (or the amplitudes only, ``--fix-phases``) against the paper's
+grazing speeds (:data:`PAPER_GRAZING`) on the linear contact margin of
+:mod:`benchmarks.te_margin` (exact for the grazings the branch visits; it does not see
+the resonance softening): random samples, Nelder–Mead from the best and from given
+``--amps/--phases``, and with ``--robust TOL`` once more for the deepest
+permanent-contact windows with every grazing within TOL. The candidates (``screens``)
+are then run with ``scan --amps .. --phases ..`` (nonlinear; cheap or ``--converged``)
+and with ``geardyn excitations`` (converged), whose folder ``record`` copies into the
+section (``excitations``)::
+
+    S="--scene scenes/pump-paper.toml --range 500,7000"
+    ... screen $S --converged --samples 20000 --starts 10 --seed 2      # 5 min
+    ... screen $S --converged --samples 0 --robust 0.03 --amps 0.3008,0.1622,0.0711 \\
+        --phases 198.4,309.6,27.0                                       # 1 min
+    ... screen $S --converged --samples 6000 --starts 5 --seed 5 --fix-phases 0,90,0
+    ... scan $S --converged --set hbm.stability=false --amps 0.3126,0.1782,0.0558 \\
+        --phases 219.8,294.2,29.5                                       # 25 s
+    geardyn excitations scenes/pump-paper.toml --out OUT \\
+        --set "transmission_error.amplitudes_um=[0.3126,0.1782,0.0558]" \\
+        --set "transmission_error.phases_deg=[219.8,294.2,29.5]"        # 2 min
+    ... record $S --converged --out OUT --amps 0.3126,0.1782,0.0558 --phases 219.8,294.2,29.5
+    ... show $S --converged
+
 Not a timing benchmark (not picked up by ``run_all``).
 """
 from __future__ import annotations
@@ -80,18 +106,33 @@ def _load(path: Path) -> dict:
 
 def _save(path: Path, data: dict) -> None:
     """Write the evaluations with a table of them for BENCHMARKS.md (benchmarks.report)."""
+    tables = [{"title": "evaluations", "columns": COLUMNS, "rows": table_rows(data)}]
+    for name, sec in data.items():
+        if isinstance(sec, dict) and "evaluations" in sec and sec is not data:
+            tables.append({"title": f"{name}: evaluations against the paper's grazings",
+                           "columns": GRAZING_COLUMNS, "rows": grazing_rows(sec)})
+            if sec.get("screens"):
+                tables.append({"title": f"{name}: linear-margin screens (benchmarks.te_margin)",
+                               "columns": SCREEN_COLUMNS, "rows": screen_rows(sec["screens"])})
+            if sec.get("excitations"):
+                tables.append({"title": f"{name}: geardyn excitations (scene's harmonic set)",
+                               "columns": EXCITATION_COLUMNS,
+                               "rows": excitation_rows(sec["excitations"])})
     write_json("calibrate_pump", {
-        **data, "command": ".venv/bin/python -m benchmarks.calibrate_pump scan|calibrate ...",
+        **data, "command": ".venv/bin/python -m benchmarks.calibrate_pump "
+                           "scan|calibrate|screen [--scene S] ...",
         "summary": "TE amplitudes of the pump against the paper's resonance speeds "
                    "(docs/theory.md §13.2): every evaluation, cheap 3/1 set unless "
-                   "overridden.",
-        "tables": [{"title": "evaluations", "columns": COLUMNS, "rows": table_rows(data)}]},
-        path)
+                   "overridden; per other scene (pump-paper) a section with amplitudes "
+                   "and phases against the paper's grazing speeds.",
+        "tables": tables}, path)
 
 
-def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path) -> dict:
-    """One all-excitations run with TE amplitudes ``amps`` (µm, H_Z, H_2Z, H_3Z) and the
-    overrides ``extra``; the curve summary as plain data."""
+def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path,
+             scene: Path = SCENE) -> dict:
+    """One all-excitations run of ``scene`` with TE amplitudes ``amps`` (µm, H_Z, H_2Z,
+    H_3Z) and the overrides ``extra`` (the TE phases among them, if given); the curve
+    summary as plain data."""
     import study
     from study.curves import summarize_branch
     from study.pipeline import SolverError
@@ -101,7 +142,7 @@ def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path) -> di
     status = "completed"
     for retry in RETRY:                 # a branch that winds back (issue 14, item 4):
         try:                            # once more with smaller continuation steps
-            res = study.run(SCENE, out, overrides={**ov, **retry}, cache_dir=cache,
+            res = study.run(scene, out, overrides={**ov, **retry}, cache_dir=cache,
                             until="hbm")
             status = "completed" + (f" ({retry})" if retry else "")
             break
@@ -135,23 +176,40 @@ def errors(ev: dict) -> list[float] | None:
     return [(a - b) / b for a, b in zip(r, TARGETS, strict=True)]
 
 
+def section(data: dict, scene: Path) -> dict:
+    """The part of the results JSON that holds the evaluations of ``scene``: the top
+    level for ``scenes/pump.toml`` (the resonance calibration), else ``data[stem]``."""
+    if scene.resolve() == SCENE.resolve():
+        return data
+    return data.setdefault(scene.stem, {"scene": f"scenes/{scene.name}", "evaluations": {}})
+
+
 class Evaluator:
     """Evaluations cached in the results JSON (one key per input)."""
 
-    def __init__(self, path: Path, extra: dict, workdir: Path, cache: Path) -> None:
+    def __init__(self, path: Path, extra: dict, workdir: Path, cache: Path,
+                 scene: Path = SCENE) -> None:
         self.path, self.extra, self.workdir, self.cache = path, extra, workdir, cache
+        self.scene = scene
         self.data = _load(path)
+        self.section = section(self.data, scene)
 
-    def __call__(self, amps: tuple[float, ...]) -> dict:
-        key = _key(amps, self.extra)
-        evs = self.data["evaluations"]
+    def __call__(self, amps: tuple[float, ...], phases: tuple[float, ...] | None = None
+                 ) -> dict:
+        extra = self.extra if phases is None else \
+            {**self.extra, "transmission_error.phases_deg": [float(p) for p in phases]}
+        key = _key(amps, extra)
+        evs = self.section["evaluations"]
         if key not in evs:
             log.info("evaluating TE amplitudes %s µm", ", ".join(f"{a:.4g}" for a in amps))
-            evs[key] = evaluate(amps, self.extra, self.workdir / f"e{len(evs):03d}", self.cache)
+            sub = "" if self.section is self.data else f"{self.scene.stem}_"
+            evs[key] = evaluate(amps, extra, self.workdir / f"{sub}e{len(evs):03d}",
+                                self.cache, self.scene)
             _save(self.path, self.data)
         ev = evs[key]
-        log.info("TE %s µm -> resonances %s rpm (errors %s), grazing %s, %s",
+        log.info("TE %s µm%s -> resonances %s rpm (errors %s), grazing %s, %s",
                  ", ".join(f"{a:.4g}" for a in amps),
+                 "" if phases is None else " at " + ", ".join(f"{p:.0f}" for p in phases),
                  ", ".join(f"{r:.0f}" for r in ev.get("resonances_rpm", [])),
                  "–" if errors(ev) is None else ", ".join(f"{100 * e:+.1f} %" for e in errors(ev)),
                  ", ".join(f"{g:.0f}" for g in ev.get("grazing_rpm", [])), ev["status"][:60])
@@ -218,15 +276,107 @@ def table_rows(data: dict) -> list[list[str]]:
     return rows
 
 
-def show(data: dict) -> str:
-    """Markdown table of every evaluation."""
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    lines += ["| " + " | ".join(r) + " |" for r in table_rows(data)]
-    return "\n".join(lines)
-
-
-#: The paper's grazing speeds (rpm), Sect. 4.3, Fig. 14 (predictions, not targets).
+#: The paper's grazing speeds (rpm), Sect. 4.3, Fig. 14: predictions for the resonance
+#: calibration of ``scenes/pump.toml``, the target of ``screen`` on other scenes.
 PAPER_GRAZING = (994.0, 1255.0, 1295.0, 2202.0, 2378.0)
+
+GRAZING_COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "harmonic set", "overrides",
+                   "resonances (rpm)",
+                   "grazing (rpm)", "grazing error", "windows (rpm)", "span (rpm)", "s",
+                   "status"]
+
+
+def grazing_error(found: list[float], target: tuple[float, ...] = PAPER_GRAZING
+                  ) -> float | None:
+    """Largest relative error of the grazing speeds against ``target`` when there are as
+    many (matched in order), else ``None``."""
+    if len(found) != len(target):
+        return None
+    return max(abs(f - t) / t for f, t in zip(sorted(found), target, strict=True))
+
+
+def grazing_rows(sec: dict) -> list[list[str]]:
+    """One row of :data:`GRAZING_COLUMNS` per evaluation of a scene section."""
+    rows = []
+    for ev in sec["evaluations"].values():
+        ov = dict(ev["overrides"])
+        amps = ov.pop("transmission_error.amplitudes_um")
+        phases = ov.pop("transmission_error.phases_deg", None)
+        for k in (*CHEAP, "continuation.max_points", "continuation.speed_rpm",
+                  "hbm.stability"):
+            ov.pop(k, None)
+        g = ev.get("grazing_rpm", [])
+        e = grazing_error(g) if ev["status"].startswith("completed") else None
+        cheap = all(ev["overrides"].get(k) == v for k, v in CHEAP.items())
+        rows.append([
+            ", ".join(f"{a:.4g}" for a in amps),
+            "scene's" if phases is None else ", ".join(f"{p:.1f}" for p in phases),
+            "3/1 combinations" if cheap else "scene's (12/3)",
+            ", ".join(f"{k}={v}" for k, v in ov.items()) or "–",
+            ", ".join(f"{r:.0f}" for r in ev.get("resonances_rpm", [])),
+            ", ".join(f"{x:.0f}" for x in g),
+            "–" if e is None else f"{100 * e:.1f} %",
+            ", ".join(f"{a:.0f}–{b:.0f}" for a, b in ev.get("windows_rpm", [])) or "none",
+            f"{ev['span_rpm']:.0f}" if "span_rpm" in ev else "–",
+            str(ev["seconds"]), ev["status"][:40]])
+    return rows
+
+
+SCREEN_COLUMNS = ["screen", "stage", "TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)",
+                  "linear grazings (rpm)", "score", "depth (nm)"]
+
+
+def screen_rows(screens: dict) -> list[list[str]]:
+    """One row of :data:`SCREEN_COLUMNS` per refined candidate of every screen."""
+    rows = []
+    for i, r in enumerate(screens.values()):
+        sets = "3/1" if all(r["overrides"].get(k) == v for k, v in CHEAP.items()) else "12/3"
+        fixed = r.get("fixed_phases_deg")
+        label = f"{i}: {sets}, {r['samples']} samples (seed {r['seed']})" + (
+            "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed))
+        for stage in ("refined", "robust"):
+            for c in r.get(stage, []):
+                rows.append([label, stage, ", ".join(f"{a:.4g}" for a in c["amplitudes_um"]),
+                             ", ".join(f"{p:.1f}" for p in c["phases_deg"]),
+                             ", ".join(f"{g:.0f}" for g in c["grazing_rpm"]),
+                             f"{c['score']:.4f}",
+                             f"{1e9 * c['depth_m']:.1f}" if "depth_m" in c else "–"])
+    return rows
+
+
+EXCITATION_COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "resonances, all (rpm)",
+                      "grazings, all (rpm)", "windows, all (rpm)",
+                      "primary peak internal → all", "span internal → all", "IPP 1070 rpm",
+                      "IPP 1700 rpm", "6875 rpm"]
+
+
+def excitation_rows(recs: dict) -> list[list[str]]:
+    """One row of :data:`EXCITATION_COLUMNS` per recorded ``geardyn excitations`` run."""
+    rows = []
+    for key, r in recs.items():
+        k = json.loads(key)
+        c, m = r["cases"], r["paper_md"]
+        ph = k.get("transmission_error.phases_deg")
+        rows.append([
+            ", ".join(f"{a:.4g}" for a in k["amplitudes_um"]),
+            "scene's" if ph is None else ", ".join(f"{p:.1f}" for p in ph),
+            m.get("resonances", "–"), c["all"]["grazing_rpm"].replace(";", ", "),
+            c["all"]["contact_windows_rpm"].replace(";", ", ") or "none",
+            f"{c['internal']['primary_peak_N']:.1f} → {c['all']['primary_peak_N']:.1f} N "
+            f"({100 * c['all']['primary_peak_change']:+.1f} %)",
+            f"{c['internal']['span_rpm']:.0f} → {c['all']['span_rpm']:.0f} rpm "
+            f"({100 * c['all']['span_change']:+.1f} %)",
+            m.get("ipp_1070", "–"), m.get("ipp_1700", "–"), m.get("rpm_6875", "–")])
+    return rows
+
+
+def show(data: dict, sec: dict | None = None) -> str:
+    """Markdown table of every evaluation (of the section ``sec`` if given)."""
+    cols, rows = (COLUMNS, table_rows(data)) if sec is None or sec is data else \
+        (GRAZING_COLUMNS, grazing_rows(sec))
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
 
 
 def plot(data: dict, path: Path) -> Path:
@@ -266,17 +416,108 @@ def plot(data: dict, path: Path) -> Path:
     return path
 
 
+def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, seed: int,
+           given: list[tuple[tuple[float, ...], tuple[float, ...]]] = (),
+           robust: float | None = None, fixed_phases: tuple[float, ...] | None = None,
+           rpm_step: float = 10.0, target: tuple[float, ...] = PAPER_GRAZING) -> dict:
+    """Amplitudes and phases of the TE against the grazing speeds ``target`` on the
+    linear contact margin (:mod:`benchmarks.te_margin`, every other time sample):
+    ``samples`` random candidates, then Nelder–Mead from the ``starts`` best and from the
+    ``given`` (amplitudes µm, phases deg). With ``robust`` (a relative tolerance) each
+    refined candidate is refined once more for the deepest permanent-contact windows
+    (and low-speed margin) with every grazing within ``robust``; the margin scale is
+    the static deflection ``F_s/k̄``. With ``fixed_phases`` only the amplitudes are
+    searched. The nonlinear runs then measure the grazings."""
+    from benchmarks import te_margin as tm
+    from study.scene_load import load_scene
+
+    lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
+    ov = {k: v for k, v in extra.items() if k.startswith("hbm.")}
+    t0 = time.perf_counter()
+    rpm = np.arange(lo, hi + 0.5 * rpm_step, rpm_step)
+    basis = tm.build_basis(scene, ov, rpm, cache)
+    t1 = time.perf_counter()
+    model = tm.MarginModel(basis, time_step=2)
+    found = tm.random_search(model, target, samples, seed, phases_deg=fixed_phases) \
+        if samples > 0 else []
+    if found:
+        log.info("random search: best %.3f %s", found[0]["score"], found[0]["grazing_rpm"])
+    todo = [(f["amplitudes_um"], f["phases_deg"]) for f in found[:starts]] + list(given)
+    fix = fixed_phases is not None
+    refined = sorted((tm.refine(model, target, a, fixed_phases if fix else p, fix_phases=fix)
+                      for a, p in todo), key=lambda r: r["score"])
+    out = {"overrides": ov, "rpm": [lo, hi, rpm_step], "target_rpm": list(target),
+           "samples": samples, "seed": seed, "basis_seconds": round(t1 - t0, 1),
+           "fixed_phases_deg": None if fixed_phases is None else list(fixed_phases),
+           "random_best": found[:starts], "refined": refined}
+    if robust is not None:
+        sc = load_scene(scene, ov)
+        scale = sc.static_load / sc.mesh_stiffness.mean
+        out["robust"] = [tm.refine(model, target, r["amplitudes_um"], r["phases_deg"],
+                                   robust=(robust, scale), fix_phases=fix)
+                         for r in refined if r["score"] < 1]
+    for r in refined + out.get("robust", []):
+        log.info("%s: %.4f amps %s phases %s grazings %s depth %s nm",
+                 "robust" if "robust" in r else "refined", r["score"],
+                 np.round(r["amplitudes_um"], 4), np.round(r["phases_deg"], 1),
+                 np.round(r["grazing_rpm"]),
+                 "–" if "depth_m" not in r else f"{1e9 * r['depth_m']:.1f}")
+    out["seconds"] = round(time.perf_counter() - t0, 1)
+    return out
+
+
+#: Rows of ``paper.md`` kept by :func:`record` (label -> start of the row).
+PAPER_ROWS = {"resonances": "| resonance speeds", "grazings": "| grazing speeds",
+              "windows": "| permanent-contact windows", "primary_peak": "| primary peak",
+              "span": "| vibro-impact span", "ipp_1070": "| IPP sequence at 1070",
+              "ipp_1700": "| IPP sequence at 1700", "rpm_6875": "| response at 6875"}
+
+
+def record(out: Path) -> dict:
+    """The three cases of a ``geardyn excitations`` folder (``excitations.csv``) and the
+    run's column of the rows :data:`PAPER_ROWS` of its ``paper.md``, as plain data."""
+    import csv
+
+    with open(out / "excitations.csv", newline="") as fh:
+        cases = {r["case"]: r for r in csv.DictReader(fh)}
+    keep = ("peaks_rpm", "peaks_N", "grazing_rpm", "impacts_rpm", "contact_windows_rpm")
+    num = ("primary_peak_rpm", "primary_peak_N", "primary_peak_change", "span_rpm",
+           "span_change")
+    rows = {}
+    for line in (out / "paper.md").read_text().splitlines():
+        for name, start in PAPER_ROWS.items():
+            if line.startswith(start) and name not in rows:
+                rows[name] = line.split(" | ")[2]
+    return {"folder": str(out), "paper_md": rows,
+            "cases": {c: {**{k: r[k] for k in keep}, **{k: float(r[k]) for k in num},
+                          "complete": r["complete"] == "True"} for c, r in cases.items()}}
+
+
 def _floats(text: str) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split(","))
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("command", choices=["scan", "calibrate", "show", "plot"])
+    p.add_argument("command", choices=["scan", "calibrate", "screen", "record", "show", "plot"])
+    p.add_argument("--scene", type=Path, default=SCENE,
+                   help="scene file (other than pump.toml: its own section of the JSON)")
     p.add_argument("--scale", type=_floats, default=(),
                    help="scan: factors on the shipped TE amplitudes")
     p.add_argument("--amps", action="append", default=[], type=_floats,
                    help="scan: explicit H_Z,H_2Z,H_3Z amplitudes (µm), repeatable")
+    p.add_argument("--phases", action="append", default=[], type=_floats,
+                   help="scan: TE phases (deg) of the --amps of the same position")
+    p.add_argument("--out", type=Path, help="record: a `geardyn excitations` folder run "
+                   "with --set transmission_error.amplitudes_um/phases_deg = --amps/--phases")
+    p.add_argument("--samples", type=int, default=20000, help="screen: random candidates")
+    p.add_argument("--starts", type=int, default=10, help="screen: Nelder-Mead starts")
+    p.add_argument("--seed", type=int, default=0, help="screen: random seed")
+    p.add_argument("--fix-phases", type=_floats, default=None,
+                   help="screen: search the amplitudes only, at these phases (deg)")
+    p.add_argument("--robust", type=float, default=None,
+                   help="screen: refine once more for the deepest windows with every "
+                        "grazing within this relative tolerance")
     p.add_argument("--start", type=_floats, default=SHIPPED_UM)
     p.add_argument("--slope", type=float, default=-0.08,
                    help="initial d(relative speed error)/d(log amplitude)")
@@ -304,15 +545,35 @@ def main(argv: list[str] | None = None) -> int:
         k, v = item.split("=", 1)
         (val,) = parse_set_values(v)
         extra[k.strip()] = val
-    ev = Evaluator(a.json, extra, a.work, a.cache)
+    ev = Evaluator(a.json, extra, a.work, a.cache, a.scene)
+    if a.phases and len(a.phases) != len(a.amps):
+        p.error(f"--phases given {len(a.phases)} times: give it once per --amps "
+                f"({len(a.amps)})")
     if a.command == "show":
-        print(show(ev.data))
+        print(show(ev.data, ev.section))
+    elif a.command == "record":
+        if a.out is None or len(a.amps) != 1:
+            p.error("record needs --out and one --amps (and --phases) of that run")
+        ph = a.phases[0] if a.phases else None
+        key = _key(a.amps[0], {} if ph is None else {"transmission_error.phases_deg": list(ph)})
+        ev.section.setdefault("excitations", {})[key] = record(a.out)
+        _save(a.json, ev.data)
+    elif a.command == "screen":
+        given = list(zip(a.amps, a.phases, strict=True)) if a.phases else \
+            [(x, a.fix_phases) for x in a.amps] if a.fix_phases else []
+        r = screen(a.scene, extra, a.cache, a.samples, a.starts, a.seed, given, a.robust,
+                   a.fix_phases)
+        ev.section.setdefault("screens", {})[_key((), {
+            **r["overrides"], "samples": a.samples, "seed": a.seed, "robust": a.robust,
+            "given": [list(g) for g in given], "fixed_phases": a.fix_phases})] = r
+        _save(a.json, ev.data)
     elif a.command == "plot":
         log.info("wrote %s", plot(ev.data, a.work / "calibrate_pump.png"))
     elif a.command == "scan":
-        pts = [tuple(f * v for v in SHIPPED_UM) for f in a.scale] + list(a.amps)
-        for amps in pts:
-            ev(amps)
+        for f in a.scale:
+            ev(tuple(f * v for v in SHIPPED_UM))
+        for i, amps in enumerate(a.amps):
+            ev(amps, a.phases[i] if a.phases else None)
     else:
         r = calibrate(ev, a.start, a.slope, a.iterations, a.tol)
         ev.data.setdefault("calibrations", {})[_key(a.start, extra)] = r

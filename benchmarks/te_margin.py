@@ -1,0 +1,265 @@
+"""Contact margin of the permanent-contact (linear) solution as an affine function of the
+transmission-error harmonics: a screen for TE shapes against the paper's grazing speeds.
+
+In permanent contact the mesh force is ``k_m (p - b)`` with ``p = Delta - e`` (eq. 13),
+and with a loaded STE ``e = q_s - F_s/k_m`` (eq. 12), so the linear periodic solution
+``Delta`` is affine in the complex TE harmonics ``c_k = a_k exp(i phi_k)``:
+
+    p(t) - b = P_0(t) + sum_k (Re c_k P_k^re(t) + Im c_k P_k^im(t))
+               - Re sum_k c_k exp(i k Z Omega t)
+
+``P_0`` is the response (external loads, mean STE, stiffness harmonics) with no TE
+harmonics, ``P_k^re, P_k^im`` the response to ``c_k = 1, i`` (per metre). A grazing of
+the nonlinear branch is a point where the branch passes between permanent contact and
+impacts: there the solution *is* the linear one and its margin ``min_t (p - b)`` is
+zero. The grazing speeds of a curve are therefore zeros of the linear margin
+``m(rpm) = min_t (p - b)`` — all of them where the branch visits the linear solution;
+a window of the linear solution inside a folded impact region may be skipped by the
+branch, and the resonance peaks (softening) are not seen here. Candidates found on the
+screen are checked with the nonlinear runs of :mod:`benchmarks.calibrate_pump`.
+
+One linear solve per speed and basis vector (:func:`hbm.fixed_speed.initial_guess`,
+``law = 0``); the time signals are kept, so a candidate costs one weighted sum.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+log = logging.getLogger("te_margin")
+
+#: Unit TE harmonic of the basis (m); the response is linear, any value gives the same.
+UNIT = 1e-7
+
+
+@dataclass
+class MarginBasis:
+    """Time signals of ``p - b`` (m) of the linear solution, per speed.
+
+    Attributes
+    ----------
+    rpm
+        Speeds (rpm), (n_speed,).
+    p0
+        ``p - b`` with no TE harmonics, (n_speed, n_time).
+    dp
+        Response of ``Delta`` to ``c_k = 1`` and ``c_k = i`` (per metre of TE),
+        (n_te, 2, n_speed, n_time).
+    mesh_phase
+        Mesh phase ``Z Omega t`` of the samples (rad), (n_time,).
+    """
+
+    rpm: np.ndarray
+    p0: np.ndarray
+    dp: np.ndarray
+    mesh_phase: np.ndarray
+
+    def te_signal(self, amps_m: np.ndarray, phases_rad: np.ndarray) -> np.ndarray:
+        """``Re sum_k c_k exp(i k Z Omega t)`` (m) on the samples."""
+        k = np.arange(1, len(amps_m) + 1)
+        c = np.asarray(amps_m) * np.exp(1j * np.asarray(phases_rad))
+        return (c[:, None] * np.exp(1j * k[:, None] * self.mesh_phase[None, :])).real.sum(0)
+
+    def signals(self, amps_m, phases_rad) -> np.ndarray:
+        """``p - b`` (m) of the linear solution, (n_speed, n_time)."""
+        c = np.asarray(amps_m, dtype=float) * np.exp(1j * np.asarray(phases_rad, dtype=float))
+        p = self.p0 - self.te_signal(amps_m, phases_rad)[None, :]
+        for k, ck in enumerate(c):
+            p = p + ck.real * self.dp[k, 0] + ck.imag * self.dp[k, 1]
+        return p
+
+    def margin(self, amps_m, phases_rad) -> np.ndarray:
+        """``m(rpm) = min_t (p - b)`` (m) of the linear solution at every speed."""
+        return self.signals(amps_m, phases_rad).min(axis=1)
+
+
+def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
+                n_te: int = 3, n_time: int | None = None) -> MarginBasis:
+    """Linear solutions of the scene at ``rpm`` for no TE harmonics and for each unit
+    harmonic (real and imaginary), from the cached ROM."""
+    from hbm.fixed_speed import RPM_TO_RAD_S, initial_guess
+    from study.pipeline import Pipeline
+    from study.scene_load import load_scene
+
+    def problem(amps, phases):
+        ov = {**overrides, "transmission_error.amplitudes_um": list(amps),
+              "transmission_error.phases_deg": list(phases)}
+        sc = load_scene(scene_path, ov)
+        return Pipeline(sc, cache / "te_margin_out", cache_dir=cache,
+                        progress=False).problem()[0]
+
+    zero = [0.0] * n_te
+    base = problem(zero, zero)
+    n = base.harmonics.n_time if n_time is None else int(n_time)
+    synth, _, e0 = base.fine_grid(n)
+    phase = base.harmonics.time_grid(n) * base.mesh_step
+
+    def deltas(prob):
+        out = np.empty((len(rpm), n))
+        for i, r in enumerate(rpm):
+            u = initial_guess(prob, float(r) * RPM_TO_RAD_S)
+            out[i] = synth @ prob.delta_real(u)
+        return out
+
+    d0 = deltas(base)
+    p0 = d0 - e0[None, :] - base.b
+    dp = np.empty((n_te, 2, len(rpm), n))
+    for k in range(n_te):
+        for j, ph in enumerate((0.0, 90.0)):
+            amps, phs = list(zero), list(zero)
+            amps[k], phs[k] = UNIT * 1e6, ph
+            dp[k, j] = (deltas(problem(amps, phs)) - d0) / UNIT
+            log.info("basis: TE harmonic %d at %g deg done", k + 1, ph)
+    return MarginBasis(np.asarray(rpm, dtype=float), p0, dp, phase)
+
+
+def crossings(rpm: np.ndarray, m: np.ndarray) -> list[float]:
+    """Speeds (rpm) where ``m`` changes sign, linearly interpolated."""
+    s = m < 0
+    idx = np.flatnonzero(s[1:] != s[:-1])
+    return [float(rpm[i] - m[i] * (rpm[i + 1] - rpm[i]) / (m[i + 1] - m[i])) for i in idx]
+
+
+def impact_intervals(rpm: np.ndarray, m: np.ndarray) -> list[tuple[float, float]]:
+    """Speed intervals (rpm) where the linear solution loses contact (``m < 0``)."""
+    c = crossings(rpm, m)
+    edges = ([float(rpm[0])] if m[0] < 0 else []) + c + ([float(rpm[-1])] if m[-1] < 0 else [])
+    return [(edges[i], edges[i + 1]) for i in range(0, len(edges) - 1, 2)]
+
+
+def grazing_error(found: list[float], target: tuple[float, ...]) -> float:
+    """Largest relative distance of each target grazing to the nearest found one and of
+    each found one to the nearest target (0: the same set)."""
+    if not found:
+        return 1.0
+    f, t = np.asarray(found), np.asarray(target)
+    a = np.abs(f[:, None] - t[None, :]) / t[None, :]
+    return float(max(a.min(axis=0).max(), a.min(axis=1).max()))
+
+
+class MarginModel:
+    """The margin of :class:`MarginBasis` as a linear map of the six real TE unknowns
+    ``(Re c_1, Im c_1, Re c_2, ...)`` (m), on every ``speed_step``-th speed and
+    ``time_step``-th sample (a coarser screen)."""
+
+    def __init__(self, basis: MarginBasis, speed_step: int = 1, time_step: int = 1) -> None:
+        ph = basis.mesh_phase[::time_step]
+        self.rpm = basis.rpm[::speed_step]
+        self.p0 = basis.p0[::speed_step, ::time_step]
+        n_te = basis.dp.shape[0]
+        q = []
+        for k in range(n_te):
+            q.append(basis.dp[k, 0, ::speed_step, ::time_step] - np.cos((k + 1) * ph))
+            q.append(basis.dp[k, 1, ::speed_step, ::time_step] + np.sin((k + 1) * ph))
+        self.q = np.stack(q).reshape(2 * n_te, -1)
+
+    @staticmethod
+    def unknowns(amps_um, phases_deg) -> np.ndarray:
+        """``(..., 2 n_te)`` real unknowns (m) of amplitudes (µm) and phases (deg)."""
+        c = np.asarray(amps_um, dtype=float) * 1e-6 * np.exp(1j * np.radians(phases_deg))
+        return np.stack([c.real, c.imag], axis=-1).reshape(*c.shape[:-1], 2 * c.shape[-1])
+
+    def margins(self, amps_um, phases_deg) -> np.ndarray:
+        """Margins (m), ``(n_candidates, n_speed)`` for ``(n_candidates, n_te)`` inputs."""
+        th = self.unknowns(np.atleast_2d(amps_um), np.atleast_2d(phases_deg))
+        p = self.p0.reshape(1, -1) + th @ self.q
+        return p.reshape(len(th), *self.p0.shape).min(axis=2)
+
+
+def pattern_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...]
+                  ) -> tuple[float, list[float]]:
+    """How far the linear grazings are from ``target`` (rpm, sorted), and the grazings.
+
+    The target pattern: contact at the first speed, impacts at the last, one zero of
+    the margin per target speed. Such a curve scores the largest relative error plus
+    0.3 × the RMS error (< 1); any other scores 1 + the set distance
+    (:func:`grazing_error`) + 0.02 per missing or extra grazing (+ 0.5 with impacts at
+    the first speed).
+    """
+    c = crossings(rpm, m)
+    if m[0] > 0 and (m[-1] < 0) == (len(target) % 2 == 1) and len(c) == len(target):
+        e = np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)
+        return float(e.max() + 0.3 * np.sqrt(np.mean(e ** 2))), c
+    return (1.0 + grazing_error(c, target) + 0.02 * abs(len(c) - len(target))
+            + (0.5 if m[0] <= 0 else 0.0)), c
+
+
+def random_search(model: MarginModel, target: tuple[float, ...], n: int, seed: int = 0,
+                  amp_range_um: tuple[float, float] = (0.02, 1.0),
+                  batch: int = 20, phases_deg=None) -> list[dict]:
+    """``n`` log-uniform amplitudes (H_3Z up to 0.6 of the range) and uniform phases
+    (or the fixed ``phases_deg``), scored by :func:`pattern_score`; sorted, best first."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.log(amp_range_um[0]), np.log(amp_range_um[1])
+    amps = np.exp(rng.uniform(lo, hi, (n, 3))) * np.array([1.0, 1.0, 0.6])
+    phs = rng.uniform(0.0, 360.0, (n, 3)) if phases_deg is None else \
+        np.tile(np.asarray(phases_deg, dtype=float), (n, 1))
+    out = []
+    for i in range(0, n, batch):
+        for j, m in enumerate(model.margins(amps[i:i + batch], phs[i:i + batch])):
+            s, c = pattern_score(model.rpm, m, target)
+            out.append({"score": s, "amplitudes_um": amps[i + j].tolist(),
+                        "phases_deg": phs[i + j].tolist(), "grazing_rpm": c})
+    return sorted(out, key=lambda r: r["score"])
+
+
+def depth(rpm: np.ndarray, m: np.ndarray, c: list[float]) -> float:
+    """The smallest of: the margin's minimum below the first grazing ``c[0]`` and its
+    maximum inside each permanent-contact window ``(c[1], c[2]), (c[3], c[4]), ...``
+    (m): how far the pattern is from losing a window or gaining impacts at low speed."""
+    vals = [float(m[rpm < c[0]].min())]
+    for lo, hi in zip(c[1::2], c[2::2], strict=False):
+        inside = m[(rpm > lo) & (rpm < hi)]
+        vals.append(float(inside.max()) if inside.size else 0.0)
+    return min(vals)
+
+
+def robust_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...], tol: float,
+                 scale: float) -> float:
+    """For a curve of the target pattern: 100 × the grazing error beyond ``tol`` minus
+    :func:`depth` / ``scale`` (lower is better); 10 + :func:`pattern_score` otherwise."""
+    s, c = pattern_score(rpm, m, target)
+    if s >= 1.0:
+        return 10.0 + s
+    e = float(np.max(np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)))
+    return 100.0 * max(e - tol, 0.0) - depth(rpm, m, c) / scale
+
+
+def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
+           max_evals: int = 500, robust: tuple[float, float] | None = None,
+           fix_phases: bool = False) -> dict:
+    """Nelder–Mead on (log amplitudes, phases) from a start (only the log amplitudes
+    with ``fix_phases``), scored by :func:`pattern_score`, or with
+    ``robust = (tol, scale)`` by :func:`robust_score` (the deepest windows with every
+    grazing within ``tol``)."""
+    from scipy.optimize import minimize
+
+    fixed = np.asarray(phases_deg, dtype=float)
+
+    def f(x):
+        m = model.margins(np.exp(x[:3]), fixed if fix_phases else x[3:])[0]
+        if robust is not None:
+            return robust_score(model.rpm, m, target, *robust)
+        return pattern_score(model.rpm, m, target)[0]
+
+    x0 = np.log(amps_um) if fix_phases else np.r_[np.log(amps_um), phases_deg]
+    steps = [0.15] * 3 + ([] if fix_phases else [20.0] * 3)
+    simplex = x0 + np.vstack([np.zeros(len(x0)), np.diag(steps)])
+    r = minimize(f, x0, method="Nelder-Mead",
+                 options={"xatol": 1e-3, "fatol": 1e-4, "maxfev": max_evals,
+                          "initial_simplex": simplex})
+    amps = np.exp(r.x[:3])
+    phs = fixed if fix_phases else np.mod(r.x[3:], 360.0)
+    m = model.margins(amps, phs)[0]
+    s, c = pattern_score(model.rpm, m, target)
+    out = {"score": s, "amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(),
+           "grazing_rpm": c, "start": {"amplitudes_um": list(map(float, amps_um)),
+                                       "phases_deg": list(map(float, phases_deg))}}
+    if s < 1.0:
+        out["depth_m"] = depth(model.rpm, m, c)
+    if robust is not None:
+        out["robust"] = {"tol": robust[0], "scale_m": robust[1]}
+    return out

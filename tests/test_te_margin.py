@@ -1,0 +1,83 @@
+"""benchmarks/te_margin.py: the linear contact margin as an affine function of the TE
+harmonics, checked against direct solves and the continuation's grazing on the
+single-DOF scene (no FE, seconds), and its zero finding on closed-form curves."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks import te_margin as tm
+
+ROOT = Path(__file__).resolve().parent.parent
+SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
+#: the scene's TE (µm, deg): 20, 2, 0.5 at 0, 90, 0
+SDOF_TE = ([20.0, 2.0, 0.5], [0.0, 90.0, 0.0])
+OV = {"hbm.mesh_harmonics": 8, "hbm.stability": False}
+
+
+def _direct_margin(cache: Path, amps_um, phases_deg, rpm: float, n_time: int) -> float:
+    """``min_t (p - b)`` of the permanent-contact solution solved with this TE."""
+    from hbm.fixed_speed import RPM_TO_RAD_S, initial_guess
+    from study.pipeline import Pipeline
+    from study.scene_load import load_scene
+
+    sc = load_scene(SDOF, {**OV, "transmission_error.amplitudes_um": list(amps_um),
+                           "transmission_error.phases_deg": list(phases_deg)})
+    prob = Pipeline(sc, cache / "direct", cache_dir=cache, progress=False).problem()[0]
+    synth, _, e = prob.fine_grid(n_time)
+    u = initial_guess(prob, rpm * RPM_TO_RAD_S)
+    return float(np.min(synth @ prob.delta_real(u) - e - prob.b))
+
+
+def test_margin_superposes_the_te_harmonics_like_a_direct_solve(tmp_path):
+    rpm = np.array([800.0, 1416.0, 2500.0])
+    basis = tm.build_basis(SDOF, OV, rpm, tmp_path)
+    n = basis.p0.shape[1]
+    for amps, phases in ((SDOF_TE[0], SDOF_TE[1]), ([7.0, 4.5, 1.5], [35.0, 200.0, 300.0])):
+        m = basis.margin(np.asarray(amps) * 1e-6, np.radians(phases))
+        for r, mi in zip(rpm, m, strict=True):
+            ref = _direct_margin(tmp_path, amps, phases, float(r), n)
+            assert mi == pytest.approx(ref, rel=1e-7, abs=1e-13)
+
+
+def test_zero_of_the_linear_margin_is_the_continuations_grazing(tmp_path):
+    import study
+
+    res = study.run(SDOF, tmp_path / "run", cache_dir=tmp_path,
+                    overrides={**OV, "continuation.speed_rpm": [1300.0, 1500.0]}, until="hbm")
+    graz = [g.rpm for g in res.branch.grazing]
+    assert len(graz) == 1                     # the first grazing of the scene, ~1416 rpm
+    rpm = np.arange(1410.0, 1420.0, 0.02)
+    basis = tm.build_basis(SDOF, OV, rpm, tmp_path)
+    c = tm.crossings(rpm, basis.margin(np.asarray(SDOF_TE[0]) * 1e-6, np.radians(SDOF_TE[1])))
+    assert len(c) == 1
+    assert c[0] == pytest.approx(graz[0], abs=0.05)
+
+
+def test_crossings_and_intervals_of_a_cosine():
+    rpm = np.linspace(0.0, 10.0, 20001)
+    m = np.cos(rpm)                       # zeros at pi/2, 3pi/2, 5pi/2
+    c = tm.crossings(rpm, m)
+    assert c == pytest.approx([np.pi / 2, 3 * np.pi / 2, 5 * np.pi / 2], abs=1e-6)
+    iv = tm.impact_intervals(rpm, m)      # m < 0 between the first two, and after the third
+    assert np.ravel(iv) == pytest.approx([np.pi / 2, 3 * np.pi / 2, 5 * np.pi / 2, 10.0],
+                                         abs=1e-6)
+
+
+def test_pattern_score_is_the_grazing_error_for_the_target_pattern():
+    target = (1000.0, 1200.0, 1300.0, 2200.0, 2400.0)
+    rpm = np.arange(500.0, 7001.0, 1.0)
+    found = (1010.0, 1200.0, 1300.0, 2200.0, 2400.0)       # one grazing 1 % high
+    m = np.prod([rpm - f for f in found], axis=0) * -1.0    # > 0 at 500, < 0 at 7000
+    s, c = tm.pattern_score(rpm, m, target)
+    assert c == pytest.approx(found, abs=1e-6)
+    assert s == pytest.approx(0.01 + 0.3 * 0.01 / np.sqrt(5), rel=1e-6)
+    # impacts at the first speed: not the pattern, whatever the zeros
+    s2, _ = tm.pattern_score(rpm, -m, target)
+    assert s2 >= 1.5
+    # the depth: smallest of the low-speed minimum and the window maxima
+    assert tm.depth(rpm, m, c) == pytest.approx(
+        min(m[rpm < 1010].min(), m[(rpm > 1200) & (rpm < 1300)].max(),
+            m[(rpm > 2200) & (rpm < 2400)].max()))

@@ -318,7 +318,7 @@ class Pipeline:
                 from study.results import write_branch
                 with h5py.File(tmp / "branch.h5", "w") as f:
                     write_branch(f, br)
-            self.cache.store("hbm", key, produce, {"points": len(br)})
+            self.cache.store("hbm", key, produce, {"points": len(br)}, elapsed=dt)
         return br, how
 
     # ------------------------------------------------------------------ all

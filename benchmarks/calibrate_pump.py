@@ -286,7 +286,7 @@ GRAZING_COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "harmonic set", "
                    "status"]
 
 
-def grazing_error(found: list[float], target: tuple[float, ...] = PAPER_GRAZING
+def paired_grazing_error(found: list[float], target: tuple[float, ...] = PAPER_GRAZING
                   ) -> float | None:
     """Largest relative error of the grazing speeds against ``target`` when there are as
     many (matched in order), else ``None``."""
@@ -306,7 +306,7 @@ def grazing_rows(sec: dict) -> list[list[str]]:
                   "hbm.stability"):
             ov.pop(k, None)
         g = ev.get("grazing_rpm", [])
-        e = grazing_error(g) if ev["status"].startswith("completed") else None
+        e = paired_grazing_error(g) if ev["status"].startswith("completed") else None
         cheap = all(ev["overrides"].get(k) == v for k, v in CHEAP.items())
         rows.append([
             ", ".join(f"{a:.4g}" for a in amps),

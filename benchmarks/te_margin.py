@@ -130,7 +130,7 @@ def impact_intervals(rpm: np.ndarray, m: np.ndarray) -> list[tuple[float, float]
     return [(edges[i], edges[i + 1]) for i in range(0, len(edges) - 1, 2)]
 
 
-def grazing_error(found: list[float], target: tuple[float, ...]) -> float:
+def grazing_set_distance(found: list[float], target: tuple[float, ...]) -> float:
     """Largest relative distance of each target grazing to the nearest found one and of
     each found one to the nearest target (0: the same set)."""
     if not found:
@@ -176,14 +176,14 @@ def pattern_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...]
     The target pattern: contact at the first speed, impacts at the last, one zero of
     the margin per target speed. Such a curve scores the largest relative error plus
     0.3 × the RMS error (< 1); any other scores 1 + the set distance
-    (:func:`grazing_error`) + 0.02 per missing or extra grazing (+ 0.5 with impacts at
+    (:func:`grazing_set_distance`) + 0.02 per missing or extra grazing (+ 0.5 with impacts at
     the first speed).
     """
     c = crossings(rpm, m)
     if m[0] > 0 and (m[-1] < 0) == (len(target) % 2 == 1) and len(c) == len(target):
         e = np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)
         return float(e.max() + 0.3 * np.sqrt(np.mean(e ** 2))), c
-    return (1.0 + grazing_error(c, target) + 0.02 * abs(len(c) - len(target))
+    return (1.0 + grazing_set_distance(c, target) + 0.02 * abs(len(c) - len(target))
             + (0.5 if m[0] <= 0 else 0.0)), c
 
 

@@ -74,7 +74,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import write_json
+from benchmarks.common import scene_overrides, write_json
 from geometry.files import atomic_write
 
 log = logging.getLogger("calibrate_pump")
@@ -536,15 +536,10 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)-7s %(name)s: "
                         "%(message)s", datefmt="%H:%M:%S")
-    from study.scene_overrides import parse_set_values
-
     extra: dict = {} if a.converged else dict(CHEAP)
     extra["continuation.speed_rpm"] = list(a.range)
     extra["continuation.max_points"] = a.max_points
-    for item in a.set:
-        k, v = item.split("=", 1)
-        (val,) = parse_set_values(v)
-        extra[k.strip()] = val
+    extra.update(scene_overrides(a.set))
     ev = Evaluator(a.json, extra, a.work, a.cache, a.scene)
     if a.phases and len(a.phases) != len(a.amps):
         p.error(f"--phases given {len(a.phases)} times: give it once per --amps "

@@ -76,3 +76,16 @@ def write_json(name: str, payload: dict[str, Any], path: Path | None = None) -> 
         json.dump(payload, fh, indent=2, default=float)
         fh.write("\n")
     return path
+
+
+def scene_overrides(items: list[str]) -> dict[str, Any]:
+    """``--set SECTION.KEY=VALUE`` items -> one override dict, parsed and checked as
+    ``geardyn --set`` does (:func:`study.cli.parse_sets`); one value per key."""
+    from study.cli import parse_sets
+    from study.errors import SceneError
+
+    variants = parse_sets(items)
+    if len(variants) != 1:
+        raise SceneError(f"--set {items}: one value per key here ({len(variants)} "
+                         "combinations given)")
+    return variants[0]

@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import write_json
+from benchmarks.common import scene_overrides, write_json
 
 log = logging.getLogger("grounded_gears")
 ROOT = Path(__file__).resolve().parent.parent
@@ -316,13 +316,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)-7s "
                         "%(name)s: %(message)s", datefmt="%H:%M:%S")
     log.setLevel(logging.INFO)
-    from study.scene_overrides import parse_set_values
-
-    ov: dict = {}
-    for item in a.set:
-        k, v = item.split("=", 1)
-        (val,) = parse_set_values(v)
-        ov[k.strip()] = val
+    ov = scene_overrides(a.set)
     cases = tuple(c.strip() for c in a.cases.split(","))
     bad = [c for c in cases if c not in ("internal", "external", "all")]
     if bad:

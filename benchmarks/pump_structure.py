@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import write_json
+from benchmarks.common import scene_overrides, write_json
 
 log = logging.getLogger("pump_structure")
 ROOT = Path(__file__).resolve().parent.parent
@@ -180,8 +180,6 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)-7s "
                         "%(name)s: %(message)s", datefmt="%H:%M:%S")
     log.setLevel(logging.INFO)
-    from study.scene_overrides import parse_set_values
-
     data = _load(a.json)
     kms = tuple(float(v) for v in a.km.split(","))
     if a.command == "show":
@@ -189,11 +187,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not a.name:
         p.error("measure needs a candidate NAME")
-    ov: dict = {}
-    for item in a.set:
-        k, v = item.split("=", 1)
-        (val,) = parse_set_values(v)
-        ov[k.strip()] = val
+    ov = scene_overrides(a.set)
     c = measure(a.name, a.note, ov, kms, a.fmax, a.work, a.cache, a.reuse)
     data["candidates"][a.name] = c
     _save(a.json, data)

@@ -133,3 +133,20 @@ def test_grounded_gears_adds_the_flywheel_and_lateral_ground_of_its_closed_forms
     v = np.zeros(14)
     v[[5, 12]] = 1.0
     assert np.allclose(Ke @ v, 0.0)
+
+
+def test_benchmark_set_options_parse_as_geardyn_set():
+    from benchmarks.common import scene_overrides
+    from study.errors import SceneError
+
+    ov = scene_overrides(["mesh_stiffness.mean_N_per_um=235.3",
+                          "mesh_stiffness.amplitudes_N_per_um=[44.35,37.37,27.2]",
+                          "rotors.inertia_kgm2 = 0.18632"])
+    assert ov == {"mesh_stiffness.mean_N_per_um": 235.3,
+                  "mesh_stiffness.amplitudes_N_per_um": [44.35, 37.37, 27.2],
+                  "rotors.inertia_kgm2": 0.18632}
+    assert scene_overrides([]) == {}
+    with pytest.raises(SceneError, match="one value per key"):
+        scene_overrides(["load.torque_Nm=1,2"])
+    with pytest.raises(SceneError, match="section.key"):
+        scene_overrides(["torque=1"])

@@ -47,7 +47,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import math
 import time
 from pathlib import Path
 
@@ -169,6 +168,7 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     """The excitation cases (``cases`` of the three) on the grounded ROM (the cheap 3/1
     set, or the scene's own converged set); their curve summaries. ``linear``: only the
     linear measures (one row, no forced response)."""
+    from fem.lumped import disk_mass
     from fem.pump import GearParams
     from hbm import trace
     from reduction import modal_damping
@@ -180,9 +180,8 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from study.scene_load import load_scene
 
     g = GearParams()
-    ro, ri = g.blank_outer_radius(1), g.bore_radius
-    m_g = g.density * math.pi * (ro**2 - ri**2) * g.face_width
-    j_g = 0.5 * m_g * (ro**2 + ri**2)
+    blank = disk_mass(g.blank_outer_radius(1), g.bore_radius, g.face_width, g.density)
+    m_g, j_g = blank[0, 0], blank[5, 5]  # the blank the pump model carries (pump_spec)
     overrides = scaled_te(overrides, te_scale)
     scene = load_scene(SCENE, overrides if converged else {**CHEAP, **overrides})
     rom_dir = Pipeline(scene, out, cache_dir=cache).run_rom()

@@ -64,10 +64,10 @@ def test_rotors_in_the_fe_model_match_the_same_parts_added_on_the_rom(fe_mesh, p
     scene, p = params
     rotors, km = p.rotors, scene.mesh_stiffness.mean
     g = fem.GearParams()
-    ro, ri = g.blank_outer_radius(1), g.bore_radius
-    m_g = g.density * math.pi * (ro**2 - ri**2) * g.face_width
+    blank = fem.disk_mass(g.blank_outer_radius(1), g.bore_radius, g.face_width, g.density)
+    m_g, j_g = blank[0, 0], blank[5, 5]
     # the scene's values as stated in its comments: 110 J_g, 3 J_g, 2.5 m_g
-    assert rotors.inertia == pytest.approx(110 * 0.5 * m_g * (ro**2 + ri**2), rel=1e-4)
+    assert rotors.inertia == pytest.approx(110 * j_g, rel=1e-4)
     assert rotors.gear_mass == pytest.approx(2.5 * m_g, rel=1e-4)
     plain = fem.build_pump_model(None, p.materials, p.gears, p.bearings, p.drive,
                                  fe_mesh=fe_mesh)

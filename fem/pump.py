@@ -179,7 +179,9 @@ class RotorParams:
 
 
 def add_rotors(spec: ModelSpec, shaft: str, centre: np.ndarray, rotors: RotorParams) -> None:
-    """The lumped rotor parts of :class:`RotorParams` on ``{shaft}/gear`` (shaft axis z)."""
+    """Add the lumped rotor parts of :class:`RotorParams` (SI) to ``spec`` on node
+    ``{shaft}/gear``; the rotor node ``{shaft}/rotor`` is placed at ``centre`` (m, the gear
+    centre) and turns about the shaft axis z only."""
     gear = f"{shaft}/gear"
     if rotors.gear_mass > 0 or rotors.gear_inertia > 0:
         spec.add_mass(gear, rigid_body_mass(rotors.gear_mass, [0.0, 0.0, rotors.gear_inertia]))

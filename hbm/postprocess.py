@@ -145,18 +145,26 @@ def time_series(problem: HBMProblem, point: Point, n_periods: int = 1,
 
 
 def spectrum(problem: HBMProblem, point: Point, n_time: int | None = None) -> dict:
-    """One-sided amplitude spectrum of the mesh load f_LoA over one period.
+    """One-sided amplitude spectra of the mesh load f_LoA and of the dynamic
+    transmission error Delta = G^T q (eqs. 10, 13) over one period.
 
-    Returns a dict with ``index`` (of w0), ``shaft_order``, ``frequency_hz`` and
-    ``amplitude`` (N, |f_k| in the convention f = Re sum f_k exp(i k w0 t)).
+    Returns a dict with ``index`` (of w0), ``shaft_order``, ``frequency_hz``,
+    ``amplitude`` (N, |f_k| in the convention f = Re sum f_k exp(i k w0 t)),
+    ``dte_amplitude`` (m, |Delta_k| likewise) and ``peak_to_peak`` (N, of f_LoA in time).
     """
     n = _n_fine(problem, n_time)
     _, delta, k, e = _signals(problem, problem.delta_real(point.unknowns), n)
     f = dead_zone(delta - e, k, problem.b)
-    c = np.fft.rfft(f) / n
-    c[1:] *= 2.0
+    c, d = _one_sided(f), _one_sided(delta)
     idx = np.arange(c.size)
     div = problem.harmonics.divisor
     w0 = problem.harmonics.fundamental_rad_s(point.omega)
     return {"index": idx, "shaft_order": idx * div, "frequency_hz": idx * w0 / (2 * np.pi),
-            "amplitude": np.abs(c)}
+            "amplitude": c, "dte_amplitude": d, "peak_to_peak": float(np.ptp(f))}
+
+
+def _one_sided(y: np.ndarray) -> np.ndarray:
+    """|c_k| of a real periodic sample, k = 0 … n/2 (y = Re sum c_k exp(i k tau))."""
+    c = np.abs(np.fft.rfft(y)) / y.size
+    c[1:] *= 2.0
+    return c

@@ -168,7 +168,7 @@ def comparison_inputs(scene: Scene, results: dict):
     """:class:`study.paper.PaperInputs` of the case results (IPP, spectrum and mesh mode
     from the ``all`` case)."""
     from hbm import point_stats, spectrum
-    from study.paper import PAPER, IppAt, PaperInputs, SpectrumAt
+    from study.paper import SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load)
     for case in CASES:
@@ -187,13 +187,15 @@ def comparison_inputs(scene: Scene, results: dict):
             continue
         p, how = solution_at(r, target)
         inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p).ipp, how)
-    h2 = float(PAPER["h2_speed"].value)
-    if _in_range(r, h2):
-        p, _ = solution_at(r, h2)
+    for target in SPECTRUM_SPEEDS:
+        if not _in_range(r, target):
+            inp.spectra[target] = _range_text(r)
+            continue
+        p, _ = solution_at(r, target)
         sp = spectrum(r.problem, p)
-        inp.spectrum = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"], scene.gear.teeth)
-    else:
-        inp.spectrum = _range_text(r)
+        inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
+                                         scene.gear.teeth, sp["dte_amplitude"],
+                                         sp["peak_to_peak"])
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
         f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed

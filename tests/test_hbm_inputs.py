@@ -132,6 +132,11 @@ def test_spectrum_and_time_series_consistent():
     assert np.sqrt(np.sum(sp["amplitude"][1:] ** 2) / 2) == pytest.approx(
         np.std(ts.mesh_load), rel=1e-10)
     assert np.all(ts.gap_active - ts.gap_reverse == pytest.approx(2 * pb.b))
+    # the same for the dynamic transmission error Delta, and the load's peak-to-peak
+    d = sp["dte_amplitude"]
+    assert d[0] == pytest.approx(np.mean(ts.delta), rel=1e-12)
+    assert np.sqrt(np.sum(d[1:] ** 2) / 2) == pytest.approx(np.std(ts.delta), rel=1e-10)
+    assert sp["peak_to_peak"] == pytest.approx(np.ptp(ts.mesh_load), rel=1e-12)
 
 
 def test_loaded_ste_gives_static_load_on_active_flank():

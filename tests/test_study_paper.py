@@ -119,7 +119,11 @@ def _inputs():
     inp.ipp = {1700.0: IppAt(1700.0, 1700.0, seq, "branch point"),
                1070.0: "outside the computed range"}
     orders = np.array([0, 2, 4, 76, 152])
-    inp.spectrum = SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76)
+    inp.spectra = {
+        6875.0: SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76,
+                           np.array([9e-6, 5e-8, 4e-9, 3e-8, 4e-9]), 150.0),
+        2970.0: SpectrumAt(2971.5, orders, np.array([300.0, 5.0, 2.0, 100.0, 50.0]), 76,
+                           np.array([9e-6, 3e-8, 4e-8, 7e-7, 4e-8]), 300.0)}
     inp.softening = (4070.0, 0.70)
     return inp
 
@@ -158,8 +162,12 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert "1-IPP 21.1 %, 2-IPP 78.9 %" in ipp and "2-IPP 39.5 %" in ipp
     assert "outside the computed range" in next(
         ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1070"))
-    h2 = next(ln for ln in md.splitlines() if ln.startswith("| response at 6875"))
-    assert "largest harmonic H_2;" in h2 and "H_2/H_Z = 2.00" in h2
+    dte = next(ln for ln in md.splitlines() if ln.startswith("| gear response (DTE"))
+    assert "largest H_2, 0.05 µm; H_2 0.05 µm, H_Z 0.03 µm" in dte
+    h2 = next(ln for ln in md.splitlines() if ln.startswith("| mesh-load harmonics at 6875"))
+    assert "largest H_2; H_2 = 40 N, H_Z = 20 N (H_2/H_Z = 2.00; at 2972 rpm 0.05)" in h2
+    ptp = next(ln for ln in md.splitlines() if ln.startswith("| mesh-load peak-to-peak"))
+    assert "| 275 → 160 N (×0.58) | 300 → 150 N (×0.50; at 2972 → 6875 rpm) |" in ptp
     assert "53.2 N at T = 2.5 N·m" in md
     p = write_paper(tmp_path, inp)
     assert p.read_text() == md

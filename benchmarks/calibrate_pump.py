@@ -470,7 +470,8 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
 PAPER_ROWS = {"resonances": "| resonance speeds", "grazings": "| grazing speeds",
               "windows": "| permanent-contact windows", "primary_peak": "| primary peak",
               "span": "| vibro-impact span", "ipp_1070": "| IPP sequence at 1070",
-              "ipp_1700": "| IPP sequence at 1700", "dte_6875": "| gear response (DTE",
+              "ipp_1700": "| IPP sequence at 1700", "ipp_6875": "| IPP sequence at 6875",
+              "dte_6875": "| gear response (DTE",
               "rpm_6875": "| mesh-load harmonics at 6875", "ptp": "| mesh-load peak-to-peak"}
 
 

@@ -40,8 +40,6 @@ CASES = {"internal": "internal excitation only",
          "external": "all but TVMS (external + STE, constant mesh stiffness)",
          "all": "all excitations"}
 
-#: Speeds (rpm) at which the paper describes the IPP sequence (Sect. 4.3, Fig. 17–18).
-IPP_SPEEDS = (1070.0, 1700.0)
 
 
 def _internal_present(scene: Scene) -> bool:
@@ -168,7 +166,7 @@ def comparison_inputs(scene: Scene, results: dict):
     """:class:`study.paper.PaperInputs` of the case results (IPP, spectrum and mesh mode
     from the ``all`` case)."""
     from hbm import point_stats, spectrum
-    from study.paper import SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
+    from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load)
     for case in CASES:
@@ -181,7 +179,7 @@ def comparison_inputs(scene: Scene, results: dict):
     r = results.get("all")
     if r is None:
         return inp
-    for target in IPP_SPEEDS:
+    for target in IPP_KEYS:
         if not _in_range(r, target):
             inp.ipp[target] = _range_text(r)
             continue

@@ -117,7 +117,8 @@ def _inputs():
                    "all": primary_peak(s_all, near=primary_peak(s_int).rpm)}
     seq = np.roll(np.array([2] * 30 + [1] * 8 + [2] * 30 + [1] * 8), 5)
     inp.ipp = {1700.0: IppAt(1700.0, 1700.0, seq, "branch point"),
-               1070.0: "outside the computed range"}
+               1070.0: "outside the computed range",
+               6875.0: IppAt(6875.0, 6875.0, np.array(([0] * 17 + [1] * 21) * 2), "branch point")}
     orders = np.array([0, 2, 4, 76, 152])
     inp.spectra = {
         6875.0: SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76,
@@ -162,6 +163,10 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert "1-IPP 21.1 %, 2-IPP 78.9 %" in ipp and "2-IPP 39.5 %" in ipp
     assert "outside the computed range" in next(
         ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1070"))
+    i68 = next(ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 6875"))
+    assert "| contact 22 % → 1-IPP 28 % → contact 22 % → 1-IPP 28 % (per count: contact 44 %, " \
+           "1-IPP 56 %) | contact 22.4 % → 1-IPP 27.6 % → contact 22.4 % → 1-IPP 27.6 % (per " \
+           "count: contact 44.7 %, 1-IPP 55.3 %;" in i68
     dte = next(ln for ln in md.splitlines() if ln.startswith("| gear response (DTE"))
     assert "largest H_2, 0.05 µm; H_2 0.05 µm, H_Z 0.03 µm" in dte
     h2 = next(ln for ln in md.splitlines() if ln.startswith("| mesh-load harmonics at 6875"))

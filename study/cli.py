@@ -69,7 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
     g = p.add_mutually_exclusive_group()
     g.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     g.add_argument("-v", "--verbose", action="store_true", help="debug messages")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bars (shown only when stderr is a terminal, never with -q)")
     c = p.add_argument_group("convergence")
     c.add_argument("--knob", action="append", default=[], metavar="NAME=V1,V2,...",
                    help="values of one knob (mesh size factors, n_cm, harmonics, sidebands, "
@@ -149,6 +150,11 @@ def _folder(ov: dict) -> str:
     return re.sub(r"[^\w.=+-]+", "-", s).strip("-") or "base"
 
 
+def _progress(args) -> bool:
+    """Progress bars only on a terminal: in a pipe or a log file they are noise."""
+    return not (args.no_progress or args.quiet) and sys.stderr.isatty()
+
+
 def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> int:
     import study
     from study.pipeline import SolverError
@@ -157,7 +163,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
     cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
     if len(variants) == 1:
         study.run(scene_path, out, overrides=variants[0], cache_dir=cache, resume=args.resume,
-                  refresh=args.no_cache, progress=not args.no_progress, until=until)
+                  refresh=args.no_cache, progress=_progress(args), until=until)
         return EXIT_OK
     # validate every variant before any heavy work
     scenes = [study.load_scene(scene_path, ov) for ov in variants]
@@ -167,7 +173,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
         logger.info("variant %s", _label(ov))
         try:
             r = study.run(sc, out / _folder(ov), cache_dir=cache, resume=args.resume,
-                          refresh=args.no_cache, progress=not args.no_progress, until=until)
+                          refresh=args.no_cache, progress=_progress(args), until=until)
             results.append((ov, r))
         except SolverError as exc:
             logger.error("variant %s: %s", _label(ov), exc)
@@ -198,7 +204,7 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
     scene = load_scene(scene_path, overrides)
     results, failed = run_cases(scene, args.out, cache_dir=args.cache or
                                 os.environ.get("GEARDYN_CACHE") or None, resume=args.resume,
-                                refresh=args.no_cache, progress=not args.no_progress)
+                                refresh=args.no_cache, progress=_progress(args))
     if results:
         world().root_call(write_comparison, Path(args.out), scene, results)
     return EXIT_SOLVER if failed else EXIT_OK
@@ -236,7 +242,7 @@ def _convergence(args, scene_path: Path) -> int:
     cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
     run_convergence(scene_path, args.out, knobs=knobs, only=only or None, tol=args.tol,
                     overrides=base, cache_dir=cache, refresh=args.no_cache,
-                    progress=not args.no_progress)
+                    progress=_progress(args))
     return EXIT_OK
 
 

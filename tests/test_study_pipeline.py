@@ -147,6 +147,22 @@ def test_lumped_run_never_imports_fe_stack(tmp_path):
     assert "FE_MODULES []" in p.stdout
 
 
+def test_progress_bars_only_on_a_terminal(tmp_path, monkeypatch):
+    import argparse
+
+    from study.cli import _progress
+
+    p = _geardyn("run", str(SDOF), "--out", str(tmp_path / "o"), "--set",
+                 "continuation.speed_rpm=[600,1500]", "--set", "outputs.plots=[]")
+    assert "continuation" in p.stderr          # the log lines are there …
+    assert "%|" not in p.stderr and "\r" not in p.stderr   # … but no bar in a pipe
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    args = argparse.Namespace(no_progress=False, quiet=False)
+    assert _progress(args)
+    assert not _progress(argparse.Namespace(no_progress=False, quiet=True))
+    assert not _progress(argparse.Namespace(no_progress=True, quiet=False))
+
+
 def _short(**extra):
     ov = {"continuation.speed_rpm": [600.0, 1600.0], "outputs.plots": ["forced_response"]}
     ov.update(extra)

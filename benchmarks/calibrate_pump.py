@@ -416,6 +416,13 @@ def plot(data: dict, path: Path) -> Path:
     return path
 
 
+def basis_overrides(extra: dict) -> dict:
+    """The overrides of ``extra`` that the linear margin basis of :func:`screen` sees:
+    all but the continuation's (the basis is one linear solve per speed), so the harmonic
+    set and any structural ``--set`` (e.g. ``rotors.inertia_kgm2``) are screened on."""
+    return {k: v for k, v in extra.items() if not k.startswith("continuation.")}
+
+
 def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, seed: int,
            given: list[tuple[tuple[float, ...], tuple[float, ...]]] = (),
            robust: float | None = None, fixed_phases: tuple[float, ...] | None = None,
@@ -432,7 +439,7 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     from study.scene_load import load_scene
 
     lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
-    ov = {k: v for k, v in extra.items() if k.startswith("hbm.")}
+    ov = basis_overrides(extra)
     t0 = time.perf_counter()
     rpm = np.arange(lo, hi + 0.5 * rpm_step, rpm_step)
     basis = tm.build_basis(scene, ov, rpm, cache)

@@ -332,8 +332,11 @@ def screen_rows(screens: dict) -> list[list[str]]:
     for i, r in enumerate(screens.values()):
         sets = "3/1" if all(r["overrides"].get(k) == v for k, v in CHEAP.items()) else "12/3"
         fixed = r.get("fixed_phases_deg")
+        # structural overrides (not the harmonic set) name the structure screened on
+        other = {k: v for k, v in r["overrides"].items() if not k.startswith("hbm.")}
         label = f"{i}: {sets}, {r['samples']} samples (seed {r['seed']})" + (
-            "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed))
+            "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed)
+        ) + "".join(f", {k}={v}" for k, v in other.items())
         for stage in ("refined", "robust"):
             for c in r.get(stage, []):
                 rows.append([label, stage, ", ".join(f"{a:.4g}" for a in c["amplitudes_um"]),

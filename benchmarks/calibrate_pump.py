@@ -332,8 +332,11 @@ def screen_rows(screens: dict) -> list[list[str]]:
     for i, r in enumerate(screens.values()):
         sets = "3/1" if all(r["overrides"].get(k) == v for k, v in CHEAP.items()) else "12/3"
         fixed = r.get("fixed_phases_deg")
+        # structural overrides (not the harmonic set) name the structure screened on
+        other = {k: v for k, v in r["overrides"].items() if not k.startswith("hbm.")}
         label = f"{i}: {sets}, {r['samples']} samples (seed {r['seed']})" + (
-            "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed))
+            "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed)
+        ) + "".join(f", {k}={v}" for k, v in other.items())
         for stage in ("refined", "robust"):
             for c in r.get(stage, []):
                 rows.append([label, stage, ", ".join(f"{a:.4g}" for a in c["amplitudes_um"]),
@@ -416,6 +419,13 @@ def plot(data: dict, path: Path) -> Path:
     return path
 
 
+def basis_overrides(extra: dict) -> dict:
+    """The overrides of ``extra`` that the linear margin basis of :func:`screen` sees:
+    all but the continuation's (the basis is one linear solve per speed), so the harmonic
+    set and any structural ``--set`` (e.g. ``rotors.inertia_kgm2``) are screened on."""
+    return {k: v for k, v in extra.items() if not k.startswith("continuation.")}
+
+
 def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, seed: int,
            given: list[tuple[tuple[float, ...], tuple[float, ...]]] = (),
            robust: float | None = None, fixed_phases: tuple[float, ...] | None = None,
@@ -432,7 +442,7 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     from study.scene_load import load_scene
 
     lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
-    ov = {k: v for k, v in extra.items() if k.startswith("hbm.")}
+    ov = basis_overrides(extra)
     t0 = time.perf_counter()
     rpm = np.arange(lo, hi + 0.5 * rpm_step, rpm_step)
     basis = tm.build_basis(scene, ov, rpm, cache)

@@ -60,3 +60,15 @@ def test_calibration_reports_a_run_without_three_peaks_instead_of_guessing():
                      start=cp.SHIPPED_UM, slope=-0.08, iterations=5, tol=0.02)
     assert not r["converged"]
     assert "no complete curve" in r["reason"]
+
+
+def test_screen_basis_sees_structural_overrides_not_the_continuation():
+    # the margin basis must be built on the structure asked for: a --set
+    # rotors.inertia_kgm2 (or any scene key) reaches it; only continuation.* (speed
+    # range, points per nonlinear run) does not, the basis being linear solves per speed
+    extra = {"continuation.speed_rpm": [500.0, 7000.0], "continuation.max_points": 3000,
+             "rotors.inertia_kgm2": 0.2977, "hbm.mesh_harmonics": 3,
+             "drive.motor_torsional_stiffness": 1e3}
+    assert cp.basis_overrides(extra) == {"rotors.inertia_kgm2": 0.2977,
+                                         "hbm.mesh_harmonics": 3,
+                                         "drive.motor_torsional_stiffness": 1e3}

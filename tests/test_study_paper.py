@@ -129,50 +129,54 @@ def _inputs():
     return inp
 
 
+def _row(md: str, start: str) -> str:
+    """The line of the table that starts with ``start``."""
+    return next(ln for ln in md.splitlines() if ln.startswith(start))
+
+
 def test_paper_table_rows_from_the_curves(tmp_path):
     inp = _inputs()
     md = paper_markdown(inp)
     true = [r for r, _ in _true_maxima()]
     found = [p.rpm for p in inp.cases["all"].strongest(3)]
     assert found == pytest.approx(true, abs=2.0)
-    row = next(ln for ln in md.splitlines() if ln.startswith("| resonance speeds"))
+    row = _row(md, "| resonance speeds")
     assert ", ".join(f"{x:.0f}" for x in found) in row
     errs = [(a - b) / b for a, b in zip(found, (1070.0, 1570.0, 3000.0), strict=True)]
     assert ", ".join(f"{100 * e:+.1f} %" for e in errs) in row
     assert "within 3 %: no" in row          # 1000 vs 1070 is -6.5 %
-    shift = next(ln for ln in md.splitlines() if ln.startswith("| resonance shift"))
+    shift = _row(md, "| resonance shift")
     # paper side: √(1 − 0.32/2) = 0.917, the single-mode shift of T.33
     assert "| 0.92 if its ρ = 0.32 mode were alone" in shift
     assert "| 0.70 (dynamic-factor peak 4070 Hz) |" in shift
-    ratio = next(ln for ln in md.splitlines() if ln.startswith("| resonance ratios"))
+    ratio = _row(md, "| resonance ratios")
     assert f"1.00 : {found[1] / found[0]:.2f} : {found[2] / found[0]:.2f}" in ratio
     assert "1.00 : 1.47 : 2.80" in ratio
-    g = next(ln for ln in md.splitlines() if ln.startswith("| grazing speeds"))
+    g = _row(md, "| grazing speeds")
     assert "5: 990, 1250, 1310, 2190, 2390 (within 3 %: yes)" in g
-    w = next(ln for ln in md.splitlines() if ln.startswith("| permanent-contact"))
+    w = _row(md, "| permanent-contact")
     assert "| 1260–1300, 2200–2380 |" in w
-    pk = next(ln for ln in md.splitlines() if ln.startswith("| primary peak"))
+    pk = _row(md, "| primary peak")
     assert "93 → 88 N (-5.4 %)" in pk
     top = _true_maxima()[2][1]
     assert f"{1.1 * top:.1f} → {top:.1f} N (-9.1 %" in pk
     big = float(_std(RPM).max())
     assert f"largest std of each curve {1.1 * big:.1f} → {big:.1f} N (-9.1 %" in pk
-    span = next(ln for ln in md.splitlines() if ln.startswith("| vibro-impact span"))
+    span = _row(md, "| vibro-impact span")
     assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
-    ipp = next(ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1700"))
+    ipp = _row(md, "| IPP sequence at 1700")
     assert "1-IPP 21.1 %, 2-IPP 78.9 %" in ipp and "2-IPP 39.5 %" in ipp
-    assert "outside the computed range" in next(
-        ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 1070"))
-    i68 = next(ln for ln in md.splitlines() if ln.startswith("| IPP sequence at 6875"))
-    assert "| contact 22 % → 1-IPP 28 % → contact 22 % → 1-IPP 28 % (per count: contact 44 %, " \
-           "1-IPP 56 %) | contact 22.4 % → 1-IPP 27.6 % → contact 22.4 % → 1-IPP 27.6 % (per " \
-           "count: contact 44.7 %, 1-IPP 55.3 %;" in i68
-    dte = next(ln for ln in md.splitlines() if ln.startswith("| gear response (DTE"))
-    assert "largest H_2, 0.05 µm; H_2 0.05 µm, H_Z 0.03 µm" in dte
-    h2 = next(ln for ln in md.splitlines() if ln.startswith("| mesh-load harmonics at 6875"))
-    assert "largest H_2; H_2 = 40 N, H_Z = 20 N (H_2/H_Z = 2.00; at 2972 rpm 0.05)" in h2
-    ptp = next(ln for ln in md.splitlines() if ln.startswith("| mesh-load peak-to-peak"))
-    assert "| 275 → 160 N (×0.58) | 300 → 150 N (×0.50; at 2972 → 6875 rpm) |" in ptp
+    assert "outside the computed range" in _row(md, "| IPP sequence at 1070")
+    for start, want in (
+            ("| IPP sequence at 6875", "| contact 22 % → 1-IPP 28 % → contact 22 % → 1-IPP 28 % "
+             "(per count: contact 44 %, 1-IPP 56 %) | contact 22.4 % → 1-IPP 27.6 % → contact "
+             "22.4 % → 1-IPP 27.6 % (per count: contact 44.7 %, 1-IPP 55.3 %;"),
+            ("| gear response (DTE", "largest H_2, 0.05 µm; H_2 0.05 µm, H_Z 0.03 µm"),
+            ("| mesh-load harmonics at 6875", "largest H_2; H_2 = 40 N, H_Z = 20 N (H_2/H_Z = "
+             "2.00; at 2972 rpm 0.05)"),
+            ("| mesh-load peak-to-peak", "| 275 → 160 N (×0.58) | 300 → 150 N (×0.50; at 2972 "
+             "→ 6875 rpm) |")):
+        assert want in _row(md, start), start
     assert "53.2 N at T = 2.5 N·m" in md
     p = write_paper(tmp_path, inp)
     assert p.read_text() == md

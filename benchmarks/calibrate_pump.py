@@ -59,7 +59,12 @@ section (``excitations``)::
         --set "transmission_error.amplitudes_um=[0.3126,0.1782,0.0558]" \\
         --set "transmission_error.phases_deg=[219.8,294.2,29.5]"        # 2 min
     ... record $S --converged --out OUT --amps 0.3126,0.1782,0.0558 --phases 219.8,294.2,29.5
+    ... screen $S --converged --samples 0 --robust 0.03 --amps 0.3886,0.1992,0.0432 \
+        --phases 212.8,299.8,50.5      # session 8: the scene's TE 0.4086, 0.1956, 0.0403
     ... show $S --converged
+
+The session-8 pick keeps the internal-only impacts up to 7000 rpm (docs/theory.md
+§13.5); the session-7 pick above does not.
 
 Not a timing benchmark (not picked up by ``run_all``).
 """

@@ -61,6 +61,15 @@ section (``excitations``)::
     ... record $S --converged --out OUT --amps 0.3126,0.1782,0.0558 --phases 219.8,294.2,29.5
     ... show $S --converged
 
+``--ipp-at 1070`` refines every screened candidate once more for the linear IPP at that
+speed (:func:`benchmarks.te_margin.refine_ipp`: the paper's Fig. 18 shares, or with
+``--ipp-objective coexist`` contact and 3-IPP in one turn), grazings within ``--robust``
+(docs/theory.md §13.5, "The 3-IPP at 1070 rpm")::
+
+    ... screen $S --converged --samples 4000 --starts 6 --seed 3 --robust 0.03 \
+        --amps 0.4086,0.1956,0.0403 --phases 218.3,303.1,76.8 --ipp-at 1070 \
+        --ipp-objective coexist                                         # 6 min
+
 Not a timing benchmark (not picked up by ``run_all``).
 """
 from __future__ import annotations

@@ -66,6 +66,15 @@ section (``excitations``)::
 The session-8 pick keeps the internal-only impacts up to 7000 rpm (docs/theory.md
 §13.5); the session-7 pick above does not.
 
+``--ipp-at 1070`` refines every screened candidate once more for the linear IPP at that
+speed (:func:`benchmarks.te_margin.refine_ipp`: the paper's Fig. 18 shares, or with
+``--ipp-objective coexist`` contact and 3-IPP in one turn), grazings within ``--robust``
+(docs/theory.md §13.5, "The 3-IPP at 1070 rpm")::
+
+    ... screen $S --converged --samples 4000 --starts 6 --seed 3 --robust 0.03 \\
+        --amps 0.4086,0.1956,0.0403 --phases 218.3,303.1,76.8 --ipp-at 1070 \\
+        --ipp-objective coexist                                         # 6 min
+
 Not a timing benchmark (not picked up by ``run_all``).
 """
 from __future__ import annotations
@@ -342,14 +351,22 @@ def screen_rows(screens: dict) -> list[list[str]]:
         label = f"{i}: {sets}, {r['samples']} samples (seed {r['seed']})" + (
             "" if fixed is None else ", phases fixed at " + ", ".join(f"{p:g}" for p in fixed)
         ) + "".join(f", {k}={v}" for k, v in other.items())
-        for stage in ("refined", "robust"):
+        for stage in ("refined", "robust", "ipp"):
             for c in r.get(stage, []):
-                rows.append([label, stage, ", ".join(f"{a:.4g}" for a in c["amplitudes_um"]),
+                name = stage if stage != "ipp" else _ipp_stage(c["ipp"])
+                rows.append([label, name, ", ".join(f"{a:.4g}" for a in c["amplitudes_um"]),
                              ", ".join(f"{p:.1f}" for p in c["phases_deg"]),
                              ", ".join(f"{g:.0f}" for g in c["grazing_rpm"]),
                              f"{c['score']:.4f}",
                              f"{1e9 * c['depth_m']:.1f}" if "depth_m" in c else "–"])
     return rows
+
+
+def _ipp_stage(ipp: dict) -> str:
+    """Stage label of an IPP-refined candidate: its linear IPP shares and gap."""
+    return (f"ipp at {ipp['rpm']:g} rpm ({ipp['objective_kind']}): linear contact/1/2/3-IPP "
+            + "/".join(f"{100 * f:.0f}" for f in ipp["fractions"])
+            + f" %, gap {1e9 * ipp['coexistence_gap_m']:.0f} nm")
 
 
 EXCITATION_COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "resonances, all (rpm)",
@@ -434,7 +451,8 @@ def basis_overrides(extra: dict) -> dict:
 def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, seed: int,
            given: list[tuple[tuple[float, ...], tuple[float, ...]]] = (),
            robust: float | None = None, fixed_phases: tuple[float, ...] | None = None,
-           rpm_step: float = 10.0, target: tuple[float, ...] = PAPER_GRAZING) -> dict:
+           rpm_step: float = 10.0, target: tuple[float, ...] = PAPER_GRAZING,
+           ipp: dict | None = None) -> dict:
     """Amplitudes and phases of the TE against the grazing speeds ``target`` on the
     linear contact margin (:mod:`benchmarks.te_margin`, every other time sample):
     ``samples`` random candidates, then Nelder–Mead from the ``starts`` best and from the
@@ -442,7 +460,14 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     refined candidate is refined once more for the deepest permanent-contact windows
     (and low-speed margin) with every grazing within ``robust``; the margin scale is
     the static deflection ``F_s/k̄``. With ``fixed_phases`` only the amplitudes are
-    searched. The nonlinear runs then measure the grazings."""
+    searched. The nonlinear runs then measure the grazings.
+
+    With ``ipp = {"rpm": .., "reference": [f_0, f_1, f_2, f_3], "objective": ..,
+    "restarts": ..}`` every refined (and robust) candidate is refined once more
+    (:func:`benchmarks.te_margin.refine_ipp`, grazings within ``robust`` or 3 %) for the
+    linear IPP at that speed closest to ``reference`` (shares of the turn at 0, 1, 2,
+    3+ impacts per mesh period), or with ``objective = "coexist"`` for contact and
+    3-IPP in one turn; kept as ``ipp`` with the linear IPP of each."""
     from benchmarks import te_margin as tm
     from study.scene_load import load_scene
 
@@ -471,6 +496,21 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
         out["robust"] = [tm.refine(model, target, r["amplitudes_um"], r["phases_deg"],
                                    robust=(robust, scale), fix_phases=fix)
                          for r in refined if r["score"] < 1]
+    if ipp is not None:
+        speed = tm.SpeedModel(basis, float(ipp["rpm"]), oversample=1)
+        tol = 0.03 if robust is None else robust
+        out["ipp"] = sorted((tm.refine_ipp(model, speed, target, np.asarray(ipp["reference"]),
+                                           r["amplitudes_um"], r["phases_deg"], tol=tol,
+                                           objective=ipp.get("objective", "fractions"),
+                                           restarts=int(ipp.get("restarts", 3)))
+                             for r in refined + out.get("robust", [])),
+                            key=lambda r: r["ipp"]["objective"])
+        for r in out["ipp"]:
+            log.info("ipp %.4f (linear IPP at %g rpm %s, gap %.1f nm): amps %s phases %s "
+                     "grazings %s", r["ipp"]["objective"], speed.rpm,
+                     np.round(r["ipp"]["fractions"], 3), 1e9 * r["ipp"]["coexistence_gap_m"],
+                     np.round(r["amplitudes_um"], 4), np.round(r["phases_deg"], 1),
+                     np.round(r["grazing_rpm"]))
     for r in refined + out.get("robust", []):
         log.info("%s: %.4f amps %s phases %s grazings %s depth %s nm",
                  "robust" if "robust" in r else "refined", r["score"],
@@ -510,6 +550,17 @@ def record(out: Path) -> dict:
                           "complete": r["complete"] == "True"} for c, r in cases.items()}}
 
 
+def paper_ipp_shares() -> list[float]:
+    """The paper's shares of the turn at 0, 1, 2, 3 impacts per mesh period at 1070 rpm
+    (Fig. 18: 29, 16, 21, 34 %), from :data:`study.paper.PAPER`."""
+    from study.paper import PAPER
+
+    shares = [0.0] * 4
+    for n, f in PAPER["ipp_1070"].value:
+        shares[n] += f
+    return shares
+
+
 def _floats(text: str) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split(","))
 
@@ -535,6 +586,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--robust", type=float, default=None,
                    help="screen: refine once more for the deepest windows with every "
                         "grazing within this relative tolerance")
+    p.add_argument("--ipp-at", type=float, default=None, metavar="RPM",
+                   help="screen: refine every candidate once more for the linear IPP at "
+                        "this speed (a speed of the screen's grid), grazings within "
+                        "--robust or 3 %%")
+    p.add_argument("--ipp-reference", type=_floats, default=None,
+                   help="screen: shares of the turn at 0,1,2,3+ impacts per mesh period "
+                        "(default: the paper's at 1070 rpm, Fig. 18)")
+    p.add_argument("--ipp-objective", choices=["fractions", "coexist"], default="fractions",
+                   help="screen: the reference shares, or contact and 3-IPP in one turn")
+    p.add_argument("--ipp-restarts", type=int, default=3)
     p.add_argument("--start", type=_floats, default=SHIPPED_UM)
     p.add_argument("--slope", type=float, default=-0.08,
                    help="initial d(relative speed error)/d(log amplitude)")
@@ -573,11 +634,23 @@ def main(argv: list[str] | None = None) -> int:
     elif a.command == "screen":
         given = list(zip(a.amps, a.phases, strict=True)) if a.phases else \
             [(x, a.fix_phases) for x in a.amps] if a.fix_phases else []
+        ipp = None
+        if a.ipp_at is not None:
+            if a.fix_phases is not None:
+                p.error("--ipp-at searches the phases too: not with --fix-phases")
+            ipp = {"rpm": a.ipp_at, "objective": a.ipp_objective,
+                   "restarts": a.ipp_restarts,
+                   "reference": list(a.ipp_reference or paper_ipp_shares())}
+            if len(ipp["reference"]) != 4 or abs(sum(ipp["reference"]) - 1.0) > 1e-6:
+                p.error(f"--ipp-reference {ipp['reference']}: four shares (0, 1, 2, 3+ "
+                        "impacts per mesh period) summing to 1")
         r = screen(a.scene, extra, a.cache, a.samples, a.starts, a.seed, given, a.robust,
-                   a.fix_phases)
+                   a.fix_phases, ipp=ipp)
+        extra_key = {} if ipp is None else {"ipp": ipp}
         ev.section.setdefault("screens", {})[_key((), {
             **r["overrides"], "samples": a.samples, "seed": a.seed, "robust": a.robust,
-            "given": [list(g) for g in given], "fixed_phases": a.fix_phases})] = r
+            "given": [list(g) for g in given], "fixed_phases": a.fix_phases,
+            **extra_key})] = r
         _save(a.json, ev.data)
     elif a.command == "plot":
         log.info("wrote %s", plot(ev.data, a.work / "calibrate_pump.png"))

@@ -50,12 +50,15 @@ class MarginBasis:
         (n_te, 2, n_speed, n_time).
     mesh_phase
         Mesh phase ``Z Omega t`` of the samples (rad), (n_time,).
+    mesh_step
+        Mesh periods in the fundamental period of the samples.
     """
 
     rpm: np.ndarray
     p0: np.ndarray
     dp: np.ndarray
     mesh_phase: np.ndarray
+    mesh_step: int = 1
 
     def te_signal(self, amps_m: np.ndarray, phases_rad: np.ndarray) -> np.ndarray:
         """``Re sum_k c_k exp(i k Z Omega t)`` (m) on the samples."""
@@ -113,7 +116,7 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
             amps[k], phs[k] = UNIT * 1e6, ph
             dp[k, j] = (deltas(problem(amps, phs)) - d0) / UNIT
             log.info("basis: TE harmonic %d at %g deg done", k + 1, ph)
-    return MarginBasis(np.asarray(rpm, dtype=float), p0, dp, phase)
+    return MarginBasis(np.asarray(rpm, dtype=float), p0, dp, phase, int(base.mesh_step))
 
 
 def crossings(rpm: np.ndarray, m: np.ndarray) -> list[float]:
@@ -262,4 +265,236 @@ def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
         out["depth_m"] = depth(model.rpm, m, c)
     if robust is not None:
         out["robust"] = {"tol": robust[0], "scale_m": robust[1]}
+    return out
+
+
+# --- how the linear response at one speed splits into impacts per mesh period ----------
+#
+# The paper's 1070 rpm sequence (Fig. 18: contact, 1-, 2-, 3-IPP) needs a margin whose
+# mesh period holds three minima of similar depth, swept through zero by the slow
+# (shaft-order) modulation. The linear solution shows that before any nonlinear run:
+# its loss intervals per mesh period (the "linear IPP") and the mesh harmonics of p.
+
+
+def linear_ipp(signal: np.ndarray, mesh_step: int) -> np.ndarray:
+    """Loss intervals of ``signal = p - b`` in each mesh period (the linear IPP).
+
+    ``signal`` holds ``(..., n_time)`` samples of one fundamental period of ``mesh_step``
+    mesh periods; an impact is a loss sample (``< 0``) followed, cyclically, by a
+    contact sample, as :func:`hbm.point_stats` counts them on the nonlinear solution.
+    Returns ``(..., mesh_step)`` integers.
+    """
+    s = np.asarray(signal, dtype=float)
+    n = s.shape[-1]
+    if mesh_step < 1 or n % mesh_step:
+        raise ValueError(f"mesh_step = {mesh_step}: must be >= 1 and divide the "
+                         f"{n} samples of the signal")
+    loss = s < 0.0
+    imp = loss & ~np.roll(loss, -1, axis=-1)
+    return imp.reshape(*s.shape[:-1], mesh_step, n // mesh_step).sum(axis=-1)
+
+
+def ipp_fraction_vector(ipp: np.ndarray, n_max: int = 3) -> np.ndarray:
+    """Fractions of the period at 0, 1, ..., ``n_max`` impacts per mesh period (counts
+    above ``n_max`` join ``n_max``), ``(..., n_max + 1)``."""
+    a = np.minimum(np.asarray(ipp, dtype=int), n_max)
+    return np.stack([(a == k).mean(axis=-1) for k in range(n_max + 1)], axis=-1)
+
+
+def ipp_distance(fractions: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Total-variation distance ``½ Σ_k |f_k - r_k|`` of two IPP fraction vectors
+    (0: the same shares of the turn, 1: disjoint)."""
+    return 0.5 * np.abs(np.asarray(fractions) - np.asarray(reference)).sum(axis=-1)
+
+
+def mesh_harmonics(signal: np.ndarray, mesh_step: int, n: int = 3) -> np.ndarray:
+    """Amplitudes of ``H_Z ... H_nZ`` (orders ``k mesh_step`` of the fundamental period)
+    of ``(..., n_time)`` samples, ``(..., n)``."""
+    s = np.asarray(signal, dtype=float)
+    f = np.fft.rfft(s, axis=-1)
+    k = mesh_step * np.arange(1, n + 1)
+    if k[-1] >= f.shape[-1]:
+        raise ValueError(f"n = {n}: H_{n}Z needs more than {s.shape[-1]} samples")
+    return 2.0 * np.abs(f[..., k]) / s.shape[-1]
+
+
+def h3_ratio(signal: np.ndarray, mesh_step: int) -> np.ndarray:
+    """``|H_3Z| / (|H_Z| + |H_2Z|)`` of ``p - b``: how much the third mesh harmonic
+    governs the response (Sect. 4.3 at 1070 rpm)."""
+    a = mesh_harmonics(signal, mesh_step, 3)
+    return a[..., 2] / (a[..., 0] + a[..., 1])
+
+
+def fourier_resample(signal: np.ndarray, n: int) -> np.ndarray:
+    """Samples of one period of a band-limited periodic signal (harmonics below half the
+    ``n_time`` given) on ``n`` equispaced points instead, ``(..., n)``: exact for the
+    harmonic-balance signals, whose largest harmonic index is below half the AFT grid."""
+    s = np.asarray(signal, dtype=float)
+    m = s.shape[-1]
+    if n < m:
+        raise ValueError(f"n = {n}: must be >= the {m} samples given")
+    f = np.fft.rfft(s, axis=-1)
+    f[..., -1] *= 0.5 if m % 2 == 0 else 1.0     # split the Nyquist bin
+    return np.fft.irfft(f, n, axis=-1) * (n / m)
+
+
+class SpeedModel:
+    """``p - b`` of :class:`MarginBasis` at one speed as an affine map of the six real TE
+    unknowns (full time resolution): the linear IPP of many candidates at once."""
+
+    def __init__(self, basis: MarginBasis, rpm: float, oversample: int = 4) -> None:
+        i = int(np.argmin(np.abs(basis.rpm - rpm)))
+        if abs(basis.rpm[i] - rpm) > 1e-6 * max(rpm, 1.0):
+            raise ValueError(f"rpm = {rpm}: not a speed of the basis "
+                             f"({basis.rpm[0]:g}–{basis.rpm[-1]:g})")
+        self.rpm, self.mesh_step = float(basis.rpm[i]), int(basis.mesh_step)
+        ph = basis.mesh_phase
+        q = []
+        for k in range(basis.dp.shape[0]):
+            q.append(basis.dp[k, 0, i] - np.cos((k + 1) * ph))
+            q.append(basis.dp[k, 1, i] + np.sin((k + 1) * ph))
+        # a whole number of samples per mesh period, as hbm.point_stats samples it
+        n = len(ph)
+        n_fine = self.mesh_step * int(np.ceil(oversample * n / self.mesh_step))
+        self.p0 = fourier_resample(basis.p0[i], n_fine)
+        self.q = fourier_resample(np.stack(q), n_fine)
+
+    def signals(self, amps_um, phases_deg) -> np.ndarray:
+        """``p - b`` (m), ``(n_candidates, n_time)``."""
+        th = MarginModel.unknowns(np.atleast_2d(amps_um), np.atleast_2d(phases_deg))
+        return self.p0[None, :] + th @ self.q
+
+    def ipp_fractions(self, amps_um, phases_deg, n_max: int = 3) -> np.ndarray:
+        """Linear IPP fractions (:func:`ipp_fraction_vector`), ``(n_candidates, n_max+1)``."""
+        return ipp_fraction_vector(linear_ipp(self.signals(amps_um, phases_deg),
+                                              self.mesh_step), n_max)
+
+
+def period_minima(signal: np.ndarray, mesh_step: int, n: int = 3) -> np.ndarray:
+    """The ``n`` lowest local minima of ``signal`` (cyclic) in each mesh period, sorted
+    (``+inf`` where a period has fewer), ``(..., mesh_step, n)``. With ``signal = p - b``
+    of the linear solution, minimum k below zero means a k-th impact in that period."""
+    s = np.asarray(signal, dtype=float)
+    m = s.shape[-1]
+    if mesh_step < 1 or m % mesh_step:
+        raise ValueError(f"mesh_step = {mesh_step}: must be >= 1 and divide the "
+                         f"{m} samples of the signal")
+    is_min = (s < np.roll(s, 1, axis=-1)) & (s <= np.roll(s, -1, axis=-1))
+    v = np.where(is_min, s, np.inf).reshape(*s.shape[:-1], mesh_step, m // mesh_step)
+    return np.sort(v, axis=-1)[..., :n]
+
+
+def minima_count(signal: np.ndarray, mesh_step: int, fraction: float = 0.5) -> np.ndarray:
+    """Local minima per mesh period whose depth below the period's mean reaches
+    ``fraction`` of the deepest one's, ``(..., mesh_step)``: 3 when the third mesh
+    harmonic governs the period, 1 when the first does."""
+    s = np.asarray(signal, dtype=float)
+    per = s.reshape(*s.shape[:-1], mesh_step, s.shape[-1] // mesh_step)
+    mean = per.mean(axis=-1, keepdims=True)
+    d = mean - period_minima(s, mesh_step, per.shape[-1])   # depths below the mean
+    return (d >= fraction * d[..., :1]).sum(axis=-1)
+
+
+def soft_ipp(signal: np.ndarray, mesh_step: int, scale: float, n: int = 3) -> np.ndarray:
+    """Smooth stand-in for the share of the period with at least 1, ..., ``n`` impacts
+    per mesh period: the mean over mesh periods of ``sigmoid(-m_k / scale)`` of the
+    k-th lowest minimum ``m_k`` (:func:`period_minima`), ``(..., n)``; the step of
+    :func:`linear_ipp` as ``scale`` → 0, smooth in the TE for a local search."""
+    m = period_minima(signal, mesh_step, n)
+    with np.errstate(over="ignore"):
+        return (1.0 / (1.0 + np.exp(np.clip(m / scale, -50.0, 50.0)))).mean(axis=-2)
+
+
+def coexistence_gap(signal: np.ndarray, mesh_step: int, k: int = 3) -> float:
+    """``max(-max_j m_1j, min_j m_kj)`` (m) of the lowest and k-th lowest minima
+    (:func:`period_minima`) over the mesh periods ``j``: negative when one turn of the
+    linear solution holds both a permanent-contact period and a k-impact one (the
+    paper's 1070 rpm sequence, k = 3); its size is how far it is from that. Both need
+    the slow modulation of the minima to exceed their spread within a mesh period."""
+    m = period_minima(signal, mesh_step, k)
+    return float(max(-m[:, 0].max(), m[:, k - 1].min()))
+
+
+def cumulative(fractions: np.ndarray) -> np.ndarray:
+    """Shares at >= 1, >= 2, ... impacts of IPP fractions at 0, 1, 2, ... impacts."""
+    f = np.asarray(fractions, dtype=float)
+    return np.flip(np.cumsum(np.flip(f[..., 1:], -1), -1), -1)
+
+
+def ipp_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...], tol: float,
+              fractions: np.ndarray, reference: np.ndarray) -> float:
+    """For a curve of the target pattern: 100 × the grazing error beyond ``tol`` plus the
+    :func:`ipp_distance` of the linear IPP ``fractions`` at the IPP speed to
+    ``reference`` (lower is better, < 1 with every grazing within ``tol``);
+    10 + :func:`pattern_score` otherwise."""
+    s, c = pattern_score(rpm, m, target)
+    if s >= 1.0:
+        return 10.0 + s
+    e = float(np.max(np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)))
+    return 100.0 * max(e - tol, 0.0) + float(ipp_distance(fractions, reference))
+
+
+def refine_ipp(model: MarginModel, speed: SpeedModel, target: tuple[float, ...],
+               reference: np.ndarray, amps_um, phases_deg, tol: float = 0.03,
+               max_evals: int = 600, scale: float = 5e-9, objective: str = "fractions",
+               gap_scale: float = 3e-7, restarts: int = 1) -> dict:
+    """Nelder–Mead on (log amplitudes, phases) from a start: the grazings within ``tol``
+    (100 × the error beyond it) and the linear IPP at ``speed.rpm`` closest to
+    ``reference`` (fractions at 0, 1, 2, 3+ impacts per mesh period), the latter
+    through :func:`soft_ipp` with ``scale`` (m) so that the search sees a slope
+    (½ Σ |soft − cumulative reference|); the result reports the exact
+    :func:`ipp_score` parts (linear IPP fractions, their :func:`ipp_distance`).
+    ``objective = "coexist"`` minimises :func:`coexistence_gap` / ``gap_scale`` instead
+    (contact and the largest count of ``reference`` in one turn, whatever the shares).
+    ``restarts`` runs of ``max_evals`` each, every one from a fresh simplex at the last
+    point (the grazing penalty makes the landscape kinked)."""
+    from scipy.optimize import minimize
+
+    if objective not in ("fractions", "coexist"):
+        raise ValueError(f"objective = {objective!r}: must be 'fractions' or 'coexist'")
+    if restarts < 1:
+        raise ValueError(f"restarts = {restarts}: must be >= 1")
+    ref = np.asarray(reference, dtype=float)
+    ref_cum = cumulative(ref)
+
+    def f(x):
+        a, p = np.exp(x[:3]), x[3:]
+        m = model.margins(a, p)[0]
+        s, c = pattern_score(model.rpm, m, target)
+        if s >= 1.0:
+            return 10.0 + s
+        e = float(np.max(np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)))
+        sig = speed.signals(a, p)[0]
+        if objective == "coexist":
+            return 100.0 * max(e - tol, 0.0) + coexistence_gap(
+                sig, speed.mesh_step, len(ref) - 1) / gap_scale
+        soft = soft_ipp(sig, speed.mesh_step, scale, len(ref) - 1)
+        return 100.0 * max(e - tol, 0.0) + 0.5 * float(np.abs(soft - ref_cum).sum())
+
+    x = np.r_[np.log(amps_um), phases_deg]
+    for _ in range(restarts):
+        simplex = x + np.vstack([np.zeros(6), np.diag([0.15] * 3 + [20.0] * 3)])
+        r = minimize(f, x, method="Nelder-Mead",
+                     options={"xatol": 1e-3, "fatol": 1e-5, "maxfev": max_evals,
+                              "initial_simplex": simplex})
+        x = r.x
+    amps, phs = np.exp(r.x[:3]), np.mod(r.x[3:], 360.0)
+    m = model.margins(amps, phs)[0]
+    s, c = pattern_score(model.rpm, m, target)
+    frac = speed.ipp_fractions(amps, phs)[0]
+    sig = speed.signals(amps, phs)[0]
+    out = {"score": s, "amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(),
+           "grazing_rpm": c, "start": {"amplitudes_um": list(map(float, amps_um)),
+                                       "phases_deg": list(map(float, phases_deg))},
+           "ipp": {"rpm": speed.rpm, "tol": tol, "reference": ref.tolist(),
+                   "fractions": frac.tolist(), "distance": float(ipp_distance(frac, ref)),
+                   "h3_ratio": float(h3_ratio(sig, speed.mesh_step)),
+                   "mesh_harmonics_um": (1e6 * mesh_harmonics(sig, speed.mesh_step)).tolist(),
+                   "objective": float(r.fun), "objective_kind": objective,
+                   "coexistence_gap_m": coexistence_gap(sig, speed.mesh_step, len(ref) - 1),
+                   "minima_count": np.bincount(minima_count(sig, speed.mesh_step),
+                                               minlength=4).tolist(),
+                   "score": ipp_score(model.rpm, m, target, tol, frac, ref)}}
+    if s < 1.0:
+        out["depth_m"] = depth(model.rpm, m, c)
     return out

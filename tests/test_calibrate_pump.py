@@ -72,3 +72,8 @@ def test_screen_basis_sees_structural_overrides_not_the_continuation():
     assert cp.basis_overrides(extra) == {"rotors.inertia_kgm2": 0.2977,
                                          "hbm.mesh_harmonics": 3,
                                          "drive.motor_torsional_stiffness": 1e3}
+
+
+def test_paper_ipp_shares_are_fig_18s_per_count():
+    # Fig. 18, twice per turn: contact 14.5 %, 1-IPP 2 × 4 %, 2-IPP 2 × 5.25 %, 3-IPP 17 %
+    assert cp.paper_ipp_shares() == pytest.approx([0.29, 0.16, 0.21, 0.34], abs=1e-12)

@@ -270,11 +270,12 @@ def _spectrum_rows(inp: PaperInputs) -> list[str]:
         load += ")"
     a, b = ptp.value
     paper_ptp = f"{a:g} → {b:g} N (×{b / a:.2f})"
-    if isinstance(lo, SpectrumAt):
+    if isinstance(lo, SpectrumAt) and lo.peak_to_peak > 0:
         run_ptp = f"{lo.peak_to_peak:.0f} → {hi.peak_to_peak:.0f} N " \
                   f"(×{hi.peak_to_peak / lo.peak_to_peak:.2f}; at {lo.rpm:.0f} → {hi.rpm:.0f} rpm)"
     else:
-        run_ptp = f"{lo or 'not computed'} (at {ref_z.value:.0f} rpm); {hi.peak_to_peak:.0f} N " \
+        why = lo if isinstance(lo, str) else "not computed"
+        run_ptp = f"{why} (at {ref_z.value:.0f} rpm); {hi.peak_to_peak:.0f} N " \
                   f"at {hi.rpm:.0f} rpm"
     return [f"| gear response (DTE, eq. 10) at {ref.value:.0f} rpm, largest harmonic | H_2 "
             f"(aero): 'the gear response is governed by the second harmonic' | {dte} | "

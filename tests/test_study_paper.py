@@ -180,3 +180,12 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert "53.2 N at T = 2.5 N·m" in md
     p = write_paper(tmp_path, inp)
     assert p.read_text() == md
+    # a range that reaches 6875 rpm but not 2970 rpm, and one that reaches neither
+    inp.spectra[2970.0] = "outside the computed range 3000–7000 rpm"
+    md = paper_markdown(inp)
+    assert "(H_2/H_Z = 2.00)" in _row(md, "| mesh-load harmonics at 6875")
+    assert "| outside the computed range 3000–7000 rpm (at 2970 rpm); 150 N at 6875 rpm |" \
+        in _row(md, "| mesh-load peak-to-peak")
+    inp.spectra = {6875.0: "outside the computed range 500–4000 rpm"}
+    assert "| outside the computed range 500–4000 rpm |" in _row(paper_markdown(inp),
+                                                               "| response at 6875")

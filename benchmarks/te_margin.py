@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hbm import impacts_per_mesh_period
+
 log = logging.getLogger("te_margin")
 
 #: Unit TE harmonic of the basis (m); the response is linear, any value gives the same.
@@ -280,18 +282,16 @@ def linear_ipp(signal: np.ndarray, mesh_step: int) -> np.ndarray:
     """Loss intervals of ``signal = p - b`` in each mesh period (the linear IPP).
 
     ``signal`` holds ``(..., n_time)`` samples of one fundamental period of ``mesh_step``
-    mesh periods; an impact is a loss sample (``< 0``) followed, cyclically, by a
-    contact sample, as :func:`hbm.point_stats` counts them on the nonlinear solution.
-    Returns ``(..., mesh_step)`` integers.
+    mesh periods; the loss samples (``< 0``) are counted by
+    :func:`hbm.impacts_per_mesh_period`, as :func:`hbm.point_stats` counts them on the
+    nonlinear solution. Returns ``(..., mesh_step)`` integers.
     """
     s = np.asarray(signal, dtype=float)
     n = s.shape[-1]
     if mesh_step < 1 or n % mesh_step:
         raise ValueError(f"mesh_step = {mesh_step}: must be >= 1 and divide the "
                          f"{n} samples of the signal")
-    loss = s < 0.0
-    imp = loss & ~np.roll(loss, -1, axis=-1)
-    return imp.reshape(*s.shape[:-1], mesh_step, n // mesh_step).sum(axis=-1)
+    return impacts_per_mesh_period(s < 0.0, mesh_step)
 
 
 def ipp_fraction_vector(ipp: np.ndarray, n_max: int = 3) -> np.ndarray:

@@ -9,7 +9,15 @@ fold detection, Hill stability, time reconstruction.  See docs/hbm.md.
 from .continuation import Branch, GrazingPoint, trace
 from .harmonics import HarmonicSet
 from .model import Excitation, GearMesh, LinearSystem
-from .postprocess import PointStats, TimeSeries, ipp_sequence, point_stats, spectrum, time_series
+from .postprocess import (
+    PointStats,
+    TimeSeries,
+    impacts_per_mesh_period,
+    ipp_sequence,
+    point_stats,
+    spectrum,
+    time_series,
+)
 from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, Point
 from .stability import floquet_exponents
 from .verify import ShootingCheck, full_residual, quasi_static_delta, shooting_error
@@ -18,7 +26,8 @@ __all__ = [
     "Branch", "ConvergenceError", "Excitation", "GearMesh", "GrazingPoint", "HBMProblem",
     "HarmonicSet", "LinearSystem", "Point", "PointStats", "RPM_TO_RAD_S", "ShootingCheck",
     "TimeSeries",
-    "floquet_exponents", "full_residual", "ipp_sequence", "point_stats", "quasi_static_delta",
+    "floquet_exponents", "full_residual", "impacts_per_mesh_period", "ipp_sequence",
+    "point_stats", "quasi_static_delta",
     "shooting_error",
     "spectrum", "time_series", "trace",
 ]

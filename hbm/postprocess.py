@@ -9,7 +9,8 @@ import numpy as np
 from .contact import dead_zone
 from .problem import HBMProblem, Point
 
-__all__ = ["PointStats", "TimeSeries", "point_stats", "time_series", "spectrum", "ipp_sequence"]
+__all__ = ["PointStats", "TimeSeries", "point_stats", "time_series", "spectrum", "ipp_sequence",
+           "impacts_per_mesh_period"]
 
 
 @dataclass
@@ -101,17 +102,26 @@ def point_stats(problem: HBMProblem, point: Point | np.ndarray,
         contact = 2
     else:
         contact = 1
-    # impacts: a loss sample followed by a contact sample (cyclic)
-    incontact = act | rev
-    imp = loss & np.roll(incontact, -1)
-    step = problem.mesh_step
-    ipp = imp.reshape(step, n // step).sum(axis=1)
+    ipp = impacts_per_mesh_period(loss, problem.mesh_step)
     return PointStats(
         mesh_load_std=float(np.std(f)), mesh_load_max=float(np.max(f)), contact=contact,
         contact_loss_fraction=float(np.mean(loss)),
         impacts_per_mesh_period=float(np.mean(ipp)),
         margin_active=_refined_min(p - b), margin_reverse=-_refined_min(p + b) ,
         ipp=ipp.astype(int))
+
+
+def impacts_per_mesh_period(loss: np.ndarray, mesh_step: int) -> np.ndarray:
+    """Impacts in each mesh period (Sect. 4.3) from ``loss``, ``(..., n_time)`` booleans
+    (contact lost) over one fundamental period of ``mesh_step`` mesh periods.
+
+    An impact is a loss sample followed, cyclically, by a contact sample. Returns
+    ``(..., mesh_step)`` integers.
+    """
+    loss = np.asarray(loss, dtype=bool)
+    n = loss.shape[-1]
+    imp = loss & ~np.roll(loss, -1, axis=-1)
+    return imp.reshape(*loss.shape[:-1], mesh_step, n // mesh_step).sum(axis=-1)
 
 
 def ipp_sequence(problem: HBMProblem, point: Point | np.ndarray) -> np.ndarray:

@@ -41,7 +41,6 @@ CASES = {"internal": "internal excitation only",
          "all": "all excitations"}
 
 
-
 def _internal_present(scene: Scene) -> bool:
     return any(a != 0 for a in scene.mesh_stiffness.amplitudes) or \
         any(a != 0 for a in scene.transmission_error.amplitudes)

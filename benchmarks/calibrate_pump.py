@@ -553,12 +553,10 @@ def record(out: Path) -> dict:
 def paper_ipp_shares() -> list[float]:
     """The paper's shares of the turn at 0, 1, 2, 3 impacts per mesh period at 1070 rpm
     (Fig. 18: 29, 16, 21, 34 %), from :data:`study.paper.PAPER`."""
-    from study.paper import PAPER
+    from study.paper import PAPER, runs_fractions
 
-    shares = [0.0] * 4
-    for n, f in PAPER["ipp_1070"].value:
-        shares[n] += f
-    return shares
+    fr = runs_fractions(PAPER["ipp_1070"].value)
+    return [fr.get(n, 0.0) for n in range(4)]
 
 
 def _floats(text: str) -> tuple[float, ...]:

@@ -19,7 +19,8 @@ from geometry.files import atomic_write
 from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs
 
 __all__ = ["Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "IppAt", "SpectrumAt",
-           "PaperInputs", "paper_markdown", "write_paper", "format_ipp", "TOLERANCE"]
+           "PaperInputs", "paper_markdown", "write_paper", "format_ipp", "runs_fractions",
+           "TOLERANCE"]
 
 #: Relative agreement asked for by issue 14 (speeds within 3 %).
 TOLERANCE = 0.03
@@ -226,7 +227,7 @@ def _ipp_rows(inp: PaperInputs) -> list[str]:
     for target, key in IPP_KEYS.items():
         ref = PAPER[key]
         paper = f"{format_ipp(ref.value)} (per count: " \
-                f"{_fractions_text(_runs_fractions(ref.value))})"
+                f"{_fractions_text(runs_fractions(ref.value))})"
         got = inp.ipp.get(target)
         if got is None:
             run = "not computed"
@@ -241,7 +242,9 @@ def _ipp_rows(inp: PaperInputs) -> list[str]:
     return rows
 
 
-def _runs_fractions(runs) -> dict[int, float]:
+def runs_fractions(runs) -> dict[int, float]:
+    """Share of the turn at each impact count of ``[(impacts, fraction), ...]`` (the
+    paper's IPP sequences, :data:`PAPER`), summed over the runs of that count."""
     out: dict[int, float] = {}
     for n, f in runs:
         out[n] = out.get(n, 0.0) + f

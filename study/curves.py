@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Peak", "CurveSummary", "resonance_peaks", "impact_intervals", "merge_intervals",
-           "impact_span", "contact_windows", "summarize_curve", "summarize_branch",
+__all__ = ["Peak", "FoldPair", "CurveSummary", "resonance_peaks", "fold_pairs",
+           "impact_intervals", "merge_intervals", "impact_span", "contact_windows",
+           "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
 
 #: Local maxima less prominent than this fraction of the curve's largest std are
@@ -31,6 +32,33 @@ class Peak:
     rpm: float
     std: float
     prominence: float
+
+
+@dataclass(frozen=True)
+class FoldPair:
+    """Two consecutive turning points of the branch: the hysteresis of an amplitude jump
+    (the response jumps between the stable parts the unstable middle part joins).
+
+    ``rpm`` and ``std`` are the speeds (rpm) and mesh-load std (N) at the two folds, in
+    branch order."""
+
+    rpm: tuple[float, float]
+    std: tuple[float, float]
+
+    @property
+    def width(self) -> float:
+        """Speed interval of the hysteresis (rpm)."""
+        return abs(self.rpm[1] - self.rpm[0])
+
+    @property
+    def height(self) -> float:
+        """Std difference between the two folds (N)."""
+        return abs(self.std[1] - self.std[0])
+
+    @property
+    def centre(self) -> float:
+        """Mid speed of the pair (rpm)."""
+        return 0.5 * (self.rpm[0] + self.rpm[1])
 
 
 @dataclass(frozen=True)
@@ -58,6 +86,8 @@ class CurveSummary:
         Largest std of the dynamic mesh load (N) and its speed (rpm).
     complete
         The continuation reached the end of its range.
+    folds
+        Fold pairs (amplitude jumps) along the branch, in branch order.
     """
 
     speed_range: tuple[float, float]
@@ -70,6 +100,7 @@ class CurveSummary:
     max_std: float
     max_std_rpm: float
     complete: bool = True
+    folds: tuple[FoldPair, ...] = ()
 
     def strongest(self, n: int) -> list[Peak]:
         """The ``n`` most prominent peaks, sorted by speed."""
@@ -165,9 +196,25 @@ def contact_windows(intervals: list[tuple[float, float]]) -> list[tuple[float, f
     return [(intervals[i][1], intervals[i + 1][0]) for i in range(len(intervals) - 1)]
 
 
-def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = True
-                    ) -> CurveSummary:
-    """:class:`CurveSummary` of per-point arrays and grazing speeds (rpm)."""
+def fold_pairs(rpm: np.ndarray, std: np.ndarray, fold_index: Iterable[int]) -> list[FoldPair]:
+    """Consecutive folds ``(0, 1), (2, 3), …`` of a branch as :class:`FoldPair`.
+
+    ``fold_index`` holds, per fold, the point where the speed turns back
+    (:attr:`hbm.Branch.fold_index`). Indices outside the arrays (a branch resumed from a
+    file without them) are skipped; a last fold without a partner (its pair lies beyond
+    the computed range) is not a pair and is left out.
+    """
+    rpm = np.asarray(rpm, dtype=float)
+    std = np.asarray(std, dtype=float)
+    idx = [int(i) for i in fold_index if 0 <= int(i) < rpm.size]
+    return [FoldPair((float(rpm[i]), float(rpm[j])), (float(std[i]), float(std[j])))
+            for i, j in zip(idx[0::2], idx[1::2], strict=False)]
+
+
+def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = True,
+                    fold_index: Iterable[int] = ()) -> CurveSummary:
+    """:class:`CurveSummary` of per-point arrays, grazing speeds (rpm) and the indices
+    of the folds (:func:`fold_pairs`)."""
     rpm = np.asarray(rpm, dtype=float)
     std = np.asarray(std, dtype=float)
     iv = impact_intervals(rpm, contact)
@@ -178,7 +225,8 @@ def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = Tr
         peaks=resonance_peaks(rpm, std), grazing=sorted(float(g) for g in grazing),
         impacts=iv, windows=contact_windows(iv), span=impact_span(iv),
         max_std=float(std[i]) if std.size else float("nan"),
-        max_std_rpm=float(rpm[i]) if rpm.size else float("nan"), complete=complete)
+        max_std_rpm=float(rpm[i]) if rpm.size else float("nan"), complete=complete,
+        folds=tuple(fold_pairs(rpm, std, fold_index)))
 
 
 def summarize_branch(branch) -> CurveSummary:
@@ -186,7 +234,8 @@ def summarize_branch(branch) -> CurveSummary:
     return summarize_curve(branch.rpm, branch.mesh_load_std, branch.contact,
                            [g.rpm for g in branch.grazing],
                            (branch.rpm_start, branch.rpm_end),
-                           complete=branch.status == "completed")
+                           complete=branch.status == "completed",
+                           fold_index=branch.fold_index)
 
 
 def ipp_runs(ipp: np.ndarray) -> list[tuple[int, float]]:

@@ -2,11 +2,15 @@
 whose peaks, impact intervals and IPP sequences are known in closed form."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from study.curves import (
+    FoldPair,
     contact_windows,
+    fold_pairs,
     impact_intervals,
     impact_span,
     ipp_fractions,
@@ -72,6 +76,21 @@ def test_peak_on_a_fold_counted_once():
     y = np.r_[np.linspace(10, 50, 21), np.linspace(48, 20, 10), np.linspace(19, 5, 25)]
     peaks = resonance_peaks(r, y)
     assert len(peaks) == 1 and peaks[0].std == pytest.approx(50.0)
+
+
+def test_fold_pairs_of_a_softening_s_curve():
+    # up to 2900, back to 2860, up again: one hysteresis between the two turning points
+    r = np.r_[np.linspace(2500, 2900, 41), np.linspace(2895, 2860, 8), np.linspace(2865, 3200, 30)]
+    y = np.r_[np.linspace(40, 110, 41), np.linspace(108, 80, 8), np.linspace(79, 30, 30)]
+    turns = [i for i in range(1, r.size - 1) if (r[i] - r[i - 1]) * (r[i + 1] - r[i]) < 0]
+    assert turns == [40, 48]
+    (f,) = fold_pairs(r, y, turns)
+    assert f.rpm == (2900.0, 2860.0) and f.std == (110.0, 80.0)
+    assert (f.width, f.height, f.centre) == (40.0, 30.0, 2880.0)
+    # a fold whose partner lies beyond the range, and an index from no branch: no pair
+    assert fold_pairs(r, y, [40]) == [] and fold_pairs(r, y, [-(10 ** 9), 40]) == []
+    s = summarize_curve(r, y, np.zeros(r.size, int), [], (2500.0, 3200.0), fold_index=turns)
+    assert s.folds == (f,)
 
 
 def test_peaks_of_a_branch_winding_at_one_speed_count_once():
@@ -162,6 +181,15 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert f"{1.1 * top:.1f} → {top:.1f} N (-9.1 %" in pk
     big = float(_std(RPM).max())
     assert f"largest std of each curve {1.1 * big:.1f} → {big:.1f} N (-9.1 %" in pk
+    assert _row(md, "| amplitude jumps").endswith(
+        f"| internal only: none within ±15 % of {primary_peak(inp.cases['internal']).rpm:.0f} "
+        f"rpm; all: none within ±15 % of {inp.primary['all'].rpm:.0f} rpm | Sect. 4.2, "
+        "Fig. 12 ('smaller amplitude-jump instabilities') |")
+    near, far = FoldPair((2810.0, 2790.0), (100.0, 80.0)), FoldPair((1500.0, 1490.0), (9.0, 8.0))
+    jumped = replace(inp, cases={**inp.cases, "internal": replace(inp.cases["internal"],
+                                                                  folds=(far, near))})
+    assert "| internal only: 2790–2810 rpm (20.0 rpm wide, std 100.0 / 80.0 N); all: none" \
+        in _row(paper_markdown(jumped), "| amplitude jumps")
     span = _row(md, "| vibro-impact span")
     assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
     ipp = _row(md, "| IPP sequence at 1700")

@@ -60,7 +60,7 @@ section (``excitations``)::
         --set "transmission_error.phases_deg=[219.8,294.2,29.5]"        # 2 min
     ... record $S --converged --out OUT --amps 0.3126,0.1782,0.0558 --phases 219.8,294.2,29.5
     ... screen $S --converged --samples 0 --robust 0.03 --amps 0.3886,0.1992,0.0432 \
-        --phases 212.8,299.8,50.5      # session 8: the scene's TE 0.4086, 0.1956, 0.0403
+        --phases 212.8,299.8,50.5      # session 8: TE 0.4086, 0.1956, 0.0403
     ... show $S --converged
 
 The session-8 pick keeps the internal-only impacts up to 7000 rpm (docs/theory.md
@@ -74,6 +74,23 @@ speed (:func:`benchmarks.te_margin.refine_ipp`: the paper's Fig. 18 shares, or w
     ... screen $S --converged --samples 4000 --starts 6 --seed 3 --robust 0.03 \\
         --amps 0.4086,0.1956,0.0403 --phases 218.3,303.1,76.8 --ipp-at 1070 \\
         --ipp-objective coexist                                         # 6 min
+
+``refine-nl`` refines the TE against the *nonlinear* IPP (:mod:`benchmarks.te_ipp`:
+Newton from the stored branch points, homotopy in the TE) at the speeds of ``--nl-ipp
+RPM=f0,f1,f2,f3`` (shares of the turn at 0, 1, 2, 3+ impacts per mesh period), each
+weighted by ``--nl-ipp-weight RPM=W``, under the linear grazings within ``--robust``
+(default 0.03), windows ``--min-depth-nm`` deep and, with ``--internal-impacts LO,HI``,
+the internal-only case impacting over that range (docs/theory.md §13.5, "A third
+criterion: the 1-IPP phases at 1700 rpm"). The scene's TE is the result of the second
+command, started from an exploratory pick; the first starts from the session-8 TE and
+loses its contact phases at 1070 rpm::
+
+    ... refine-nl $S --converged --internal-impacts 2600,7000 --robust 0.025 \\
+        --nl-ipp 1700=0,0.2,0.8,0 --amps 0.4086,0.1956,0.0403 \\
+        --phases 218.3,303.1,76.8                                       # 2 min
+    ... refine-nl $S --converged --internal-impacts 2600,7000 --robust 0.03 \\
+        --nl-ipp 1700=0,0.2,0.8,0 --amps 0.4341,0.1745,0.0389 \\
+        --phases 213.7,303.0,78.9                                       # 2 min
 
 Not a timing benchmark (not picked up by ``run_all``).
 """
@@ -128,13 +145,17 @@ def _save(path: Path, data: dict) -> None:
             if sec.get("screens"):
                 tables.append({"title": f"{name}: linear-margin screens (benchmarks.te_margin)",
                                "columns": SCREEN_COLUMNS, "rows": screen_rows(sec["screens"])})
+            if sec.get("nonlinear_ipp"):
+                tables.append({"title": f"{name}: TE refined against the nonlinear IPP "
+                                        "(benchmarks.te_ipp)", "columns": NL_IPP_COLUMNS,
+                               "rows": nl_ipp_rows(sec["nonlinear_ipp"])})
             if sec.get("excitations"):
                 tables.append({"title": f"{name}: geardyn excitations (scene's harmonic set)",
                                "columns": EXCITATION_COLUMNS,
                                "rows": excitation_rows(sec["excitations"])})
     write_json("calibrate_pump", {
         **data, "command": ".venv/bin/python -m benchmarks.calibrate_pump "
-                           "scan|calibrate|screen [--scene S] ...",
+                           "scan|calibrate|screen|refine-nl|record [--scene S] ...",
         "summary": "TE amplitudes of the pump against the paper's resonance speeds "
                    "(docs/theory.md §13.2): every evaluation, cheap 3/1 set unless "
                    "overridden; per other scene (pump-paper) a section with amplitudes "
@@ -369,6 +390,36 @@ def _ipp_stage(ipp: dict) -> str:
             + f" %, gap {1e9 * ipp['coexistence_gap_m']:.0f} nm")
 
 
+NL_IPP_COLUMNS = ["start TE (µm; deg)", "grazings within", "fitted shares (rpm: 0/1/2/3+)",
+                  "TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "linear grazings (rpm)",
+                  "depth (nm)", "nonlinear shares (rpm: 0/1/2/3+ %)"]
+
+
+def nl_ipp_rows(recs: dict) -> list[list[str]]:
+    """One row of :data:`NL_IPP_COLUMNS` per candidate of every ``refine-nl`` run."""
+    rows = []
+    for key, r in recs.items():
+        k = json.loads(key)
+        fitted = "; ".join(f"{float(rpm):g}: " + "/".join(f"{v:g}" for v in sh)
+                           + ("" if k.get("weights", {}).get(rpm) is None
+                              else f" (weight {k['weights'][rpm]:g})")
+                           for rpm, sh in k["shares"].items())
+        for c in r["refined"]:
+            st = c["start"]
+            rows.append([
+                ", ".join(f"{a:.4g}" for a in st["amplitudes_um"]) + "; "
+                + ", ".join(f"{p:.1f}" for p in st["phases_deg"]),
+                f"{100 * k['tol']:g} %", fitted,
+                ", ".join(f"{a:.4f}" for a in c["amplitudes_um"]),
+                ", ".join(f"{p:.1f}" for p in c["phases_deg"]),
+                ", ".join(f"{g:.0f}" for g in c.get("grazing_rpm", [])) or "–",
+                f"{1e9 * c['depth_m']:.1f}" if "depth_m" in c else "–",
+                "; ".join(f"{float(rpm):g}: " + "/".join(f"{100 * f:.1f}"
+                                                          for f in v["fractions"])
+                          for rpm, v in c.get("nonlinear", {}).items()) or "no solution"])
+    return rows
+
+
 EXCITATION_COLUMNS = ["TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "resonances, all (rpm)",
                       "grazings, all (rpm)", "windows, all (rpm)",
                       "primary peak internal → all", "span internal → all", "IPP 1070 rpm",
@@ -521,6 +572,74 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     return out
 
 
+def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
+              starts: list[tuple[tuple[float, ...], tuple[float, ...]]],
+              shares: dict[float, list[float]], tol: float, min_depth: float,
+              internal_range: tuple[float, float] | None,
+              weights: dict[float, float] | None = None, rpm_step: float = 10.0,
+              target: tuple[float, ...] = PAPER_GRAZING, max_evals: int = 350,
+              restarts: int = 2) -> dict:
+    """The TE against the nonlinear IPP at the speeds of ``shares`` (shares of the turn
+    at 0, 1, 2, 3+ impacts per mesh period, all excitations) with the grazings within
+    ``tol`` of ``target`` and windows ``min_depth`` deep on the linear margin, and with
+    ``internal_range`` the internal-only case impacting over that range, each speed's
+    distance weighted by ``weights`` (default 1)
+    (:func:`benchmarks.te_ipp.refine_nonlinear_ipp`, from each of ``starts``). The
+    Newton starts are the branch of the first start over the speeds ± 100 rpm."""
+    import study
+    from benchmarks import te_ipp
+    from benchmarks import te_margin as tm
+    from study.excitations import solution_at
+
+    lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
+    ov = basis_overrides(extra)
+    t0 = time.perf_counter()
+    model = tm.MarginModel(tm.build_basis(scene, ov, np.arange(lo, hi + 0.5 * rpm_step,
+                                                               rpm_step), cache), time_step=2)
+    internal = None
+    if internal_range is not None:
+        i_lo, i_hi = internal_range
+        internal = tm.MarginModel(tm.build_basis(
+            scene, ov, np.arange(i_lo, i_hi + 1.0, 2 * rpm_step), cache, case="internal"))
+    speeds = sorted(float(r) for r in shares)
+    a0, p0 = starts[0]
+    run = study.run(scene, work / "refine_nl_branch", cache_dir=cache, until="hbm", overrides={
+        **ov, "hbm.stability": False, "outputs.plots": [], "outputs.housing_field_rpm": [],
+        "outputs.report": False, "continuation.speed_rpm": [speeds[0] - 100.0,
+                                                            speeds[-1] + 100.0],
+        "transmission_error.amplitudes_um": list(a0), "transmission_error.phases_deg": list(p0)})
+    nl = te_ipp.NonlinearIPP(run.problem, {r: solution_at(run, r)[0].unknowns for r in speeds},
+                             tol=run.scene.continuation.tolerance)
+    t = te_ipp.IPPTargets(shares=shares, weights=dict(weights or {}), tol=tol,
+                          min_depth=min_depth, internal=internal)
+    t1 = time.perf_counter()
+    found = []
+    for a, p in starts:
+        r = te_ipp.refine_nonlinear_ipp(model, nl, target, t, a, p, max_evals=max_evals,
+                                        restarts=restarts)
+        log.info("nonlinear IPP %.4f: amps %s phases %s grazings %s depth %.1f nm; %s",
+                 r["objective"], np.round(r["amplitudes_um"], 4), np.round(r["phases_deg"], 1),
+                 np.round(r.get("grazing_rpm", [])), 1e9 * r.get("depth_m", np.nan),
+                 {k: np.round(v["fractions"], 3).tolist()
+                  for k, v in r.get("nonlinear", {}).items()})
+        found.append(r)
+    return {"overrides": ov, "rpm": [lo, hi, rpm_step], "target_rpm": list(target),
+            "weights": {str(k): v for k, v in t.weights.items()},
+            "internal_rpm": None if internal_range is None else list(internal_range),
+            "basis_seconds": round(t1 - t0, 1), "seconds": round(time.perf_counter() - t0, 1),
+            "refined": sorted(found, key=lambda r: r["objective"])}
+
+
+def _weight(text: str) -> tuple[float, float]:
+    rpm, _, w = text.partition("=")
+    return float(rpm), float(w)
+
+
+def _shares(text: str) -> tuple[float, list[float]]:
+    rpm, _, vals = text.partition("=")
+    return float(rpm), [float(v) for v in vals.split(",")]
+
+
 #: Rows of ``paper.md`` kept by :func:`record` (label -> start of the row).
 PAPER_ROWS = {"resonances": "| resonance speeds", "grazings": "| grazing speeds",
               "windows": "| permanent-contact windows", "primary_peak": "| primary peak",
@@ -565,7 +684,8 @@ def _floats(text: str) -> tuple[float, ...]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("command", choices=["scan", "calibrate", "screen", "record", "show", "plot"])
+    p.add_argument("command", choices=["scan", "calibrate", "screen", "refine-nl", "record",
+                                        "show", "plot"])
     p.add_argument("--scene", type=Path, default=SCENE,
                    help="scene file (other than pump.toml: its own section of the JSON)")
     p.add_argument("--scale", type=_floats, default=(),
@@ -594,6 +714,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--ipp-objective", choices=["fractions", "coexist"], default="fractions",
                    help="screen: the reference shares, or contact and 3-IPP in one turn")
     p.add_argument("--ipp-restarts", type=int, default=3)
+    p.add_argument("--nl-ipp", action="append", default=[], type=_shares,
+                   metavar="RPM=F0,F1,F2,F3",
+                   help="refine-nl: shares of the turn at 0,1,2,3+ impacts per mesh period "
+                        "of the nonlinear solution at RPM (repeatable)")
+    p.add_argument("--nl-ipp-weight", action="append", default=[], type=_weight,
+                   metavar="RPM=W", help="refine-nl: weight of the --nl-ipp at RPM (default 1)")
+    p.add_argument("--min-depth-nm", type=float, default=6.0,
+                   help="refine-nl: depth of the permanent-contact windows (linear margin)")
+    p.add_argument("--internal-impacts", type=_floats, default=None, metavar="LO,HI",
+                   help="refine-nl: the internal-only case impacts at every speed LO–HI "
+                        "(linear margin below -6 nm)")
     p.add_argument("--start", type=_floats, default=SHIPPED_UM)
     p.add_argument("--slope", type=float, default=-0.08,
                    help="initial d(relative speed error)/d(log amplitude)")
@@ -628,6 +759,26 @@ def main(argv: list[str] | None = None) -> int:
         ph = a.phases[0] if a.phases else None
         key = _key(a.amps[0], {} if ph is None else {"transmission_error.phases_deg": list(ph)})
         ev.section.setdefault("excitations", {})[key] = record(a.out)
+        _save(a.json, ev.data)
+    elif a.command == "refine-nl":
+        if not a.nl_ipp or not a.amps or len(a.phases) != len(a.amps):
+            p.error("refine-nl needs --nl-ipp and --amps with --phases (the starts)")
+        shares = dict(a.nl_ipp)
+        for rpm, sh in shares.items():
+            if len(sh) != 4 or min(sh) < 0 or abs(sum(sh) - 1.0) > 1e-6:
+                p.error(f"--nl-ipp {rpm:g}={sh}: four shares >= 0 summing to 1")
+        tol = 0.03 if a.robust is None else a.robust
+        starts = list(zip(a.amps, a.phases, strict=True))
+        weights = dict(a.nl_ipp_weight)
+        if set(weights) - set(shares) or any(w < 0 for w in weights.values()):
+            p.error(f"--nl-ipp-weight {weights}: weights >= 0 of speeds given by --nl-ipp")
+        r = refine_nl(a.scene, extra, a.cache, a.work, starts, shares, tol,
+                      1e-9 * a.min_depth_nm, a.internal_impacts, weights)
+        ev.section.setdefault("nonlinear_ipp", {})[_key((), {
+            **r["overrides"], "shares": {str(k): v for k, v in shares.items()}, "tol": tol,
+            "min_depth_nm": a.min_depth_nm, "internal": a.internal_impacts,
+            "weights": {str(k): v for k, v in weights.items()},
+            "starts": [[list(x), list(y)] for x, y in starts]})] = r
         _save(a.json, ev.data)
     elif a.command == "screen":
         given = list(zip(a.amps, a.phases, strict=True)) if a.phases else \

@@ -82,10 +82,14 @@ class MarginBasis:
 
 
 def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
-                n_te: int = 3, n_time: int | None = None) -> MarginBasis:
+                n_te: int = 3, n_time: int | None = None,
+                case: str | None = None) -> MarginBasis:
     """Linear solutions of the scene at ``rpm`` for no TE harmonics and for each unit
-    harmonic (real and imaginary), from the cached ROM."""
+    harmonic (real and imaginary), from the cached ROM; with ``case`` (``"internal"``,
+    ``"external"``, ``"all"``) those of that excitation case of
+    :func:`study.excitations.case_scenes`."""
     from hbm.fixed_speed import RPM_TO_RAD_S, initial_guess
+    from study.excitations import case_scenes
     from study.pipeline import Pipeline
     from study.scene_load import load_scene
 
@@ -93,6 +97,8 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
         ov = {**overrides, "transmission_error.amplitudes_um": list(amps),
               "transmission_error.phases_deg": list(phases)}
         sc = load_scene(scene_path, ov)
+        if case is not None:
+            sc = case_scenes(sc)[case]
         return Pipeline(sc, cache / "te_margin_out", cache_dir=cache,
                         progress=False).problem()[0]
 

@@ -1,0 +1,247 @@
+"""Impacts per mesh period of the *nonlinear* solution at fixed speeds as a function of
+the transmission-error harmonics: the second stage of the TE calibration of
+:mod:`benchmarks.calibrate_pump` after the linear screen of :mod:`benchmarks.te_margin`.
+
+The linear margin locates grazings exactly (there the branch is the linear solution), but
+far from them the impacts change the response, and the IPP of the linear solution is not
+the branch's. Here every candidate TE is solved by Newton at each target speed
+(:meth:`hbm.HBMProblem.solve`), started from the solution of the nearest candidate seen so
+far (a homotopy in the TE, from a branch point of the scene's own run). The share of the
+turn with at least 1, 2, 3 impacts per mesh period is measured smoothly on the lowest
+minima of ``p - b = Delta - e - b`` in each mesh period (:func:`benchmarks.te_margin.soft_ipp`)
+so that Nelder–Mead sees a slope, and exactly by :func:`hbm.point_stats` for the report.
+The grazings stay on the linear margin (within a tolerance), the permanent-contact
+windows keep a depth, and optionally the internal-only case keeps impacting over a range
+(the span-change criterion of docs/theory.md §13.5).
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+
+import numpy as np
+
+from benchmarks import te_margin as tm
+from hbm import ConvergenceError, HBMProblem, Point, point_stats
+
+log = logging.getLogger("te_ipp")
+
+
+def with_te(problem: HBMProblem, amps_um, phases_deg) -> HBMProblem:
+    """``problem`` with TE harmonics 1, 2, ... set to ``amps_um`` (µm) at ``phases_deg``
+    (deg), the scene's convention ``a_k exp(i phi_k)`` (``study.scene_data``); the mean,
+    the kind (loaded/unloaded) and everything else are kept."""
+    amps, phs = np.asarray(amps_um, dtype=float), np.asarray(phases_deg, dtype=float)
+    if amps.shape != phs.shape or amps.ndim != 1:
+        raise ValueError(f"amps_um {amps.shape} and phases_deg {phs.shape}: one value per "
+                         "TE harmonic each")
+    if not (np.all(np.isfinite(amps)) and np.all(amps >= 0) and np.all(np.isfinite(phs))):
+        raise ValueError(f"amps_um = {amps.tolist()}, phases_deg = {phs.tolist()}: "
+                         "amplitudes must be finite and >= 0, phases finite")
+    te = {k: c for k, c in problem.mesh.te.items() if k == 0 or k > amps.size}
+    for k, (a, p) in enumerate(zip(amps, phs, strict=True), start=1):
+        te[k] = complex(1e-6 * a * np.exp(1j * np.radians(p)))
+    mesh = dataclasses.replace(problem.mesh, te=te)
+    return HBMProblem(problem.system, mesh, problem.excitation, problem.harmonics,
+                      condensation=problem.condensation,
+                      linear_solver="krylov" if problem.matrix_free else "dense",
+                      aft=problem.aft)
+
+
+def gap_signal(problem: HBMProblem, unknowns: np.ndarray, n_time: int | None = None
+               ) -> np.ndarray:
+    """``p - b = Delta - e - b`` (m) of a solution on ``n_time`` samples of its period
+    (default four times the AFT grid, a whole number per mesh period, as
+    :func:`hbm.point_stats` samples it): negative where the active flank is open."""
+    step = problem.mesh_step
+    n = 4 * problem.harmonics.n_time if n_time is None else int(n_time)
+    n = step * int(np.ceil(n / step))
+    synth, _, e = problem.fine_grid(n)
+    return synth @ problem.delta_real(unknowns) - e - problem.b
+
+
+def ipp_fractions(ipp: np.ndarray, n_max: int = 3) -> np.ndarray:
+    """Shares of the turn at 0, 1, ..., ``n_max``+ impacts per mesh period."""
+    return tm.ipp_fraction_vector(np.asarray(ipp), n_max)
+
+
+class NonlinearIPP:
+    """Nonlinear solutions of TE candidates at fixed speeds.
+
+    Parameters
+    ----------
+    problem
+        The scene's problem (any TE; only its TE harmonics are replaced).
+    starts
+        {rpm: unknowns} solutions of ``problem`` (e.g. branch points) at the speeds.
+    tol
+        Newton's relative residual tolerance.
+    keep
+        How many solved candidates to keep as starting points.
+    """
+
+    def __init__(self, problem: HBMProblem, starts: dict[float, np.ndarray],
+                 tol: float = 1e-8, keep: int = 400) -> None:
+        if not starts:
+            raise ValueError("starts: give a solution at one speed at least")
+        self.problem, self.tol, self.keep = problem, float(tol), int(keep)
+        self.speeds = tuple(float(r) for r in starts)
+        te = problem.mesh.te
+        x0 = [np.log(max(abs(te.get(k, 0.0)) * 1e6, 1e-6)) for k in (1, 2, 3)]
+        p0 = [np.degrees(np.angle(te.get(k, 0.0))) for k in (1, 2, 3)]
+        self._store = [(np.r_[x0, p0], {float(r): np.asarray(u, dtype=float)
+                                        for r, u in starts.items()})]
+
+    def _nearest(self, x: np.ndarray) -> dict[float, np.ndarray]:
+        # amplitudes on a log scale, phases per 30 degrees
+        w = np.r_[np.ones(3), np.full(3, 1.0 / 30.0)]
+        d = [np.abs((x - xs) * w).sum() for xs, _ in self._store]
+        return self._store[int(np.argmin(d))][1]
+
+    def solve(self, amps_um, phases_deg) -> tuple[HBMProblem, dict[float, Point]] | None:
+        """The problem of the candidate and its solution at each speed, or None when
+        Newton fails at one of them."""
+        x = np.r_[np.log(np.asarray(amps_um, dtype=float)), np.asarray(phases_deg, float)]
+        start = self._nearest(x)
+        prob = with_te(self.problem, amps_um, phases_deg)
+        out: dict[float, Point] = {}
+        for rpm in self.speeds:
+            try:
+                out[rpm] = prob.solve(rpm, x0=start[rpm], tol=self.tol)
+            except ConvergenceError:
+                return None
+        sol = {r: p.unknowns for r, p in out.items()}
+        if len(self._store) < self.keep:
+            self._store.append((x, sol))
+        else:                                   # the first entry (the scene's) stays
+            self._store[1 + len(self._store) % (self.keep - 1)] = (x, sol)
+        return prob, out
+
+
+def soft_shares(problem: HBMProblem, point: Point, scale: float, n: int = 3) -> np.ndarray:
+    """Smooth shares of the turn at >= 1, ..., >= ``n`` impacts per mesh period of a
+    nonlinear solution (:func:`benchmarks.te_margin.soft_ipp` on :func:`gap_signal`)."""
+    return tm.soft_ipp(gap_signal(problem, point.unknowns), problem.mesh_step, scale, n)
+
+
+@dataclasses.dataclass
+class IPPTargets:
+    """What :func:`refine_nonlinear_ipp` fits besides the grazings.
+
+    Attributes
+    ----------
+    shares
+        {rpm: shares of the turn at 0, 1, 2, 3+ impacts per mesh period}.
+    weights
+        {rpm: weight} of each speed's distance (default 1).
+    tol
+        Relative tolerance of the grazings on the linear margin.
+    min_depth
+        Depth (m) the permanent-contact windows keep on the linear margin.
+    internal
+        Linear margin model of the internal-only case whose speeds must all impact
+        (margin below ``-internal_margin``), or None.
+    internal_margin
+        That margin (m).
+    scale
+        Smoothing (m) of the impact count (:func:`soft_shares`).
+    """
+
+    shares: dict[float, list[float]]
+    weights: dict[float, float] = dataclasses.field(default_factory=dict)
+    tol: float = 0.03
+    min_depth: float = 6e-9
+    internal: tm.MarginModel | None = None
+    internal_margin: float = 6e-9
+    scale: float = 2e-9
+
+    def __post_init__(self) -> None:
+        for rpm, s in self.shares.items():
+            s = np.asarray(s, dtype=float)
+            if s.shape != (4,) or np.any(s < 0) or abs(s.sum() - 1.0) > 1e-6:
+                raise ValueError(f"shares[{rpm}] = {s.tolist()}: four shares (0, 1, 2, 3+ "
+                                 "impacts per mesh period) >= 0 summing to 1")
+        if not 0.0 < self.tol < 1.0:
+            raise ValueError(f"tol = {self.tol}: must be in (0, 1)")
+        if not self.scale > 0.0:
+            raise ValueError(f"scale = {self.scale}: must be > 0 (m)")
+
+
+def linear_penalty(model: tm.MarginModel, target: tuple[float, ...], t: IPPTargets,
+                   amps_um, phases_deg) -> tuple[float, dict]:
+    """Penalty of the linear criteria (0 when all hold): grazings beyond ``t.tol``
+    (100 per unit of relative error), windows shallower than ``t.min_depth`` and
+    internal-only speeds without impacts (1 per nm short); >= 10 without the target's
+    grazing pattern. Returns (penalty, the measured values)."""
+    m = model.margins(amps_um, phases_deg)[0]
+    s, c = tm.pattern_score(model.rpm, m, target)
+    if s >= 1.0:
+        return 10.0 + s, {"score": s}
+    err = float(np.max(np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)))
+    dep = tm.depth(model.rpm, m, c)
+    pen = 100.0 * max(err - t.tol, 0.0) + 1e9 * max(t.min_depth - dep, 0.0)
+    info = {"score": s, "grazing_rpm": c, "grazing_error": err, "depth_m": dep}
+    if t.internal is not None:
+        mi = float(t.internal.margins(amps_um, phases_deg)[0].max())
+        pen += 1e9 * max(mi + t.internal_margin, 0.0)
+        info["internal_max_margin_m"] = mi
+    return pen, info
+
+
+def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[float, ...],
+                         t: IPPTargets, amps_um, phases_deg, max_evals: int = 350,
+                         restarts: int = 2) -> dict:
+    """Nelder–Mead on (log amplitudes, phases) from a start: the linear criteria of
+    :func:`linear_penalty` and, where they hold, ``Σ w ½ Σ_k |s_k - r_k|`` over the
+    speeds of ``t.shares`` of the smooth nonlinear shares ``s`` (:func:`soft_shares`) at
+    >= k impacts against the reference's ``r`` (a failed Newton scores 500).
+    ``restarts`` runs of ``max_evals``, each from a fresh simplex at the last point.
+    Returns the candidate with its grazings and the exact nonlinear IPP per speed."""
+    from scipy.optimize import minimize
+
+    missing = set(map(float, t.shares)) - set(nl.speeds)
+    if missing:
+        raise ValueError(f"shares at {sorted(missing)} rpm: nl has solutions at "
+                         f"{list(nl.speeds)} rpm only")
+    ref = {float(r): tm.cumulative(np.asarray(s, dtype=float)) for r, s in t.shares.items()}
+
+    def f(x):
+        a, p = np.exp(x[:3]), x[3:]
+        pen, _ = linear_penalty(model, target, t, a, p)
+        if pen > 50.0:
+            return 100.0 + pen
+        sol = nl.solve(a, p)
+        if sol is None:
+            return 500.0
+        prob, pts = sol
+        d = sum(t.weights.get(r, 1.0) * 0.5 * float(np.abs(
+            soft_shares(prob, pts[r], t.scale) - c).sum()) for r, c in ref.items())
+        return pen + d
+
+    x = np.r_[np.log(amps_um), phases_deg]
+    r = None
+    for _ in range(restarts):
+        simplex = x + np.vstack([np.zeros(6), np.diag([0.06] * 3 + [6.0] * 3)])
+        r = minimize(f, x, method="Nelder-Mead",
+                     options={"xatol": 1e-4, "fatol": 1e-3, "maxfev": max_evals,
+                              "initial_simplex": simplex})
+        x = r.x
+    amps, phs = np.exp(x[:3]), np.mod(x[3:], 360.0)
+    pen, info = linear_penalty(model, target, t, amps, phs)
+    out = {"amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(), **info,
+           "linear_penalty": pen, "objective": float(r.fun),
+           "start": {"amplitudes_um": list(map(float, amps_um)),
+                     "phases_deg": list(map(float, phases_deg))},
+           "targets": {"shares": {str(k): list(v) for k, v in t.shares.items()},
+                       "tol": t.tol, "min_depth_m": t.min_depth, "scale_m": t.scale,
+                       "internal": t.internal is not None}}
+    sol = nl.solve(amps, phs)
+    if sol is not None:
+        prob, pts = sol
+        out["nonlinear"] = {}
+        for rpm, pt in pts.items():
+            ipp = point_stats(prob, pt).ipp
+            out["nonlinear"][str(rpm)] = {
+                "fractions": ipp_fractions(ipp).tolist(),
+                "ipp": ipp.tolist()}
+    return out

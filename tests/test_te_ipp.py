@@ -1,0 +1,84 @@
+"""benchmarks/te_ipp.py: the nonlinear IPP of TE candidates at fixed speeds, checked on
+the single-DOF scene (no FE, seconds) against problems built from the scene with that TE
+and against the counts of :func:`hbm.point_stats`."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks import te_ipp
+from benchmarks import te_margin as tm
+
+ROOT = Path(__file__).resolve().parent.parent
+SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
+OV = {"hbm.mesh_harmonics": 8, "hbm.stability": False}
+#: another TE than the scene's 20, 2, 0.5 µm at 0, 90, 0 deg
+TE = ([17.0, 3.5, 1.2], [25.0, 140.0, 300.0])
+#: single-sided impacts of the scene's branch (grazing at 1416 rpm, two-sided from 1791)
+RPM = 1600.0
+
+
+def _problem(cache: Path, amps=None, phases=None):
+    from study.pipeline import Pipeline
+    from study.scene_load import load_scene
+
+    ov = dict(OV)
+    if amps is not None:
+        ov.update({"transmission_error.amplitudes_um": list(amps),
+                   "transmission_error.phases_deg": list(phases)})
+    return Pipeline(load_scene(SDOF, ov), cache / "p", cache_dir=cache,
+                    progress=False).problem()[0]
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("te_ipp")
+
+
+def test_with_te_is_the_problem_of_the_scene_with_that_te(cache):
+    base, ref = _problem(cache), _problem(cache, *TE)
+    prob = te_ipp.with_te(base, *TE)
+    u = np.random.default_rng(0).standard_normal(prob.n_unknowns) * 1e-5
+    w = RPM * np.pi / 30.0
+    r, r_ref = prob.residual(u, w), ref.residual(u, w)
+    assert np.abs(r - r_ref).max() <= 1e-12 * np.abs(r_ref).max()
+    assert prob.mesh.te == pytest.approx(ref.mesh.te, rel=1e-14)
+
+
+def test_with_te_refuses_bad_input(cache):
+    base = _problem(cache)
+    with pytest.raises(ValueError, match="amps_um"):
+        te_ipp.with_te(base, [1.0, 2.0], [0.0])
+    with pytest.raises(ValueError, match=">= 0"):
+        te_ipp.with_te(base, [-1.0], [0.0])
+
+
+def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
+    from hbm import point_stats
+
+    base = _problem(cache)
+    start = base.solve(RPM)
+    assert point_stats(base, start).contact == 1              # single-sided impacts
+    nl = te_ipp.NonlinearIPP(base, {RPM: start.unknowns}, tol=1e-10)
+    prob, pts = nl.solve(*TE)
+    fresh = _problem(cache, *TE).solve(RPM, tol=1e-10)        # its own initial guess
+    u, v = pts[RPM].unknowns, fresh.unknowns
+    assert np.abs(u - v).max() <= 1e-7 * np.abs(v).max()
+    st = point_stats(prob, pts[RPM])
+    assert st.contact == 1
+    # impacts per mesh period of the sampled gap, as point_stats counts its loss samples
+    gap = te_ipp.gap_signal(prob, u)
+    from hbm import impacts_per_mesh_period
+    assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.mesh_step), st.ipp)
+    # the smooth shares tend to the exact ones (one loss interval per minimum here)
+    exact = tm.cumulative(te_ipp.ipp_fractions(st.ipp))
+    assert te_ipp.soft_shares(prob, pts[RPM], scale=1e-13) == pytest.approx(exact, abs=1e-9)
+
+
+def test_targets_refuse_shares_that_are_not_a_partition():
+    with pytest.raises(ValueError, match=r"shares\[1700"):
+        te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.7, 0.0]})
+    with pytest.raises(ValueError, match="tol"):
+        te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.8, 0.0]}, tol=0.0)

@@ -197,8 +197,6 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
     >= k impacts against the reference's ``r`` (a failed Newton scores 500).
     ``restarts`` runs of ``max_evals``, each from a fresh simplex at the last point.
     Returns the candidate with its grazings and the exact nonlinear IPP per speed."""
-    from scipy.optimize import minimize
-
     missing = set(map(float, t.shares)) - set(nl.speeds)
     if missing:
         raise ValueError(f"shares at {sorted(missing)} rpm: nl has solutions at "
@@ -218,15 +216,9 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
             soft_shares(prob, pts[r], t.scale) - c).sum()) for r, c in ref.items())
         return pen + d
 
-    x = np.r_[np.log(amps_um), phases_deg]
-    r = None
-    for _ in range(restarts):
-        simplex = x + np.vstack([np.zeros(6), np.diag([0.06] * 3 + [6.0] * 3)])
-        r = minimize(f, x, method="Nelder-Mead",
-                     options={"xatol": 1e-4, "fatol": 1e-3, "maxfev": max_evals,
-                              "initial_simplex": simplex})
-        x = r.x
-    amps, phs = np.exp(x[:3]), np.mod(x[3:], 360.0)
+    r = tm.nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.06] * 3 + [6.0] * 3,
+                       max_evals, xatol=1e-4, fatol=1e-3, restarts=restarts)
+    amps, phs = np.exp(r.x[:3]), np.mod(r.x[3:], 360.0)
     pen, info = linear_penalty(model, target, t, amps, phs)
     out = {"amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(), **info,
            "linear_penalty": pen, "objective": float(r.fun),

@@ -239,6 +239,25 @@ def robust_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...], tol:
     return 100.0 * max(e - tol, 0.0) - depth(rpm, m, c) / scale
 
 
+def nelder_mead(f, x0: np.ndarray, steps, max_evals: int, xatol: float, fatol: float,
+                restarts: int = 1):
+    """Nelder–Mead on ``f`` from ``x0`` with an initial simplex of ``steps`` along each
+    coordinate, ``restarts`` times from a fresh simplex at the last point (a restart
+    escapes a collapsed simplex). Returns SciPy's result of the last run."""
+    from scipy.optimize import minimize
+
+    if restarts < 1:
+        raise ValueError(f"restarts = {restarts}: must be >= 1")
+    x = np.asarray(x0, dtype=float)
+    for _ in range(restarts):
+        simplex = x + np.vstack([np.zeros(x.size), np.diag(np.asarray(steps, dtype=float))])
+        r = minimize(f, x, method="Nelder-Mead",
+                     options={"xatol": xatol, "fatol": fatol, "maxfev": max_evals,
+                              "initial_simplex": simplex})
+        x = r.x
+    return r
+
+
 def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
            max_evals: int = 500, robust: tuple[float, float] | None = None,
            fix_phases: bool = False) -> dict:
@@ -246,7 +265,6 @@ def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
     with ``fix_phases``), scored by :func:`pattern_score`, or with
     ``robust = (tol, scale)`` by :func:`robust_score` (the deepest windows with every
     grazing within ``tol``)."""
-    from scipy.optimize import minimize
 
     fixed = np.asarray(phases_deg, dtype=float)
 
@@ -258,10 +276,7 @@ def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
 
     x0 = np.log(amps_um) if fix_phases else np.r_[np.log(amps_um), phases_deg]
     steps = [0.15] * 3 + ([] if fix_phases else [20.0] * 3)
-    simplex = x0 + np.vstack([np.zeros(len(x0)), np.diag(steps)])
-    r = minimize(f, x0, method="Nelder-Mead",
-                 options={"xatol": 1e-3, "fatol": 1e-4, "maxfev": max_evals,
-                          "initial_simplex": simplex})
+    r = nelder_mead(f, x0, steps, max_evals, xatol=1e-3, fatol=1e-4)
     amps = np.exp(r.x[:3])
     phs = fixed if fix_phases else np.mod(r.x[3:], 360.0)
     m = model.margins(amps, phs)[0]
@@ -454,7 +469,6 @@ def refine_ipp(model: MarginModel, speed: SpeedModel, target: tuple[float, ...],
     (contact and the largest count of ``reference`` in one turn, whatever the shares).
     ``restarts`` runs of ``max_evals`` each, every one from a fresh simplex at the last
     point (the grazing penalty makes the landscape kinked)."""
-    from scipy.optimize import minimize
 
     if objective not in ("fractions", "coexist"):
         raise ValueError(f"objective = {objective!r}: must be 'fractions' or 'coexist'")
@@ -477,13 +491,8 @@ def refine_ipp(model: MarginModel, speed: SpeedModel, target: tuple[float, ...],
         soft = soft_ipp(sig, speed.mesh_step, scale, len(ref) - 1)
         return 100.0 * max(e - tol, 0.0) + 0.5 * float(np.abs(soft - ref_cum).sum())
 
-    x = np.r_[np.log(amps_um), phases_deg]
-    for _ in range(restarts):
-        simplex = x + np.vstack([np.zeros(6), np.diag([0.15] * 3 + [20.0] * 3)])
-        r = minimize(f, x, method="Nelder-Mead",
-                     options={"xatol": 1e-3, "fatol": 1e-5, "maxfev": max_evals,
-                              "initial_simplex": simplex})
-        x = r.x
+    r = nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.15] * 3 + [20.0] * 3,
+                    max_evals, xatol=1e-3, fatol=1e-5, restarts=restarts)
     amps, phs = np.exp(r.x[:3]), np.mod(r.x[3:], 360.0)
     m = model.margins(amps, phs)[0]
     s, c = pattern_score(model.rpm, m, target)

@@ -153,3 +153,14 @@ def test_speed_model_is_the_basis_signal_at_that_speed(tmp_path):
     assert np.min(got) == pytest.approx(np.min(ref), abs=1e-3 * np.ptp(ref))
     with pytest.raises(ValueError, match="rpm = 1000"):
         tm.SpeedModel(basis, 1000.0)
+
+
+def test_nelder_mead_restarts_reach_the_rosenbrock_minimum():
+    def rosen(x):
+        return 100.0 * (x[1] - x[0] ** 2) ** 2 + (1.0 - x[0]) ** 2
+
+    r = tm.nelder_mead(rosen, np.array([-1.2, 1.0]), [0.5, 0.5], 400, xatol=1e-8,
+                       fatol=1e-12, restarts=3)
+    assert r.x == pytest.approx([1.0, 1.0], abs=1e-4)   # the minimum of the function
+    with pytest.raises(ValueError, match="restarts = 0"):
+        tm.nelder_mead(rosen, np.zeros(2), [0.5, 0.5], 10, 1e-3, 1e-3, restarts=0)

@@ -22,7 +22,7 @@ import logging
 import numpy as np
 
 from benchmarks import te_margin as tm
-from hbm import ConvergenceError, HBMProblem, Point, point_stats
+from hbm import ConvergenceError, HBMProblem, Point, impacts_per_mesh_period, point_stats
 
 log = logging.getLogger("te_ipp")
 
@@ -124,6 +124,13 @@ def soft_shares(problem: HBMProblem, point: Point, scale: float, n: int = 3) -> 
     return tm.soft_ipp(gap_signal(problem, point.unknowns), problem.mesh_step, scale, n)
 
 
+def soft_fractions(cum: np.ndarray) -> np.ndarray:
+    """Shares at 0, 1, ..., n-1, n+ impacts from the shares at >= 1, ..., >= n impacts
+    (the inverse of :func:`benchmarks.te_margin.cumulative`)."""
+    c = np.r_[1.0, np.asarray(cum, dtype=float), 0.0]
+    return c[:-1] - c[1:]
+
+
 @dataclasses.dataclass
 class IPPTargets:
     """What :func:`refine_nonlinear_ipp` fits besides the grazings.
@@ -134,6 +141,9 @@ class IPPTargets:
         {rpm: shares of the turn at 0, 1, 2, 3+ impacts per mesh period}.
     weights
         {rpm: weight} of each speed's distance (default 1).
+    minimum
+        {rpm: lower bounds of the shares at 0, 1, 2, 3+ impacts per mesh period}
+        (penalised, not fitted: e.g. "keep some contact at 1070 rpm").
     tol
         Relative tolerance of the grazings on the linear margin.
     min_depth
@@ -149,6 +159,7 @@ class IPPTargets:
 
     shares: dict[float, list[float]]
     weights: dict[float, float] = dataclasses.field(default_factory=dict)
+    minimum: dict[float, list[float]] = dataclasses.field(default_factory=dict)
     tol: float = 0.03
     min_depth: float = 6e-9
     internal: tm.MarginModel | None = None
@@ -161,6 +172,11 @@ class IPPTargets:
             if s.shape != (4,) or np.any(s < 0) or abs(s.sum() - 1.0) > 1e-6:
                 raise ValueError(f"shares[{rpm}] = {s.tolist()}: four shares (0, 1, 2, 3+ "
                                  "impacts per mesh period) >= 0 summing to 1")
+        for rpm, s in self.minimum.items():
+            s = np.asarray(s, dtype=float)
+            if s.shape != (4,) or np.any(s < 0) or s.sum() > 1.0:
+                raise ValueError(f"minimum[{rpm}] = {s.tolist()}: four lower bounds (0, 1, "
+                                 "2, 3+ impacts per mesh period) >= 0 summing to <= 1")
         if not 0.0 < self.tol < 1.0:
             raise ValueError(f"tol = {self.tol}: must be in (0, 1)")
         if not self.scale > 0.0:
@@ -194,14 +210,16 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
     """Nelder–Mead on (log amplitudes, phases) from a start: the linear criteria of
     :func:`linear_penalty` and, where they hold, ``Σ w ½ Σ_k |s_k - r_k|`` over the
     speeds of ``t.shares`` of the smooth nonlinear shares ``s`` (:func:`soft_shares`) at
-    >= k impacts against the reference's ``r`` (a failed Newton scores 500).
-    ``restarts`` runs of ``max_evals``, each from a fresh simplex at the last point.
+    >= k impacts against the reference's ``r``, plus 100 per unit of share (exact
+    and smooth) below the bounds ``t.minimum`` (a failed Newton scores 500). ``restarts`` runs of
+    ``max_evals``, each from a fresh simplex at the last point.
     Returns the candidate with its grazings and the exact nonlinear IPP per speed."""
-    missing = set(map(float, t.shares)) - set(nl.speeds)
+    missing = (set(map(float, t.shares)) | set(map(float, t.minimum))) - set(nl.speeds)
     if missing:
         raise ValueError(f"shares at {sorted(missing)} rpm: nl has solutions at "
                          f"{list(nl.speeds)} rpm only")
     ref = {float(r): tm.cumulative(np.asarray(s, dtype=float)) for r, s in t.shares.items()}
+    low = {float(r): np.asarray(s, dtype=float) for r, s in t.minimum.items()}
 
     def f(x):
         a, p = np.exp(x[:3]), x[3:]
@@ -214,6 +232,12 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
         prob, pts = sol
         d = sum(t.weights.get(r, 1.0) * 0.5 * float(np.abs(
             soft_shares(prob, pts[r], t.scale) - c).sum()) for r, c in ref.items())
+        for r, lo in low.items():        # 100 per unit of share below its bound, exact
+            gap = gap_signal(prob, pts[r].unknowns)     # and smooth (for a slope)
+            exact = ipp_fractions(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
+            soft = soft_fractions(tm.soft_ipp(gap, prob.mesh_step, t.scale))
+            d += 100.0 * float(np.maximum(lo - exact, 0.0).sum()
+                               + np.maximum(lo - soft, 0.0).sum())
         return pen + d
 
     r = tm.nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.06] * 3 + [6.0] * 3,
@@ -225,6 +249,7 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
            "start": {"amplitudes_um": list(map(float, amps_um)),
                      "phases_deg": list(map(float, phases_deg))},
            "targets": {"shares": {str(k): list(v) for k, v in t.shares.items()},
+                       "minimum": {str(k): list(v) for k, v in t.minimum.items()},
                        "tol": t.tol, "min_depth_m": t.min_depth, "scale_m": t.scale,
                        "internal": t.internal is not None}}
     sol = nl.solve(amps, phs)

@@ -82,3 +82,10 @@ def test_targets_refuse_shares_that_are_not_a_partition():
         te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.7, 0.0]})
     with pytest.raises(ValueError, match="tol"):
         te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.8, 0.0]}, tol=0.0)
+
+
+def test_soft_fractions_invert_cumulative_and_bounds_are_checked():
+    f = np.array([0.1, 0.2, 0.6, 0.1])
+    assert te_ipp.soft_fractions(tm.cumulative(f)) == pytest.approx(f, abs=1e-15)
+    with pytest.raises(ValueError, match="minimum"):
+        te_ipp.IPPTargets(shares={}, minimum={1070.0: [0.5, 0.5, 0.5, 0.0]})

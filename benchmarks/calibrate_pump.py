@@ -78,19 +78,17 @@ speed (:func:`benchmarks.te_margin.refine_ipp`: the paper's Fig. 18 shares, or w
 ``refine-nl`` refines the TE against the *nonlinear* IPP (:mod:`benchmarks.te_ipp`:
 Newton from the stored branch points, homotopy in the TE) at the speeds of ``--nl-ipp
 RPM=f0,f1,f2,f3`` (shares of the turn at 0, 1, 2, 3+ impacts per mesh period), each
-weighted by ``--nl-ipp-weight RPM=W``, under the linear grazings within ``--robust``
+weighted by ``--nl-ipp-weight RPM=W``, with the shares at the speeds of ``--nl-ipp-min
+RPM=f0,f1,f2,f3`` kept above those bounds, under the linear grazings within ``--robust``
 (default 0.03), windows ``--min-depth-nm`` deep and, with ``--internal-impacts LO,HI``,
 the internal-only case impacting over that range (docs/theory.md §13.5, "A third
-criterion: the 1-IPP phases at 1700 rpm"). The scene's TE is the result of the second
-command, started from an exploratory pick; the first starts from the session-8 TE and
-loses its contact phases at 1070 rpm::
+criterion: the 1-IPP phases at 1700 rpm"). The scene's TE is the second stage of::
 
-    ... refine-nl $S --converged --internal-impacts 2600,7000 --robust 0.025 \\
-        --nl-ipp 1700=0,0.2,0.8,0 --amps 0.4086,0.1956,0.0403 \\
-        --phases 218.3,303.1,76.8                                       # 2 min
-    ... refine-nl $S --converged --internal-impacts 2600,7000 --robust 0.03 \\
-        --nl-ipp 1700=0,0.2,0.8,0 --amps 0.4341,0.1745,0.0389 \\
-        --phases 213.7,303.0,78.9                                       # 2 min
+    N="--internal-impacts 2600,7000 --nl-ipp 1700=0,0.2,0.8,0"
+    ... refine-nl $S --converged $N --robust 0.03 --nl-ipp-min 1070=0.03,0.03,0.03,0 \\
+        --amps 0.4086,0.1956,0.0403 --phases 218.3,303.1,76.8          # 3 min
+    ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
+        --amps 0.4246,0.1761,0.0414 --phases 215.8,303.4,78.5          # 3 min
 
 Not a timing benchmark (not picked up by ``run_all``).
 """
@@ -404,6 +402,8 @@ def nl_ipp_rows(recs: dict) -> list[list[str]]:
                            + ("" if k.get("weights", {}).get(rpm) is None
                               else f" (weight {k['weights'][rpm]:g})")
                            for rpm, sh in k["shares"].items())
+        fitted += "".join(f"; {float(rpm):g} at least " + "/".join(f"{v:g}" for v in lo)
+                          for rpm, lo in k.get("minimum", {}).items())
         for c in r["refined"]:
             st = c["start"]
             rows.append([
@@ -576,14 +576,16 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
               starts: list[tuple[tuple[float, ...], tuple[float, ...]]],
               shares: dict[float, list[float]], tol: float, min_depth: float,
               internal_range: tuple[float, float] | None,
-              weights: dict[float, float] | None = None, rpm_step: float = 10.0,
+              weights: dict[float, float] | None = None,
+              minimum: dict[float, list[float]] | None = None, rpm_step: float = 10.0,
               target: tuple[float, ...] = PAPER_GRAZING, max_evals: int = 350,
               restarts: int = 2) -> dict:
     """The TE against the nonlinear IPP at the speeds of ``shares`` (shares of the turn
     at 0, 1, 2, 3+ impacts per mesh period, all excitations) with the grazings within
     ``tol`` of ``target`` and windows ``min_depth`` deep on the linear margin, and with
     ``internal_range`` the internal-only case impacting over that range, each speed's
-    distance weighted by ``weights`` (default 1)
+    distance weighted by ``weights`` (default 1) and the shares kept above ``minimum``
+    at its speeds
     (:func:`benchmarks.te_ipp.refine_nonlinear_ipp`, from each of ``starts``). The
     Newton starts are the branch of the first start over the speeds ± 100 rpm."""
     import study
@@ -601,7 +603,7 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
         i_lo, i_hi = internal_range
         internal = tm.MarginModel(tm.build_basis(
             scene, ov, np.arange(i_lo, i_hi + 1.0, 2 * rpm_step), cache, case="internal"))
-    speeds = sorted(float(r) for r in shares)
+    speeds = sorted({float(r) for r in shares} | {float(r) for r in (minimum or {})})
     a0, p0 = starts[0]
     run = study.run(scene, work / "refine_nl_branch", cache_dir=cache, until="hbm", overrides={
         **ov, "hbm.stability": False, "outputs.plots": [], "outputs.housing_field_rpm": [],
@@ -610,7 +612,8 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
         "transmission_error.amplitudes_um": list(a0), "transmission_error.phases_deg": list(p0)})
     nl = te_ipp.NonlinearIPP(run.problem, {r: solution_at(run, r)[0].unknowns for r in speeds},
                              tol=run.scene.continuation.tolerance)
-    t = te_ipp.IPPTargets(shares=shares, weights=dict(weights or {}), tol=tol,
+    t = te_ipp.IPPTargets(shares=shares, weights=dict(weights or {}),
+                          minimum=dict(minimum or {}), tol=tol,
                           min_depth=min_depth, internal=internal)
     t1 = time.perf_counter()
     found = []
@@ -625,6 +628,7 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
         found.append(r)
     return {"overrides": ov, "rpm": [lo, hi, rpm_step], "target_rpm": list(target),
             "weights": {str(k): v for k, v in t.weights.items()},
+            "minimum": {str(k): v for k, v in t.minimum.items()},
             "internal_rpm": None if internal_range is None else list(internal_range),
             "basis_seconds": round(t1 - t0, 1), "seconds": round(time.perf_counter() - t0, 1),
             "refined": sorted(found, key=lambda r: r["objective"])}
@@ -720,6 +724,10 @@ def main(argv: list[str] | None = None) -> int:
                         "of the nonlinear solution at RPM (repeatable)")
     p.add_argument("--nl-ipp-weight", action="append", default=[], type=_weight,
                    metavar="RPM=W", help="refine-nl: weight of the --nl-ipp at RPM (default 1)")
+    p.add_argument("--nl-ipp-min", action="append", default=[], type=_shares,
+                   metavar="RPM=f0,f1,f2,f3",
+                   help="refine-nl: lower bounds of the shares at 0, 1, 2, 3+ impacts per "
+                        "mesh period at RPM (repeatable)")
     p.add_argument("--min-depth-nm", type=float, default=6.0,
                    help="refine-nl: depth of the permanent-contact windows (linear margin)")
     p.add_argument("--internal-impacts", type=_floats, default=None, metavar="LO,HI",
@@ -772,12 +780,17 @@ def main(argv: list[str] | None = None) -> int:
         weights = dict(a.nl_ipp_weight)
         if set(weights) - set(shares) or any(w < 0 for w in weights.values()):
             p.error(f"--nl-ipp-weight {weights}: weights >= 0 of speeds given by --nl-ipp")
+        minimum = dict(a.nl_ipp_min)
+        for rpm, lo in minimum.items():
+            if len(lo) != 4 or min(lo) < 0 or sum(lo) > 1.0:
+                p.error(f"--nl-ipp-min {rpm:g}={lo}: four lower bounds >= 0 summing to <= 1")
         r = refine_nl(a.scene, extra, a.cache, a.work, starts, shares, tol,
-                      1e-9 * a.min_depth_nm, a.internal_impacts, weights)
+                      1e-9 * a.min_depth_nm, a.internal_impacts, weights, minimum)
         ev.section.setdefault("nonlinear_ipp", {})[_key((), {
             **r["overrides"], "shares": {str(k): v for k, v in shares.items()}, "tol": tol,
             "min_depth_nm": a.min_depth_nm, "internal": a.internal_impacts,
             "weights": {str(k): v for k, v in weights.items()},
+            **({"minimum": {str(k): v for k, v in minimum.items()}} if minimum else {}),
             "starts": [[list(x), list(y)] for x, y in starts]})] = r
         _save(a.json, ev.data)
     elif a.command == "screen":

@@ -78,6 +78,20 @@ def test_ipp_at_1700_rpm_is_the_calibrated_one(result):
     assert len(runs) == 2 and runs[0] == pytest.approx(runs[1], abs=0.03)
 
 
+def test_contact_phases_at_1070_rpm_are_kept(result):
+    """The calibration's lower bound at 1070 rpm (``--nl-ipp-min 1070=0.03,0.015,0.1,0``):
+    contact, 1-IPP and 2-IPP mesh periods in one turn (Fig. 18 without its 3-IPP)."""
+    import numpy as np
+
+    from hbm import point_stats
+    from study.excitations import solution_at
+
+    pt, _ = solution_at(result, 1070.0)
+    ipp = point_stats(result.problem, pt).ipp
+    shares = np.bincount(ipp, minlength=4) / ipp.size
+    assert shares[0] >= 0.03 and shares[1] >= 0.015 and shares[2] >= 0.1
+
+
 def test_internal_only_impacts_reach_the_end_of_the_range(work):
     """The TE's second criterion: with the internal excitation alone the teeth keep
     losing contact from the H_Z region to 7000 rpm, so the span change comes from the

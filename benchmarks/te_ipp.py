@@ -78,32 +78,43 @@ class NonlinearIPP:
         Newton's relative residual tolerance.
     keep
         How many solved candidates to keep as starting points.
+    n_te
+        How many TE harmonics (1, ..., n_te) the candidates set.
     """
 
     def __init__(self, problem: HBMProblem, starts: dict[float, np.ndarray],
-                 tol: float = 1e-8, keep: int = 400) -> None:
+                 tol: float = 1e-8, keep: int = 400, n_te: int = 3) -> None:
         if not starts:
             raise ValueError("starts: give a solution at one speed at least")
-        self.problem, self.tol, self.keep = problem, float(tol), int(keep)
+        if n_te < 1 or keep < 2:
+            raise ValueError(f"n_te = {n_te}, keep = {keep}: must be >= 1 and >= 2")
+        self.problem, self.tol, self.keep, self.n_te = problem, float(tol), int(keep), n_te
         self.speeds = tuple(float(r) for r in starts)
         te = problem.mesh.te
-        x0 = [np.log(max(abs(te.get(k, 0.0)) * 1e6, 1e-6)) for k in (1, 2, 3)]
-        p0 = [np.degrees(np.angle(te.get(k, 0.0))) for k in (1, 2, 3)]
+        ks = range(1, n_te + 1)
+        x0 = [np.log(max(abs(te.get(k, 0.0)) * 1e6, 1e-6)) for k in ks]
+        p0 = [np.degrees(np.angle(te.get(k, 0.0))) for k in ks]
         self._store = [(np.r_[x0, p0], {float(r): np.asarray(u, dtype=float)
                                         for r, u in starts.items()})]
 
     def _nearest(self, x: np.ndarray) -> dict[float, np.ndarray]:
-        # amplitudes on a log scale, phases per 30 degrees
-        w = np.r_[np.ones(3), np.full(3, 1.0 / 30.0)]
-        d = [np.abs((x - xs) * w).sum() for xs, _ in self._store]
+        # amplitudes on a log scale, phases per 30 degrees (wrapped)
+        n = self.n_te
+        d = [np.abs(x[:n] - xs[:n]).sum()
+             + np.abs((x[n:] - xs[n:] + 180.0) % 360.0 - 180.0).sum() / 30.0
+             for xs, _ in self._store]
         return self._store[int(np.argmin(d))][1]
 
     def solve(self, amps_um, phases_deg) -> tuple[HBMProblem, dict[float, Point]] | None:
         """The problem of the candidate and its solution at each speed, or None when
         Newton fails at one of them."""
-        x = np.r_[np.log(np.asarray(amps_um, dtype=float)), np.asarray(phases_deg, float)]
+        if np.size(amps_um) != self.n_te:
+            raise ValueError(f"amps_um has {np.size(amps_um)} values: give n_te = "
+                             f"{self.n_te} (TE harmonics 1..{self.n_te})")
+        prob = with_te(self.problem, amps_um, phases_deg)    # checks the values
+        x = np.r_[np.log(np.maximum(np.asarray(amps_um, dtype=float), 1e-6)),
+                  np.asarray(phases_deg, dtype=float)]
         start = self._nearest(x)
-        prob = with_te(self.problem, amps_um, phases_deg)
         out: dict[float, Point] = {}
         for rpm in self.speeds:
             try:
@@ -220,9 +231,12 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
                          f"{list(nl.speeds)} rpm only")
     ref = {float(r): tm.cumulative(np.asarray(s, dtype=float)) for r, s in t.shares.items()}
     low = {float(r): np.asarray(s, dtype=float) for r, s in t.minimum.items()}
+    n = nl.n_te
+    if np.size(amps_um) != n or np.size(phases_deg) != n:
+        raise ValueError(f"amps_um, phases_deg: {n} values each (nl.n_te)")
 
     def f(x):
-        a, p = np.exp(x[:3]), x[3:]
+        a, p = np.exp(x[:n]), x[n:]
         pen, _ = linear_penalty(model, target, t, a, p)
         if pen > 50.0:
             return 100.0 + pen
@@ -240,9 +254,9 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
                                + np.maximum(lo - soft, 0.0).sum())
         return pen + d
 
-    r = tm.nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.06] * 3 + [6.0] * 3,
+    r = tm.nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.06] * n + [6.0] * n,
                        max_evals, xatol=1e-4, fatol=1e-3, restarts=restarts)
-    amps, phs = np.exp(r.x[:3]), np.mod(r.x[3:], 360.0)
+    amps, phs = np.exp(r.x[:n]), np.mod(r.x[n:], 360.0)
     pen, info = linear_penalty(model, target, t, amps, phs)
     out = {"amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(), **info,
            "linear_penalty": pen, "objective": float(r.fun),

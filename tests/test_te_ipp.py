@@ -53,6 +53,9 @@ def test_with_te_refuses_bad_input(cache):
         te_ipp.with_te(base, [1.0, 2.0], [0.0])
     with pytest.raises(ValueError, match=">= 0"):
         te_ipp.with_te(base, [-1.0], [0.0])
+    nl = te_ipp.NonlinearIPP(base, {RPM: np.zeros(3)}, n_te=2)
+    with pytest.raises(ValueError, match="n_te = 2"):
+        nl.solve([1.0, 2.0, 3.0], [0.0, 0.0, 0.0])
 
 
 def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):

@@ -409,7 +409,8 @@ def nl_ipp_rows(recs: dict) -> list[list[str]]:
             rows.append([
                 ", ".join(f"{a:.4g}" for a in st["amplitudes_um"]) + "; "
                 + ", ".join(f"{p:.1f}" for p in st["phases_deg"]),
-                f"{100 * k['tol']:g} %", fitted,
+                f"{100 * k['tol']:g} %" + ("" if "pattern_penalty" not in k else
+                                           " (pattern penalty 100)"), fitted,
                 ", ".join(f"{a:.4f}" for a in c["amplitudes_um"]),
                 ", ".join(f"{p:.1f}" for p in c["phases_deg"]),
                 ", ".join(f"{g:.0f}" for g in c.get("grazing_rpm", [])) or "–",
@@ -572,6 +573,49 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     return out
 
 
+def branch_solutions(scene: Path, overrides: dict, cache: Path, work: Path,
+                     speeds: list[float], amps_um, phases_deg):
+    """The all-excitations run of ``scene`` with the TE ``amps_um`` at ``phases_deg`` over
+    ``speeds`` ± 100 rpm, and its solution at each speed (solved there:
+    :func:`study.excitations.solution_at`), for :class:`benchmarks.te_ipp.NonlinearIPP`.
+    Returns (run, {rpm: unknowns})."""
+    import study
+    from study.excitations import solution_at
+
+    run = study.run(scene, work, cache_dir=cache, until="hbm", overrides={
+        **overrides, "hbm.stability": False, "outputs.plots": [],
+        "outputs.housing_field_rpm": [], "outputs.report": False,
+        "continuation.speed_rpm": [min(speeds) - 100.0, max(speeds) + 100.0],
+        "transmission_error.amplitudes_um": list(amps_um),
+        "transmission_error.phases_deg": list(phases_deg)})
+    branch = {}
+    for r in speeds:
+        pt, how = solution_at(run, r)
+        if how == "nearest branch point":
+            raise RuntimeError(f"no solution at {r} rpm on the branch of that TE")
+        branch[r] = pt.unknowns
+    return run, branch
+
+
+def ipp_sensitivity(scene: Path, extra: dict, cache: Path, work: Path, speeds: list[float],
+                    amps_um, phases_deg, rel: float = 0.02, deg: float = 2.0) -> dict:
+    """Exact IPP shares at ``speeds`` of a TE and of each change of one amplitude by
+    ``±rel`` or one phase by ``±deg`` (:func:`benchmarks.te_ipp.sensitivity`)."""
+    from benchmarks import te_ipp
+
+    t0 = time.perf_counter()
+    ov = basis_overrides(extra)
+    run, branch = branch_solutions(scene, ov, cache, work / "sensitivity_branch", speeds,
+                                   amps_um, phases_deg)
+    nl = te_ipp.NonlinearIPP(run.problem, branch, tol=run.scene.continuation.tolerance)
+    rows = te_ipp.sensitivity(nl, amps_um, phases_deg, rel, deg)
+    for r in rows:
+        log.info("%-14s %s", r["change"], r["fractions"] and {
+            k: np.round(100 * np.asarray(v), 1).tolist() for k, v in r["fractions"].items()})
+    return {"overrides": ov, "rel": rel, "deg": deg, "rows": rows,
+            "seconds": round(time.perf_counter() - t0, 1)}
+
+
 def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
               starts: list[tuple[tuple[float, ...], tuple[float, ...]]],
               shares: dict[float, list[float]], tol: float, min_depth: float,
@@ -586,13 +630,16 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
     ``internal_range`` the internal-only case impacting over that range, each speed's
     distance weighted by ``weights`` (default 1) and the shares kept above ``minimum``
     at its speeds
-    (:func:`benchmarks.te_ipp.refine_nonlinear_ipp`, from each of ``starts``). The
-    Newton starts are the branch of the first start over the speeds ± 100 rpm."""
-    import study
+    (:func:`benchmarks.te_ipp.refine_nonlinear_ipp`, from each of ``starts``, each with
+    its own store of solved candidates). The Newton starts are the branch of the first
+    start over the speeds ± 100 rpm."""
+    import dataclasses
+
     from benchmarks import te_ipp
     from benchmarks import te_margin as tm
-    from study.excitations import solution_at
 
+    t = te_ipp.IPPTargets(shares=shares, weights=dict(weights or {}),     # checked first
+                          minimum=dict(minimum or {}), tol=tol, min_depth=min_depth)
     lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
     ov = basis_overrides(extra)
     t0 = time.perf_counter()
@@ -604,20 +651,13 @@ def refine_nl(scene: Path, extra: dict, cache: Path, work: Path,
         internal = tm.MarginModel(tm.build_basis(
             scene, ov, np.arange(i_lo, i_hi + 1.0, 2 * rpm_step), cache, case="internal"))
     speeds = sorted({float(r) for r in shares} | {float(r) for r in (minimum or {})})
-    a0, p0 = starts[0]
-    run = study.run(scene, work / "refine_nl_branch", cache_dir=cache, until="hbm", overrides={
-        **ov, "hbm.stability": False, "outputs.plots": [], "outputs.housing_field_rpm": [],
-        "outputs.report": False, "continuation.speed_rpm": [speeds[0] - 100.0,
-                                                            speeds[-1] + 100.0],
-        "transmission_error.amplitudes_um": list(a0), "transmission_error.phases_deg": list(p0)})
-    nl = te_ipp.NonlinearIPP(run.problem, {r: solution_at(run, r)[0].unknowns for r in speeds},
-                             tol=run.scene.continuation.tolerance)
-    t = te_ipp.IPPTargets(shares=shares, weights=dict(weights or {}),
-                          minimum=dict(minimum or {}), tol=tol,
-                          min_depth=min_depth, internal=internal)
+    run, branch = branch_solutions(scene, ov, cache, work / "refine_nl_branch", speeds,
+                                   *starts[0])
+    t = dataclasses.replace(t, internal=internal)
     t1 = time.perf_counter()
     found = []
     for a, p in starts:
+        nl = te_ipp.NonlinearIPP(run.problem, branch, tol=run.scene.continuation.tolerance)
         r = te_ipp.refine_nonlinear_ipp(model, nl, target, t, a, p, max_evals=max_evals,
                                         restarts=restarts)
         log.info("nonlinear IPP %.4f: amps %s phases %s grazings %s depth %.1f nm; %s",
@@ -688,8 +728,8 @@ def _floats(text: str) -> tuple[float, ...]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("command", choices=["scan", "calibrate", "screen", "refine-nl", "record",
-                                        "show", "plot"])
+    p.add_argument("command", choices=["scan", "calibrate", "screen", "refine-nl",
+                                        "sensitivity", "record", "show", "plot"])
     p.add_argument("--scene", type=Path, default=SCENE,
                    help="scene file (other than pump.toml: its own section of the JSON)")
     p.add_argument("--scale", type=_floats, default=(),
@@ -728,6 +768,8 @@ def main(argv: list[str] | None = None) -> int:
                    metavar="RPM=f0,f1,f2,f3",
                    help="refine-nl: lower bounds of the shares at 0, 1, 2, 3+ impacts per "
                         "mesh period at RPM (repeatable)")
+    p.add_argument("--at", type=_floats, default=(1070.0, 1700.0), metavar="RPM,...",
+                   help="sensitivity: speeds (rpm)")
     p.add_argument("--min-depth-nm", type=float, default=6.0,
                    help="refine-nl: depth of the permanent-contact windows (linear margin)")
     p.add_argument("--internal-impacts", type=_floats, default=None, metavar="LO,HI",
@@ -777,6 +819,12 @@ def main(argv: list[str] | None = None) -> int:
                 p.error(f"--nl-ipp {rpm:g}={sh}: four shares >= 0 summing to 1")
         tol = 0.03 if a.robust is None else a.robust
         starts = list(zip(a.amps, a.phases, strict=True))
+        for x, y in starts:
+            if len(x) != 3 or len(y) != 3 or min(x) <= 0:
+                p.error(f"--amps {x} --phases {y}: three amplitudes > 0 and three phases")
+        if a.internal_impacts is not None and (len(a.internal_impacts) != 2 or
+                                               a.internal_impacts[0] >= a.internal_impacts[1]):
+            p.error(f"--internal-impacts {a.internal_impacts}: LO,HI with LO < HI (rpm)")
         weights = dict(a.nl_ipp_weight)
         if set(weights) - set(shares) or any(w < 0 for w in weights.values()):
             p.error(f"--nl-ipp-weight {weights}: weights >= 0 of speeds given by --nl-ipp")
@@ -791,7 +839,17 @@ def main(argv: list[str] | None = None) -> int:
             "min_depth_nm": a.min_depth_nm, "internal": a.internal_impacts,
             "weights": {str(k): v for k, v in weights.items()},
             **({"minimum": {str(k): v for k, v in minimum.items()}} if minimum else {}),
+            # runs before this key scored a wrong grazing pattern 10 + s (te_ipp)
+            "pattern_penalty": 100,
             "starts": [[list(x), list(y)] for x, y in starts]})] = r
+        _save(a.json, ev.data)
+    elif a.command == "sensitivity":
+        if len(a.amps) != 1 or len(a.phases) != 1:
+            p.error("sensitivity needs one --amps and one --phases (the TE)")
+        r = ipp_sensitivity(a.scene, extra, a.cache, a.work, sorted(a.at), a.amps[0],
+                            a.phases[0])
+        ev.section.setdefault("sensitivity", {})[_key(a.amps[0], {
+            **r["overrides"], "phases_deg": list(a.phases[0]), "at": sorted(a.at)})] = r
         _save(a.json, ev.data)
     elif a.command == "screen":
         given = list(zip(a.amps, a.phases, strict=True)) if a.phases else \

@@ -88,6 +88,13 @@ class NonlinearIPP:
             raise ValueError("starts: give a solution at one speed at least")
         if n_te < 1 or keep < 2:
             raise ValueError(f"n_te = {n_te}, keep = {keep}: must be >= 1 and >= 2")
+        if not 0.0 < tol < 1.0:
+            raise ValueError(f"tol = {tol}: must be in (0, 1)")
+        n = problem.n_unknowns
+        for rpm, u in starts.items():
+            if np.ndim(u) != 1 or np.size(u) != n:
+                raise ValueError(f"starts[{rpm}]: one vector of the problem's unknowns "
+                                 f"({n}), got shape {np.shape(u)}")
         self.problem, self.tol, self.keep, self.n_te = problem, float(tol), int(keep), n_te
         self.speeds = tuple(float(r) for r in starts)
         te = problem.mesh.te
@@ -96,6 +103,7 @@ class NonlinearIPP:
         p0 = [np.degrees(np.angle(te.get(k, 0.0))) for k in ks]
         self._store = [(np.r_[x0, p0], {float(r): np.asarray(u, dtype=float)
                                         for r, u in starts.items()})]
+        self._added = 0             # solved candidates so far (ring index of the store)
 
     def _nearest(self, x: np.ndarray) -> dict[float, np.ndarray]:
         # amplitudes on a log scale, phases per 30 degrees (wrapped)
@@ -124,8 +132,9 @@ class NonlinearIPP:
         sol = {r: p.unknowns for r, p in out.items()}
         if len(self._store) < self.keep:
             self._store.append((x, sol))
-        else:                                   # the first entry (the scene's) stays
-            self._store[1 + len(self._store) % (self.keep - 1)] = (x, sol)
+        else:                   # the oldest solved candidate goes; the scene's entry stays
+            self._store[1 + self._added % (self.keep - 1)] = (x, sol)
+        self._added += 1
         return prob, out
 
 
@@ -188,68 +197,100 @@ class IPPTargets:
             if s.shape != (4,) or np.any(s < 0) or s.sum() > 1.0:
                 raise ValueError(f"minimum[{rpm}] = {s.tolist()}: four lower bounds (0, 1, "
                                  "2, 3+ impacts per mesh period) >= 0 summing to <= 1")
+        for rpm, w in self.weights.items():
+            if rpm not in self.shares or not w >= 0.0:
+                raise ValueError(f"weights[{rpm}] = {w}: a weight >= 0 of a speed of shares "
+                                 f"({sorted(self.shares)})")
         if not 0.0 < self.tol < 1.0:
             raise ValueError(f"tol = {self.tol}: must be in (0, 1)")
+        if not (self.min_depth >= 0.0 and self.internal_margin >= 0.0):
+            raise ValueError(f"min_depth = {self.min_depth}, internal_margin = "
+                             f"{self.internal_margin}: must be >= 0 (m)")
         if not self.scale > 0.0:
             raise ValueError(f"scale = {self.scale}: must be > 0 (m)")
 
 
-def linear_penalty(model: tm.MarginModel, target: tuple[float, ...], t: IPPTargets,
+def linear_penalty(model: tm.MarginModel, target: tuple[float, ...], targets: IPPTargets,
                    amps_um, phases_deg) -> tuple[float, dict]:
-    """Penalty of the linear criteria (0 when all hold): grazings beyond ``t.tol``
-    (100 per unit of relative error), windows shallower than ``t.min_depth`` and
-    internal-only speeds without impacts (1 per nm short); >= 10 without the target's
+    """Penalty of the linear criteria (0 when all hold): grazings beyond ``targets.tol``
+    (100 per unit of relative error), windows shallower than ``targets.min_depth`` and
+    internal-only speeds without impacts (1 per nm short); > 100 without the target's
     grazing pattern. Returns (penalty, the measured values)."""
     m = model.margins(amps_um, phases_deg)[0]
     s, c = tm.pattern_score(model.rpm, m, target)
     if s >= 1.0:
-        return 10.0 + s, {"score": s}
+        return 100.0 + s, {"score": s}
     err = float(np.max(np.abs(np.asarray(c) - np.asarray(target)) / np.asarray(target)))
     dep = tm.depth(model.rpm, m, c)
-    pen = 100.0 * max(err - t.tol, 0.0) + 1e9 * max(t.min_depth - dep, 0.0)
+    pen = 100.0 * max(err - targets.tol, 0.0) + 1e9 * max(targets.min_depth - dep, 0.0)
     info = {"score": s, "grazing_rpm": c, "grazing_error": err, "depth_m": dep}
-    if t.internal is not None:
-        mi = float(t.internal.margins(amps_um, phases_deg)[0].max())
-        pen += 1e9 * max(mi + t.internal_margin, 0.0)
+    if targets.internal is not None:
+        mi = float(targets.internal.margins(amps_um, phases_deg)[0].max())
+        pen += 1e9 * max(mi + targets.internal_margin, 0.0)
         info["internal_max_margin_m"] = mi
     return pen, info
 
 
 def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[float, ...],
-                         t: IPPTargets, amps_um, phases_deg, max_evals: int = 350,
+                         targets: IPPTargets, amps_um, phases_deg, max_evals: int = 350,
                          restarts: int = 2) -> dict:
-    """Nelder–Mead on (log amplitudes, phases) from a start: the linear criteria of
-    :func:`linear_penalty` and, where they hold, ``Σ w ½ Σ_k |s_k - r_k|`` over the
-    speeds of ``t.shares`` of the smooth nonlinear shares ``s`` (:func:`soft_shares`) at
-    >= k impacts against the reference's ``r``, plus 100 per unit of share (exact
-    and smooth) below the bounds ``t.minimum`` (a failed Newton scores 500). ``restarts`` runs of
-    ``max_evals``, each from a fresh simplex at the last point.
-    Returns the candidate with its grazings and the exact nonlinear IPP per speed."""
-    missing = (set(map(float, t.shares)) | set(map(float, t.minimum))) - set(nl.speeds)
+    """Fit the TE to the nonlinear IPP shares under the linear criteria.
+
+    Nelder–Mead on (log amplitudes, phases): the penalty of :func:`linear_penalty`
+    and, where it holds, ``Σ_speeds w ½ Σ_k |s_k - r_k|`` with ``s`` the smooth
+    nonlinear shares at >= k impacts (:func:`soft_shares`) and ``r`` the reference's,
+    plus 100 per unit of share (exact and smooth) below ``targets.minimum``; a failed
+    Newton scores 500.
+
+    Parameters
+    ----------
+    model
+        Linear margin of the all-excitations case (grazings, windows).
+    nl
+        Nonlinear solver at the speeds of ``targets.shares`` and ``targets.minimum``.
+    target
+        The grazing speeds (rpm).
+    targets
+        Shares, bounds, weights and tolerances.
+    amps_um, phases_deg
+        The start (µm > 0, deg), ``nl.n_te`` values each.
+    max_evals, restarts
+        ``restarts`` runs of ``max_evals`` evaluations, each from a fresh simplex at
+        the last point.
+
+    Returns
+    -------
+    dict
+        The candidate, its linear grazings and depth, and its exact nonlinear IPP per
+        speed (``nonlinear``).
+    """
+    speeds = set(map(float, targets.shares)) | set(map(float, targets.minimum))
+    missing = speeds - set(nl.speeds)
     if missing:
-        raise ValueError(f"shares at {sorted(missing)} rpm: nl has solutions at "
-                         f"{list(nl.speeds)} rpm only")
-    ref = {float(r): tm.cumulative(np.asarray(s, dtype=float)) for r, s in t.shares.items()}
-    low = {float(r): np.asarray(s, dtype=float) for r, s in t.minimum.items()}
+        raise ValueError(f"shares or minimum at {sorted(missing)} rpm: nl has solutions "
+                         f"at {list(nl.speeds)} rpm only")
+    ref = {float(r): tm.cumulative(np.asarray(s, dtype=float)) for r, s in targets.shares.items()}
+    low = {float(r): np.asarray(s, dtype=float) for r, s in targets.minimum.items()}
     n = nl.n_te
-    if np.size(amps_um) != n or np.size(phases_deg) != n:
-        raise ValueError(f"amps_um, phases_deg: {n} values each (nl.n_te)")
+    if np.size(amps_um) != n or np.size(phases_deg) != n or np.min(amps_um) <= 0.0:
+        raise ValueError(f"amps_um = {list(amps_um)}, phases_deg = {list(phases_deg)}: "
+                         f"{n} values each (nl.n_te), amplitudes > 0 (a log-scale search)")
 
     def f(x):
         a, p = np.exp(x[:n]), x[n:]
-        pen, _ = linear_penalty(model, target, t, a, p)
+        pen, _ = linear_penalty(model, target, targets, a, p)
         if pen > 50.0:
             return 100.0 + pen
         sol = nl.solve(a, p)
         if sol is None:
             return 500.0
         prob, pts = sol
-        d = sum(t.weights.get(r, 1.0) * 0.5 * float(np.abs(
-            soft_shares(prob, pts[r], t.scale) - c).sum()) for r, c in ref.items())
+        d = sum(targets.weights.get(r, 1.0) * 0.5 * float(np.abs(
+            soft_shares(prob, pts[r], targets.scale) - c).sum()) for r, c in ref.items())
         for r, lo in low.items():        # 100 per unit of share below its bound, exact
             gap = gap_signal(prob, pts[r].unknowns)     # and smooth (for a slope)
             exact = ipp_fractions(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
-            soft = soft_fractions(tm.soft_ipp(gap, prob.mesh_step, t.scale))
+            soft = soft_fractions(tm.soft_ipp(gap, prob.mesh_step, targets.scale))
             d += 100.0 * float(np.maximum(lo - exact, 0.0).sum()
                                + np.maximum(lo - soft, 0.0).sum())
         return pen + d
@@ -257,15 +298,16 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
     r = tm.nelder_mead(f, np.r_[np.log(amps_um), phases_deg], [0.06] * n + [6.0] * n,
                        max_evals, xatol=1e-4, fatol=1e-3, restarts=restarts)
     amps, phs = np.exp(r.x[:n]), np.mod(r.x[n:], 360.0)
-    pen, info = linear_penalty(model, target, t, amps, phs)
+    pen, info = linear_penalty(model, target, targets, amps, phs)
     out = {"amplitudes_um": amps.tolist(), "phases_deg": phs.tolist(), **info,
            "linear_penalty": pen, "objective": float(r.fun),
            "start": {"amplitudes_um": list(map(float, amps_um)),
                      "phases_deg": list(map(float, phases_deg))},
-           "targets": {"shares": {str(k): list(v) for k, v in t.shares.items()},
-                       "minimum": {str(k): list(v) for k, v in t.minimum.items()},
-                       "tol": t.tol, "min_depth_m": t.min_depth, "scale_m": t.scale,
-                       "internal": t.internal is not None}}
+           "targets": {"shares": {str(k): list(v) for k, v in targets.shares.items()},
+                       "minimum": {str(k): list(v) for k, v in targets.minimum.items()},
+                       "tol": targets.tol, "min_depth_m": targets.min_depth,
+                       "scale_m": targets.scale,
+                       "internal": targets.internal is not None}}
     sol = nl.solve(amps, phs)
     if sol is not None:
         prob, pts = sol
@@ -275,4 +317,41 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
             out["nonlinear"][str(rpm)] = {
                 "fractions": ipp_fractions(ipp).tolist(),
                 "ipp": ipp.tolist()}
+    return out
+
+
+def sensitivity(nl: NonlinearIPP, amps_um, phases_deg, rel: float = 0.02,
+                deg: float = 2.0) -> list[dict]:
+    """Exact IPP shares at ``nl``'s speeds of the TE and of each change of one amplitude
+    by ``±rel`` (relative) or one phase by ``±deg``, each solved by Newton from the
+    stored candidates (:meth:`NonlinearIPP.solve`).
+
+    Returns
+    -------
+    list of dict
+        ``{"change": label, "amplitudes_um", "phases_deg", "fractions": {rpm: shares at
+        0, 1, 2, 3+ impacts per mesh period} or None when Newton fails}``, the TE first.
+    """
+    if not (0.0 < rel < 1.0 and 0.0 < deg < 180.0):
+        raise ValueError(f"rel = {rel}, deg = {deg}: must be in (0, 1) and (0, 180)")
+    a0, p0 = np.asarray(amps_um, dtype=float), np.asarray(phases_deg, dtype=float)
+    cases = [("TE", a0, p0)]
+    for k in range(a0.size):
+        for f in (1.0 - rel, 1.0 + rel):
+            a = a0.copy()
+            a[k] *= f
+            cases.append((f"a{k + 1} x{f:g}", a, p0))
+    for k in range(p0.size):
+        for d in (-deg, deg):
+            ph = p0.copy()
+            ph[k] += d
+            cases.append((f"phi{k + 1} {d:+g} deg", a0, ph))
+    out = []
+    for label, a, ph in cases:
+        sol = nl.solve(a, ph)
+        fr = None if sol is None else {
+            str(r): ipp_fractions(point_stats(sol[0], pt).ipp).tolist()
+            for r, pt in sol[1].items()}
+        out.append({"change": label, "amplitudes_um": a.tolist(),
+                    "phases_deg": ph.tolist(), "fractions": fr})
     return out

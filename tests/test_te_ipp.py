@@ -53,13 +53,15 @@ def test_with_te_refuses_bad_input(cache):
         te_ipp.with_te(base, [1.0, 2.0], [0.0])
     with pytest.raises(ValueError, match=">= 0"):
         te_ipp.with_te(base, [-1.0], [0.0])
-    nl = te_ipp.NonlinearIPP(base, {RPM: np.zeros(3)}, n_te=2)
+    nl = te_ipp.NonlinearIPP(base, {RPM: np.zeros(base.n_unknowns)}, n_te=2)
     with pytest.raises(ValueError, match="n_te = 2"):
         nl.solve([1.0, 2.0, 3.0], [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="starts"):
+        te_ipp.NonlinearIPP(base, {RPM: np.zeros(3)})
 
 
 def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
-    from hbm import point_stats
+    from hbm import impacts_per_mesh_period, point_stats
 
     base = _problem(cache)
     start = base.solve(RPM)
@@ -73,7 +75,6 @@ def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
     assert st.contact == 1
     # impacts per mesh period of the sampled gap, as point_stats counts its loss samples
     gap = te_ipp.gap_signal(prob, u)
-    from hbm import impacts_per_mesh_period
     assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.mesh_step), st.ipp)
     # the smooth shares tend to the exact ones (one loss interval per minimum here)
     exact = tm.cumulative(te_ipp.ipp_fractions(st.ipp))
@@ -92,3 +93,39 @@ def test_soft_fractions_invert_cumulative_and_bounds_are_checked():
     assert te_ipp.soft_fractions(tm.cumulative(f)) == pytest.approx(f, abs=1e-15)
     with pytest.raises(ValueError, match="minimum"):
         te_ipp.IPPTargets(shares={}, minimum={1070.0: [0.5, 0.5, 0.5, 0.0]})
+
+
+def test_the_store_keeps_the_scenes_entry_and_the_latest_candidates(cache):
+    base = _problem(cache)
+    nl = te_ipp.NonlinearIPP(base, {RPM: base.solve(RPM).unknowns}, tol=1e-10, keep=3)
+    scene_x = nl._store[0][0].copy()
+    amps = [[a, 4.5, 1.5] for a in (6.0, 6.5, 7.0, 7.5, 8.0)]
+    for a in amps:
+        assert nl.solve(a, TE[1]) is not None
+    # keep = 3: the scene's entry and the two latest of five candidates
+    assert np.array_equal(nl._store[0][0], scene_x)
+    kept = sorted(round(float(np.exp(x[0])), 6) for x, _ in nl._store[1:])
+    assert kept == [7.5, 8.0]
+
+
+def test_targets_refuse_weights_of_other_speeds_and_negative_depths():
+    with pytest.raises(ValueError, match="weights"):
+        te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.8, 0.0]}, weights={1070.0: 1.0})
+    with pytest.raises(ValueError, match="min_depth"):
+        te_ipp.IPPTargets(shares={}, min_depth=-1e-9)
+
+
+def test_sensitivity_changes_one_harmonic_at_a_time(cache):
+    from hbm import point_stats
+
+    base = _problem(cache)
+    nl = te_ipp.NonlinearIPP(base, {RPM: base.solve(RPM).unknowns}, tol=1e-10)
+    rows = te_ipp.sensitivity(nl, *TE, rel=0.02, deg=2.0)
+    assert len(rows) == 1 + 2 * 3 + 2 * 3
+    prob, pts = nl.solve(*TE)
+    exact = te_ipp.ipp_fractions(point_stats(prob, pts[RPM]).ipp).tolist()
+    assert rows[0]["change"] == "TE" and rows[0]["fractions"][str(RPM)] == exact
+    assert rows[2]["amplitudes_um"] == pytest.approx([17.0 * 1.02, 3.5, 1.2])
+    assert rows[-1]["phases_deg"] == pytest.approx([25.0, 140.0, 302.0])
+    with pytest.raises(ValueError, match="rel = 0"):
+        te_ipp.sensitivity(nl, *TE, rel=0.0)

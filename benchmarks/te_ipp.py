@@ -20,6 +20,7 @@ import dataclasses
 import logging
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from benchmarks import te_margin as tm
 from hbm import ConvergenceError, HBMProblem, Point, impacts_per_mesh_period, point_stats
@@ -27,10 +28,22 @@ from hbm import ConvergenceError, HBMProblem, Point, impacts_per_mesh_period, po
 log = logging.getLogger("te_ipp")
 
 
-def with_te(problem: HBMProblem, amps_um, phases_deg) -> HBMProblem:
-    """``problem`` with TE harmonics 1, 2, ... set to ``amps_um`` (µm) at ``phases_deg``
-    (deg), the scene's convention ``a_k exp(i phi_k)`` (``study.scene_data``); the mean,
-    the kind (loaded/unloaded) and everything else are kept."""
+def with_te(problem: HBMProblem, amps_um: ArrayLike, phases_deg: ArrayLike) -> HBMProblem:
+    """The problem with other TE harmonics.
+
+    Parameters
+    ----------
+    problem
+        Any problem; its TE mean, kind (loaded/unloaded) and everything else are kept.
+    amps_um, phases_deg
+        Amplitudes (µm, >= 0) and phases (deg) of TE harmonics 1, 2, ..., in the scene's
+        convention ``a_k exp(i phi_k)`` (``study.scene_data``).
+
+    Returns
+    -------
+    HBMProblem
+        A new problem with the same solver settings.
+    """
     amps, phs = np.asarray(amps_um, dtype=float), np.asarray(phases_deg, dtype=float)
     if amps.shape != phs.shape or amps.ndim != 1:
         raise ValueError(f"amps_um {amps.shape} and phases_deg {phs.shape}: one value per "
@@ -50,9 +63,21 @@ def with_te(problem: HBMProblem, amps_um, phases_deg) -> HBMProblem:
 
 def gap_signal(problem: HBMProblem, unknowns: np.ndarray, n_time: int | None = None
                ) -> np.ndarray:
-    """``p - b = Delta - e - b`` (m) of a solution on ``n_time`` samples of its period
-    (default four times the AFT grid, a whole number per mesh period, as
-    :func:`hbm.point_stats` samples it): negative where the active flank is open."""
+    """The active-flank gap ``p - b = Delta - e - b`` of a solution over its period.
+
+    Parameters
+    ----------
+    problem, unknowns
+        The problem and one solution of it.
+    n_time
+        Samples per period, rounded up to a whole number per mesh period (default four
+        times the AFT grid, as :func:`hbm.point_stats` samples it).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``p - b`` (m); negative where the active flank is open.
+    """
     step = problem.mesh_step
     n = 4 * problem.harmonics.n_time if n_time is None else int(n_time)
     n = step * int(np.ceil(n / step))
@@ -113,7 +138,8 @@ class NonlinearIPP:
              for xs, _ in self._store]
         return self._store[int(np.argmin(d))][1]
 
-    def solve(self, amps_um, phases_deg) -> tuple[HBMProblem, dict[float, Point]] | None:
+    def solve(self, amps_um: ArrayLike, phases_deg: ArrayLike
+              ) -> tuple[HBMProblem, dict[float, Point]] | None:
         """The problem of the candidate and its solution at each speed, or None when
         Newton fails at one of them."""
         if np.size(amps_um) != self.n_te:
@@ -211,11 +237,18 @@ class IPPTargets:
 
 
 def linear_penalty(model: tm.MarginModel, target: tuple[float, ...], targets: IPPTargets,
-                   amps_um, phases_deg) -> tuple[float, dict]:
-    """Penalty of the linear criteria (0 when all hold): grazings beyond ``targets.tol``
-    (100 per unit of relative error), windows shallower than ``targets.min_depth`` and
-    internal-only speeds without impacts (1 per nm short); > 100 without the target's
-    grazing pattern. Returns (penalty, the measured values)."""
+                   amps_um: ArrayLike, phases_deg: ArrayLike) -> tuple[float, dict]:
+    """Penalty of the linear criteria of a TE, 0 when all hold.
+
+    Grazings beyond ``targets.tol`` cost 100 per unit of relative error; windows
+    shallower than ``targets.min_depth`` and internal-only speeds without impacts cost 1
+    per nm short; a margin without the target's grazing pattern costs more than 100.
+
+    Returns
+    -------
+    tuple
+        (penalty, the measured grazings, depth and internal margin).
+    """
     m = model.margins(amps_um, phases_deg)[0]
     s, c = tm.pattern_score(model.rpm, m, target)
     if s >= 1.0:
@@ -232,7 +265,8 @@ def linear_penalty(model: tm.MarginModel, target: tuple[float, ...], targets: IP
 
 
 def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[float, ...],
-                         targets: IPPTargets, amps_um, phases_deg, max_evals: int = 350,
+                         targets: IPPTargets, amps_um: ArrayLike, phases_deg: ArrayLike,
+                         max_evals: int = 350,
                          restarts: int = 2) -> dict:
     """Fit the TE to the nonlinear IPP shares under the linear criteria.
 
@@ -320,7 +354,7 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
     return out
 
 
-def sensitivity(nl: NonlinearIPP, amps_um, phases_deg, rel: float = 0.02,
+def sensitivity(nl: NonlinearIPP, amps_um: ArrayLike, phases_deg: ArrayLike, rel: float = 0.02,
                 deg: float = 2.0) -> list[dict]:
     """Exact IPP shares at ``nl``'s speeds of the TE and of each change of one amplitude
     by ``±rel`` (relative) or one phase by ``±deg``, each solved by Newton from the

@@ -24,10 +24,12 @@ One linear solve per speed and basis vector (:func:`hbm.fixed_speed.initial_gues
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import OptimizeResult, minimize
 
 from hbm import impacts_per_mesh_period
 
@@ -239,15 +241,32 @@ def robust_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...], tol:
     return 100.0 * max(e - tol, 0.0) - depth(rpm, m, c) / scale
 
 
-def nelder_mead(f, x0: np.ndarray, steps, max_evals: int, xatol: float, fatol: float,
-                restarts: int = 1):
-    """Nelder–Mead on ``f`` from ``x0`` with an initial simplex of ``steps`` along each
-    coordinate, ``restarts`` times from a fresh simplex at the last point (a restart
-    escapes a collapsed simplex). Returns SciPy's result of the last run."""
-    from scipy.optimize import minimize
+def nelder_mead(f: Callable[[np.ndarray], float], x0: np.ndarray, steps: Sequence[float],
+                max_evals: int, xatol: float, fatol: float, restarts: int = 1
+                ) -> OptimizeResult:
+    """Nelder–Mead with restarts.
 
+    Parameters
+    ----------
+    f, x0
+        The function and the start.
+    steps
+        The initial simplex: ``x0`` and ``x0`` plus each step along its coordinate.
+    max_evals, xatol, fatol
+        SciPy's ``maxfev``, ``xatol``, ``fatol`` of each run.
+    restarts
+        Runs, each from a fresh simplex at the last point (escapes a collapsed simplex).
+
+    Returns
+    -------
+    scipy.optimize.OptimizeResult
+        The result of the last run.
+    """
     if restarts < 1:
         raise ValueError(f"restarts = {restarts}: must be >= 1")
+    if len(steps) != np.size(x0):
+        raise ValueError(f"steps has {len(steps)} values: one per coordinate of x0 "
+                         f"({np.size(x0)})")
     x = np.asarray(x0, dtype=float)
     for _ in range(restarts):
         simplex = x + np.vstack([np.zeros(x.size), np.diag(np.asarray(steps, dtype=float))])
@@ -265,7 +284,6 @@ def refine(model: MarginModel, target: tuple[float, ...], amps_um, phases_deg,
     with ``fix_phases``), scored by :func:`pattern_score`, or with
     ``robust = (tol, scale)`` by :func:`robust_score` (the deepest windows with every
     grazing within ``tol``)."""
-
     fixed = np.asarray(phases_deg, dtype=float)
 
     def f(x):
@@ -469,7 +487,6 @@ def refine_ipp(model: MarginModel, speed: SpeedModel, target: tuple[float, ...],
     (contact and the largest count of ``reference`` in one turn, whatever the shares).
     ``restarts`` runs of ``max_evals`` each, every one from a fresh simplex at the last
     point (the grazing penalty makes the landscape kinked)."""
-
     if objective not in ("fractions", "coexist"):
         raise ValueError(f"objective = {objective!r}: must be 'fractions' or 'coexist'")
     if restarts < 1:

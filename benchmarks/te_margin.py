@@ -100,7 +100,10 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
               "transmission_error.phases_deg": list(phases)}
         sc = load_scene(scene_path, ov)
         if case is not None:
-            sc = case_scenes(sc)[case]
+            cases = case_scenes(sc)
+            if case not in cases:
+                raise ValueError(f"case = {case!r}: one of {sorted(cases)}")
+            sc = cases[case]
         return Pipeline(sc, cache / "te_margin_out", cache_dir=cache,
                         progress=False).problem()[0]
 

@@ -690,7 +690,7 @@ def _weight(text: str) -> tuple[float, float]:
 
 def _shares(text: str) -> tuple[float, list[float]]:
     rpm, _, vals = text.partition("=")
-    return float(rpm), [float(v) for v in vals.split(",")]
+    return float(rpm), list(_floats(vals))
 
 
 #: Rows of ``paper.md`` kept by :func:`record` (label -> start of the row).
@@ -820,13 +820,17 @@ def main(argv: list[str] | None = None) -> int:
         ev.section.setdefault("excitations", {})[key] = record(a.out)
         _save(a.json, ev.data)
     elif a.command == "refine-nl":
+        from benchmarks.te_ipp import IPPTargets
+
         if not a.nl_ipp or not a.amps or len(a.phases) != len(a.amps):
             p.error("refine-nl needs --nl-ipp and --amps with --phases (the starts)")
-        shares = dict(a.nl_ipp)
-        for rpm, sh in shares.items():
-            if len(sh) != 4 or min(sh) < 0 or abs(sum(sh) - 1.0) > 1e-6:
-                p.error(f"--nl-ipp {rpm:g}={sh}: four shares >= 0 summing to 1")
+        shares, weights, minimum = dict(a.nl_ipp), dict(a.nl_ipp_weight), dict(a.nl_ipp_min)
         tol = 0.03 if a.robust is None else a.robust
+        try:                            # --nl-ipp, --nl-ipp-weight, --nl-ipp-min, --robust
+            IPPTargets(shares=shares, weights=weights, minimum=minimum, tol=tol,
+                       min_depth=1e-9 * a.min_depth_nm)
+        except ValueError as err:
+            p.error(f"refine-nl: {err}")
         starts = list(zip(a.amps, a.phases, strict=True))
         for x, y in starts:
             if len(x) != 3 or len(y) != 3 or min(x) <= 0:
@@ -834,13 +838,6 @@ def main(argv: list[str] | None = None) -> int:
         if a.internal_impacts is not None and (len(a.internal_impacts) != 2 or
                                                a.internal_impacts[0] >= a.internal_impacts[1]):
             p.error(f"--internal-impacts {a.internal_impacts}: LO,HI with LO < HI (rpm)")
-        weights = dict(a.nl_ipp_weight)
-        if set(weights) - set(shares) or any(w < 0 for w in weights.values()):
-            p.error(f"--nl-ipp-weight {weights}: weights >= 0 of speeds given by --nl-ipp")
-        minimum = dict(a.nl_ipp_min)
-        for rpm, lo in minimum.items():
-            if len(lo) != 4 or min(lo) < 0 or sum(lo) > 1.0:
-                p.error(f"--nl-ipp-min {rpm:g}={lo}: four lower bounds >= 0 summing to <= 1")
         r = refine_nl(a.scene, extra, a.cache, a.work, starts, shares, tol,
                       1e-9 * a.min_depth_nm, a.internal_impacts, weights, minimum)
         ev.section.setdefault("nonlinear_ipp", {})[_key((), {

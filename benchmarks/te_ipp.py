@@ -85,11 +85,6 @@ def gap_signal(problem: HBMProblem, unknowns: np.ndarray, n_time: int | None = N
     return synth @ problem.delta_real(unknowns) - e - problem.b
 
 
-def ipp_fractions(ipp: np.ndarray, n_max: int = 3) -> np.ndarray:
-    """Shares of the turn at 0, 1, ..., ``n_max``+ impacts per mesh period."""
-    return tm.ipp_fraction_vector(np.asarray(ipp), n_max)
-
-
 class NonlinearIPP:
     """Nonlinear solutions of TE candidates at fixed speeds.
 
@@ -168,13 +163,6 @@ def soft_shares(problem: HBMProblem, point: Point, scale: float, n: int = 3) -> 
     """Smooth shares of the turn at >= 1, ..., >= ``n`` impacts per mesh period of a
     nonlinear solution (:func:`benchmarks.te_margin.soft_ipp` on :func:`gap_signal`)."""
     return tm.soft_ipp(gap_signal(problem, point.unknowns), problem.mesh_step, scale, n)
-
-
-def soft_fractions(cum: np.ndarray) -> np.ndarray:
-    """Shares at 0, 1, ..., n-1, n+ impacts from the shares at >= 1, ..., >= n impacts
-    (the inverse of :func:`benchmarks.te_margin.cumulative`)."""
-    c = np.r_[1.0, np.asarray(cum, dtype=float), 0.0]
-    return c[:-1] - c[1:]
 
 
 @dataclasses.dataclass
@@ -323,8 +311,8 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
             soft_shares(prob, pts[r], targets.scale) - c).sum()) for r, c in ref.items())
         for r, lo in low.items():        # 100 per unit of share below its bound, exact
             gap = gap_signal(prob, pts[r].unknowns)     # and smooth (for a slope)
-            exact = ipp_fractions(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
-            soft = soft_fractions(tm.soft_ipp(gap, prob.mesh_step, targets.scale))
+            exact = tm.ipp_fraction_vector(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
+            soft = tm.fractions_from_cumulative(tm.soft_ipp(gap, prob.mesh_step, targets.scale))
             d += 100.0 * float(np.maximum(lo - exact, 0.0).sum()
                                + np.maximum(lo - soft, 0.0).sum())
         return pen + d
@@ -349,7 +337,7 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
         for rpm, pt in pts.items():
             ipp = point_stats(prob, pt).ipp
             out["nonlinear"][str(rpm)] = {
-                "fractions": ipp_fractions(ipp).tolist(),
+                "fractions": tm.ipp_fraction_vector(ipp).tolist(),
                 "ipp": ipp.tolist()}
     return out
 
@@ -384,7 +372,7 @@ def sensitivity(nl: NonlinearIPP, amps_um: ArrayLike, phases_deg: ArrayLike, rel
     for label, a, ph in cases:
         sol = nl.solve(a, ph)
         fr = None if sol is None else {
-            str(r): ipp_fractions(point_stats(sol[0], pt).ipp).tolist()
+            str(r): tm.ipp_fraction_vector(point_stats(sol[0], pt).ipp).tolist()
             for r, pt in sol[1].items()}
         out.append({"change": label, "amplitudes_um": a.tolist(),
                     "phases_deg": ph.tolist(), "fractions": fr})

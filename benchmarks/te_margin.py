@@ -463,6 +463,13 @@ def cumulative(fractions: np.ndarray) -> np.ndarray:
     return np.flip(np.cumsum(np.flip(f[..., 1:], -1), -1), -1)
 
 
+def fractions_from_cumulative(cum: np.ndarray) -> np.ndarray:
+    """Shares at 0, 1, ..., n-1, n+ impacts from the shares at >= 1, ..., >= n impacts
+    of one turn (the inverse of :func:`cumulative`)."""
+    c = np.r_[1.0, np.asarray(cum, dtype=float), 0.0]
+    return c[:-1] - c[1:]
+
+
 def ipp_score(rpm: np.ndarray, m: np.ndarray, target: tuple[float, ...], tol: float,
               fractions: np.ndarray, reference: np.ndarray) -> float:
     """For a curve of the target pattern: 100 × the grazing error beyond ``tol`` plus the

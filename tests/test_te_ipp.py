@@ -77,7 +77,7 @@ def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
     gap = te_ipp.gap_signal(prob, u)
     assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.mesh_step), st.ipp)
     # the smooth shares tend to the exact ones (one loss interval per minimum here)
-    exact = tm.cumulative(te_ipp.ipp_fractions(st.ipp))
+    exact = tm.cumulative(tm.ipp_fraction_vector(st.ipp))
     assert te_ipp.soft_shares(prob, pts[RPM], scale=1e-13) == pytest.approx(exact, abs=1e-9)
 
 
@@ -88,9 +88,9 @@ def test_targets_refuse_shares_that_are_not_a_partition():
         te_ipp.IPPTargets(shares={1700.0: [0.0, 0.2, 0.8, 0.0]}, tol=0.0)
 
 
-def test_soft_fractions_invert_cumulative_and_bounds_are_checked():
+def test_fractions_from_cumulative_invert_cumulative_and_bounds_are_checked():
     f = np.array([0.1, 0.2, 0.6, 0.1])
-    assert te_ipp.soft_fractions(tm.cumulative(f)) == pytest.approx(f, abs=1e-15)
+    assert tm.fractions_from_cumulative(tm.cumulative(f)) == pytest.approx(f, abs=1e-15)
     with pytest.raises(ValueError, match="minimum"):
         te_ipp.IPPTargets(shares={}, minimum={1070.0: [0.5, 0.5, 0.5, 0.0]})
 
@@ -123,7 +123,7 @@ def test_sensitivity_changes_one_harmonic_at_a_time(cache):
     rows = te_ipp.sensitivity(nl, *TE, rel=0.02, deg=2.0)
     assert len(rows) == 1 + 2 * 3 + 2 * 3
     prob, pts = nl.solve(*TE)
-    exact = te_ipp.ipp_fractions(point_stats(prob, pts[RPM]).ipp).tolist()
+    exact = tm.ipp_fraction_vector(point_stats(prob, pts[RPM]).ipp).tolist()
     assert rows[0]["change"] == "TE" and rows[0]["fractions"][str(RPM)] == exact
     assert rows[2]["amplitudes_um"] == pytest.approx([17.0 * 1.02, 3.5, 1.2])
     assert rows[-1]["phases_deg"] == pytest.approx([25.0, 140.0, 302.0])

@@ -63,7 +63,8 @@ def with_te(problem: HBMProblem, amps_um: ArrayLike, phases_deg: ArrayLike) -> H
 
 def gap_signal(problem: HBMProblem, unknowns: np.ndarray, n_time: int | None = None
                ) -> np.ndarray:
-    """The active-flank gap ``p - b = Delta - e - b`` of a solution over its period.
+    """The active-flank gap ``p - b = Delta - e - b`` of a solution over its period
+    (eq. 12-13: the mesh force is ``k (p - b)`` while it is positive).
 
     Parameters
     ----------

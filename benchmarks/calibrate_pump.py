@@ -92,12 +92,26 @@ same commands end at 0.4394, 0.1782, 0.0413 µm at 215.4°, 307.7°, 89.6°, see
     ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
         --amps 0.4246,0.1761,0.0414 --phases 215.8,303.4,78.5          # 3 min
 
+Session 11 moved the scene to a converged mesh and n_CM (``[mesh] size = 0.0108``,
+``[rom] n_cm = 200``) and ran the second stage again there from the session-10 TE, once
+with n_CM = 100 and once more with 200 (2–3 min each); the scene's TE is the last::
+
+    ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
+        --amps 0.4318,0.1769,0.0412 --phases 214.6,306.9,84.1 --set mesh.size=0.0108 \\
+        --set rom.n_cm=100     # the scene had pump.toml's 100 then
+    ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
+        --amps 0.4313,0.1794,0.0413 --phases 215.0,308.4,84.3 --set mesh.size=0.0108 \\
+        --set rom.n_cm=200     # -> 0.4313, 0.1798, 0.0415 at 215.3, 308.4, 84.7
+
+(the scene file now holds both settings: the same commands need no ``--set`` but the
+``rom.n_cm=100`` of the first).
+
 ``sensitivity`` solves a TE and each change of one amplitude by ±2 % or one phase by ±2°
 at the speeds of ``--at`` and records their IPP shares (the fragility of the calibrated
 IPP rows)::
 
-    ... sensitivity $S --converged --amps 0.4318,0.1769,0.0412 \\
-        --phases 214.6,306.9,84.1 --at 1070,1700                        # 1 min
+    ... sensitivity $S --converged --amps 0.4313,0.1798,0.0415 \\
+        --phases 215.3,308.4,84.7 --at 1070,1700                        # 1 min
 
 Not a timing benchmark (not picked up by ``run_all``).
 """
@@ -397,6 +411,14 @@ def _ipp_stage(ipp: dict) -> str:
             + f" %, gap {1e9 * ipp['coexistence_gap_m']:.0f} nm")
 
 
+def settings_note(key: dict) -> str:
+    """The scene overrides of a record's key other than the TE and the continuation, as a
+    note for the tables (``" (mesh.size = 0.0108, rom.n_cm = 200)"``; "" if none)."""
+    ov = {n: v for n, v in basis_overrides(key).items()
+          if "." in n and not n.startswith("transmission_error.")}
+    return "" if not ov else " (" + ", ".join(f"{n} = {v}" for n, v in sorted(ov.items())) + ")"
+
+
 NL_IPP_COLUMNS = ["start TE (µm; deg)", "grazings within", "fitted shares (rpm: 0/1/2/3+)",
                   "TE H_Z, H_2Z, H_3Z (µm)", "phases (deg)", "linear grazings (rpm)",
                   "depth (nm)", "nonlinear shares (rpm: 0/1/2/3+ %)"]
@@ -417,7 +439,7 @@ def nl_ipp_rows(recs: dict) -> list[list[str]]:
             st = c["start"]
             rows.append([
                 ", ".join(f"{a:.4g}" for a in st["amplitudes_um"]) + "; "
-                + ", ".join(f"{p:.1f}" for p in st["phases_deg"]),
+                + ", ".join(f"{p:.1f}" for p in st["phases_deg"]) + settings_note(k),
                 f"{100 * k['tol']:g} %" + ("" if "pattern_penalty" not in k else
                                            " (pattern penalty 100)"), fitted,
                 ", ".join(f"{a:.4f}" for a in c["amplitudes_um"]),
@@ -444,7 +466,7 @@ def excitation_rows(recs: dict) -> list[list[str]]:
         c, m = r["cases"], r["paper_md"]
         ph = k.get("transmission_error.phases_deg")
         rows.append([
-            ", ".join(f"{a:.4g}" for a in k["amplitudes_um"]),
+            ", ".join(f"{a:.4g}" for a in k["amplitudes_um"]) + settings_note(k),
             "scene's" if ph is None else ", ".join(f"{p:.1f}" for p in ph),
             m.get("resonances", "–"), c["all"]["grazing_rpm"].replace(";", ", "),
             c["all"]["contact_windows_rpm"].replace(";", ", ") or "none",
@@ -816,7 +838,9 @@ def main(argv: list[str] | None = None) -> int:
         if a.out is None or len(a.amps) != 1:
             p.error("record needs --out and one --amps (and --phases) of that run")
         ph = a.phases[0] if a.phases else None
-        key = _key(a.amps[0], {} if ph is None else {"transmission_error.phases_deg": list(ph)})
+        key = _key(a.amps[0], {**scene_overrides(a.set),
+                               **({} if ph is None else
+                                  {"transmission_error.phases_deg": list(ph)})})
         ev.section.setdefault("excitations", {})[key] = record(a.out)
         _save(a.json, ev.data)
     elif a.command == "refine-nl":

@@ -77,3 +77,12 @@ def test_screen_basis_sees_structural_overrides_not_the_continuation():
 def test_paper_ipp_shares_are_fig_18s_per_count():
     # Fig. 18, twice per turn: contact 14.5 %, 1-IPP 2 × 4 %, 2-IPP 2 × 5.25 %, 3-IPP 17 %
     assert cp.paper_ipp_shares() == pytest.approx([0.29, 0.16, 0.21, 0.34], abs=1e-12)
+
+
+def test_table_rows_name_the_scene_overrides_of_a_record():
+    # records made on another mesh or n_CM (--set) must not read like the scene's own
+    key = {"amplitudes_um": [0.4313, 0.1798, 0.0415], "mesh.size": 0.0108, "rom.n_cm": 200,
+           "transmission_error.phases_deg": [215.3, 308.4, 84.7],
+           "continuation.speed_rpm": [500.0, 7000.0], "tol": 0.029}
+    assert cp.settings_note(key) == " (mesh.size = 0.0108, rom.n_cm = 200)"
+    assert cp.settings_note({"amplitudes_um": [0.3], "tol": 0.03}) == ""

@@ -308,10 +308,12 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
         if sol is None:
             return 500.0
         prob, pts = sol
+        gaps = {r: gap_signal(prob, pts[r].unknowns) for r in speeds}   # once per speed
         d = sum(targets.weights.get(r, 1.0) * 0.5 * float(np.abs(
-            soft_shares(prob, pts[r], targets.scale) - c).sum()) for r, c in ref.items())
+            tm.soft_ipp(gaps[r], prob.mesh_step, targets.scale) - c).sum())
+            for r, c in ref.items())
         for r, lo in low.items():        # 100 per unit of share below its bound, exact
-            gap = gap_signal(prob, pts[r].unknowns)     # and smooth (for a slope)
+            gap = gaps[r]                                # and smooth (for a slope)
             exact = tm.ipp_fraction_vector(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
             soft = tm.fractions_from_cumulative(tm.soft_ipp(gap, prob.mesh_step, targets.scale))
             d += 100.0 * float(np.maximum(lo - exact, 0.0).sum()

@@ -827,7 +827,8 @@ def main(argv: list[str] | None = None) -> int:
     extra: dict = {} if a.converged else dict(CHEAP)
     extra["continuation.speed_rpm"] = list(a.range)
     extra["continuation.max_points"] = a.max_points
-    extra.update(scene_overrides(a.set))
+    sets = scene_overrides(a.set)
+    extra.update(sets)
     ev = Evaluator(a.json, extra, a.work, a.cache, a.scene)
     if a.phases and len(a.phases) != len(a.amps):
         p.error(f"--phases given {len(a.phases)} times: give it once per --amps "
@@ -838,9 +839,8 @@ def main(argv: list[str] | None = None) -> int:
         if a.out is None or len(a.amps) != 1:
             p.error("record needs --out and one --amps (and --phases) of that run")
         ph = a.phases[0] if a.phases else None
-        key = _key(a.amps[0], {**scene_overrides(a.set),
-                               **({} if ph is None else
-                                  {"transmission_error.phases_deg": list(ph)})})
+        key = _key(a.amps[0], {**sets, **({} if ph is None else
+                                          {"transmission_error.phases_deg": list(ph)})})
         ev.section.setdefault("excitations", {})[key] = record(a.out)
         _save(a.json, ev.data)
     elif a.command == "refine-nl":

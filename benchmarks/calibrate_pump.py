@@ -94,7 +94,7 @@ same commands end at 0.4394, 0.1782, 0.0413 µm at 215.4°, 307.7°, 89.6°, see
 
 Session 11 moved the scene to a converged mesh and n_CM (``[mesh] size = 0.0108``,
 ``[rom] n_cm = 200``) and ran the second stage again there from the session-10 TE, once
-with n_CM = 100 and once more with 200 (2–3 min each); the scene's TE is the last::
+with n_CM = 100 and once more with 200 (2–3 min each; on the session-11 rotors)::
 
     ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
         --amps 0.4318,0.1769,0.0412 --phases 214.6,306.9,84.1 --set mesh.size=0.0108 \\
@@ -104,20 +104,32 @@ with n_CM = 100 and once more with 200 (2–3 min each); the scene's TE is the l
         --set rom.n_cm=200     # -> 0.4313, 0.1798, 0.0415 at 215.3, 308.4, 84.7
 
 (the scene file now holds both settings: the same commands need no ``--set`` but the
-``rom.n_cm=100`` of the first).
+``rom.n_cm=100`` of the first). Session 12 moved the rotors' frequency onto the H_3Z
+resonance (``[rotors] gear_inertia_kgm2``, ``gear_mass_kg``; docs/theory.md §13.5) and ran
+the second stage once more from the session-11 TE, on the scene as it now is::
+
+    ... refine-nl $S --converged $N --robust 0.029 --nl-ipp-min 1070=0.03,0.015,0.1,0 \\
+        --amps 0.4313,0.1798,0.0415 --phases 215.3,308.4,84.7
+        # -> 0.4350, 0.1739, 0.0389 at 214.1, 309.1, 83.6 (3 min 22 s)
+
+Every record's key holds a digest of the scene file as it is run (``"scene"``,
+:func:`scene_digest`; shown in the tables as ``scene 0123456789``), so records made on
+another version of the file are told apart and never reused; records before session 12
+have none.
 
 ``sensitivity`` solves a TE and each change of one amplitude by ±2 % or one phase by ±2°
 at the speeds of ``--at`` and records their IPP shares (the fragility of the calibrated
 IPP rows)::
 
-    ... sensitivity $S --converged --amps 0.4313,0.1798,0.0415 \\
-        --phases 215.3,308.4,84.7 --at 1070,1700                        # 1 min
+    ... sensitivity $S --converged --amps 0.4350,0.1739,0.0389 \\
+        --phases 214.1,309.1,83.6 --at 1070,1700                        # 10 s
 
 Not a timing benchmark (not picked up by ``run_all``).
 """
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import logging
 import math
@@ -150,6 +162,24 @@ RETRY = ({}, {"continuation.step_rpm": 5.0, "continuation.max_step_rpm": 10.0})
 def _key(amps: tuple[float, ...], extra: dict) -> str:
     return json.dumps({"amplitudes_um": [round(a, 6) for a in amps],
                        **{k: extra[k] for k in sorted(extra)}}, sort_keys=True)
+
+
+#: Sections of a scene that a record's key holds anyway (TE, speed range) or that do not
+#: change the response (outputs, name): left out of :func:`scene_digest`.
+DIGEST_SKIP = ("scene", "outputs", "continuation", "transmission_error")
+
+
+def scene_digest(scene: Path, sets: dict) -> str:
+    """Ten hex digits of scene file ``scene`` as it is run (``extends`` merged, ``--set``
+    ``sets`` applied) without :data:`DIGEST_SKIP`: part of every record's key (as
+    ``"scene"``), so that a record made on another version of the file (its rotors, mesh,
+    n_CM, ...) is never reused, and shown by :func:`settings_note`."""
+    from study.scene_load import resolved_table
+
+    raw = resolved_table(scene, sets)
+    body = {k: v for k, v in raw.items() if k not in DIGEST_SKIP}
+    text = json.dumps(body, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:10]
 
 
 def _load(path: Path) -> dict:
@@ -244,9 +274,9 @@ class Evaluator:
     """Evaluations cached in the results JSON (one key per input)."""
 
     def __init__(self, path: Path, extra: dict, workdir: Path, cache: Path,
-                 scene: Path = SCENE) -> None:
+                 scene: Path = SCENE, digest: str = "") -> None:
         self.path, self.extra, self.workdir, self.cache = path, extra, workdir, cache
-        self.scene = scene
+        self.scene, self.digest = scene, digest
         self.data = _load(path)
         self.section = section(self.data, scene)
 
@@ -254,7 +284,7 @@ class Evaluator:
                  ) -> dict:
         extra = self.extra if phases is None else \
             {**self.extra, "transmission_error.phases_deg": [float(p) for p in phases]}
-        key = _key(amps, extra)
+        key = _key(amps, {**extra, **({"scene": self.digest} if self.digest else {})})
         evs = self.section["evaluations"]
         if key not in evs:
             log.info("evaluating TE amplitudes %s µm", ", ".join(f"{a:.4g}" for a in amps))
@@ -412,11 +442,15 @@ def _ipp_stage(ipp: dict) -> str:
 
 
 def settings_note(key: dict) -> str:
-    """The scene overrides of a record's key other than the TE and the continuation, as a
-    note for the tables (``" (mesh.size = 0.0108, rom.n_cm = 200)"``; "" if none)."""
+    """The scene overrides of a record's key other than the TE and the continuation, and
+    its scene digest if it has one, as a note for the tables (``" (mesh.size = 0.0108,
+    rom.n_cm = 200; scene 0123456789)"``; "" if none)."""
     ov = {n: v for n, v in basis_overrides(key).items()
           if "." in n and not n.startswith("transmission_error.")}
-    return "" if not ov else " (" + ", ".join(f"{n} = {v}" for n, v in sorted(ov.items())) + ")"
+    parts = ", ".join(f"{n} = {v}" for n, v in sorted(ov.items()))
+    if key.get("scene"):
+        parts += ("; " if parts else "") + f"scene {key['scene']}"
+    return f" ({parts})" if parts else ""
 
 
 NL_IPP_COLUMNS = ["start TE (µm; deg)", "grazings within", "fitted shares (rpm: 0/1/2/3+)",
@@ -829,7 +863,8 @@ def main(argv: list[str] | None = None) -> int:
     extra["continuation.max_points"] = a.max_points
     sets = scene_overrides(a.set)
     extra.update(sets)
-    ev = Evaluator(a.json, extra, a.work, a.cache, a.scene)
+    digest = scene_digest(a.scene, sets)
+    ev = Evaluator(a.json, extra, a.work, a.cache, a.scene, digest)
     if a.phases and len(a.phases) != len(a.amps):
         p.error(f"--phases given {len(a.phases)} times: give it once per --amps "
                 f"({len(a.amps)})")
@@ -839,8 +874,8 @@ def main(argv: list[str] | None = None) -> int:
         if a.out is None or len(a.amps) != 1:
             p.error("record needs --out and one --amps (and --phases) of that run")
         ph = a.phases[0] if a.phases else None
-        key = _key(a.amps[0], {**sets, **({} if ph is None else
-                                          {"transmission_error.phases_deg": list(ph)})})
+        key = _key(a.amps[0], {**sets, "scene": digest, **(
+            {} if ph is None else {"transmission_error.phases_deg": list(ph)})})
         ev.section.setdefault("excitations", {})[key] = record(a.out)
         _save(a.json, ev.data)
     elif a.command == "refine-nl":
@@ -870,7 +905,7 @@ def main(argv: list[str] | None = None) -> int:
             "weights": {str(k): v for k, v in weights.items()},
             **({"minimum": {str(k): v for k, v in minimum.items()}} if minimum else {}),
             # runs before this key scored a wrong grazing pattern 10 + s (te_ipp)
-            "pattern_penalty": 100,
+            "pattern_penalty": 100, "scene": digest,
             "starts": [[list(x), list(y)] for x, y in starts]})] = r
         _save(a.json, ev.data)
     elif a.command == "sensitivity":
@@ -879,7 +914,8 @@ def main(argv: list[str] | None = None) -> int:
         r = ipp_sensitivity(a.scene, extra, a.cache, a.work, sorted(a.at), a.amps[0],
                             a.phases[0])
         ev.section.setdefault("sensitivity", {})[_key(a.amps[0], {
-            **r["overrides"], "phases_deg": list(a.phases[0]), "at": sorted(a.at)})] = r
+            **r["overrides"], "phases_deg": list(a.phases[0]), "at": sorted(a.at),
+            "scene": digest})] = r
         _save(a.json, ev.data)
     elif a.command == "screen":
         given = list(zip(a.amps, a.phases, strict=True)) if a.phases else \
@@ -900,7 +936,7 @@ def main(argv: list[str] | None = None) -> int:
         ev.section.setdefault("screens", {})[_key((), {
             **r["overrides"], "samples": a.samples, "seed": a.seed, "robust": a.robust,
             "given": [list(g) for g in given], "fixed_phases": a.fix_phases,
-            **extra_key})] = r
+            "scene": digest, **extra_key})] = r
         _save(a.json, ev.data)
     elif a.command == "plot":
         log.info("wrote %s", plot(ev.data, a.work / "calibrate_pump.png"))
@@ -911,7 +947,7 @@ def main(argv: list[str] | None = None) -> int:
             ev(amps, a.phases[i] if a.phases else None)
     else:
         r = calibrate(ev, a.start, a.slope, a.iterations, a.tol)
-        ev.data.setdefault("calibrations", {})[_key(a.start, extra)] = r
+        ev.data.setdefault("calibrations", {})[_key(a.start, {**extra, "scene": digest})] = r
         _save(a.json, ev.data)
         log.info("calibration %s: %s", "converged" if r["converged"] else "not converged",
                  r["amplitudes_um"])

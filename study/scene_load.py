@@ -402,3 +402,16 @@ def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Sce
     if overrides:
         raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, p.stem, text)
+
+
+def resolved_table(path: str | Path, overrides: dict[str, Any] | None = None) -> dict:
+    """The raw TOML table of scene file ``path`` as :func:`load_scene` reads it (its
+    ``extends`` chain merged, ``overrides`` applied), not validated.
+
+    Raises
+    ------
+    SceneError
+        File missing/unreadable, invalid TOML, a bad ``extends`` or override path.
+    """
+    raw, _ = _resolve(Path(path))
+    return apply_overrides(raw, overrides) if overrides else raw

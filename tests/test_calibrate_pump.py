@@ -86,3 +86,27 @@ def test_table_rows_name_the_scene_overrides_of_a_record():
            "continuation.speed_rpm": [500.0, 7000.0], "tol": 0.029}
     assert cp.settings_note(key) == " (mesh.size = 0.0108, rom.n_cm = 200)"
     assert cp.settings_note({"amplitudes_um": [0.3], "tol": 0.03}) == ""
+    assert cp.settings_note({**key, "scene": "0123456789"}) == \
+        " (mesh.size = 0.0108, rom.n_cm = 200; scene 0123456789)"
+    assert cp.settings_note({"tol": 0.03, "scene": "0123456789"}) == " (scene 0123456789)"
+
+
+def test_scene_digest_tells_structures_apart_not_tes(tmp_path):
+    # a record made on another version of the scene file (here its rotors) must not be
+    # reused: the digest is part of every key; the TE and the speed range are in the key
+    # anyway and leave it as it is
+    scene = cp.ROOT / "scenes" / "pump-paper.toml"
+    d0 = cp.scene_digest(scene, {})
+    assert len(d0) == 10 and d0 == cp.scene_digest(scene, {})
+    assert cp.scene_digest(scene, {"rotors.gear_mass_kg": 3.0}) != d0
+    assert cp.scene_digest(scene, {"transmission_error.amplitudes_um": [0.3, 0.1, 0.05],
+                                   "continuation.speed_rpm": [500.0, 4000.0]}) == d0
+    # the base of the extends chain is part of it: pump-paper.toml beside an edited copy
+    # of pump.toml; a comment is no change, a damping ratio is
+    text = (cp.ROOT / "scenes" / "pump.toml").read_text()
+    (tmp_path / "pump-paper.toml").write_text(scene.read_text())
+    (tmp_path / "pump.toml").write_text(text.replace("[damping]", "[damping]\n# edited", 1))
+    assert cp.scene_digest(tmp_path / "pump-paper.toml", {}) == d0
+    assert "modal_ratio = 0.05" in text
+    (tmp_path / "pump.toml").write_text(text.replace("modal_ratio = 0.05", "modal_ratio = 0.04", 1))
+    assert cp.scene_digest(tmp_path / "pump-paper.toml", {}) != d0

@@ -164,20 +164,30 @@ def _key(amps: tuple[float, ...], extra: dict) -> str:
                        **{k: extra[k] for k in sorted(extra)}}, sort_keys=True)
 
 
-#: Sections of a scene that a record's key holds anyway (TE, speed range) or that do not
-#: change the response (outputs, name): left out of :func:`scene_digest`.
-DIGEST_SKIP = ("scene", "outputs", "continuation", "transmission_error")
+#: What :func:`scene_digest` leaves out: what does not change the response (the name,
+#: the outputs) and the values every evaluation sets from its key (TE amplitudes, speed
+#: range, points per run). Everything else counts, the file's TE phases included: a
+#: record made with ``--phases`` then depends on them needlessly, never wrongly.
+DIGEST_SKIP = ("scene", "outputs", "transmission_error.amplitudes_um",
+               "continuation.speed_rpm", "continuation.max_points")
 
 
 def scene_digest(scene: Path, sets: dict) -> str:
     """Ten hex digits of scene file ``scene`` as it is run (``extends`` merged, ``--set``
     ``sets`` applied) without :data:`DIGEST_SKIP`: part of every record's key (as
     ``"scene"``), so that a record made on another version of the file (its rotors, mesh,
-    n_CM, ...) is never reused, and shown by :func:`settings_note`."""
+    n_CM, TE shape, continuation steps, ...) is never reused, and shown by
+    :func:`settings_note`."""
     from study.scene_load import resolved_table
 
-    raw = resolved_table(scene, sets)
-    body = {k: v for k, v in raw.items() if k not in DIGEST_SKIP}
+    body = resolved_table(scene, sets)
+    for path in DIGEST_SKIP:
+        *tables, name = path.split(".")
+        node = body
+        for t in tables:
+            node = node.get(t, {}) if isinstance(node, dict) else {}
+        if isinstance(node, dict):
+            node.pop(name, None)
     text = json.dumps(body, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:10]
 

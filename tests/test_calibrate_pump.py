@@ -100,7 +100,12 @@ def test_scene_digest_tells_structures_apart_not_tes(tmp_path):
     assert len(d0) == 10 and d0 == cp.scene_digest(scene, {})
     assert cp.scene_digest(scene, {"rotors.gear_mass_kg": 3.0}) != d0
     assert cp.scene_digest(scene, {"transmission_error.amplitudes_um": [0.3, 0.1, 0.05],
-                                   "continuation.speed_rpm": [500.0, 4000.0]}) == d0
+                                   "continuation.speed_rpm": [500.0, 4000.0],
+                                   "continuation.max_points": 10}) == d0
+    # what a key does not always hold counts: the file's TE phases and mean, the steps
+    for other in ({"transmission_error.phases_deg": [0.0, 90.0, 0.0]},
+                  {"transmission_error.mean_um": 1.0}, {"continuation.step_rpm": 1.0}):
+        assert cp.scene_digest(scene, other) != d0
     # the base of the extends chain is part of it: pump-paper.toml beside an edited copy
     # of pump.toml; a comment is no change, a damping ratio is
     text = (cp.ROOT / "scenes" / "pump.toml").read_text()

@@ -284,7 +284,7 @@ class Evaluator:
     """Evaluations cached in the results JSON (one key per input)."""
 
     def __init__(self, path: Path, extra: dict, workdir: Path, cache: Path,
-                 scene: Path = SCENE, digest: str = "") -> None:
+                 scene: Path, digest: str) -> None:
         self.path, self.extra, self.workdir, self.cache = path, extra, workdir, cache
         self.scene, self.digest = scene, digest
         self.data = _load(path)
@@ -294,7 +294,7 @@ class Evaluator:
                  ) -> dict:
         extra = self.extra if phases is None else \
             {**self.extra, "transmission_error.phases_deg": [float(p) for p in phases]}
-        key = _key(amps, {**extra, **({"scene": self.digest} if self.digest else {})})
+        key = _key(amps, {**extra, "scene": self.digest})
         evs = self.section["evaluations"]
         if key not in evs:
             log.info("evaluating TE amplitudes %s µm", ", ".join(f"{a:.4g}" for a in amps))

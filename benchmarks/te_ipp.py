@@ -160,12 +160,6 @@ class NonlinearIPP:
         return prob, out
 
 
-def soft_shares(problem: HBMProblem, point: Point, scale: float, n: int = 3) -> np.ndarray:
-    """Smooth shares of the turn at >= 1, ..., >= ``n`` impacts per mesh period of a
-    nonlinear solution (:func:`benchmarks.te_margin.soft_ipp` on :func:`gap_signal`)."""
-    return tm.soft_ipp(gap_signal(problem, point.unknowns), problem.mesh_step, scale, n)
-
-
 @dataclasses.dataclass
 class IPPTargets:
     """What :func:`refine_nonlinear_ipp` fits besides the grazings.
@@ -189,7 +183,7 @@ class IPPTargets:
     internal_margin
         That margin (m).
     scale
-        Smoothing (m) of the impact count (:func:`soft_shares`).
+        Smoothing (m) of the impact count (:func:`benchmarks.te_margin.soft_ipp`).
     """
 
     shares: dict[float, list[float]]
@@ -261,7 +255,8 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
 
     Nelder–Mead on (log amplitudes, phases): the penalty of :func:`linear_penalty`
     and, where it holds, ``Σ_speeds w ½ Σ_k |s_k - r_k|`` with ``s`` the smooth
-    nonlinear shares at >= k impacts (:func:`soft_shares`) and ``r`` the reference's,
+    nonlinear shares at >= k impacts (:func:`benchmarks.te_margin.soft_ipp` on
+    :func:`gap_signal`) and ``r`` the reference's,
     plus 100 per unit of share (exact and smooth) below ``targets.minimum``; a failed
     Newton scores 500.
 

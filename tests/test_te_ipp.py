@@ -78,7 +78,7 @@ def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
     assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.mesh_step), st.ipp)
     # the smooth shares tend to the exact ones (one loss interval per minimum here)
     exact = tm.cumulative(tm.ipp_fraction_vector(st.ipp))
-    assert te_ipp.soft_shares(prob, pts[RPM], scale=1e-13) == pytest.approx(exact, abs=1e-9)
+    assert tm.soft_ipp(gap, prob.mesh_step, 1e-13) == pytest.approx(exact, abs=1e-9)
 
 
 def test_targets_refuse_shares_that_are_not_a_partition():

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Peak", "FoldPair", "CurveSummary", "resonance_peaks", "fold_pairs",
+__all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
+           "fold_pairs", "unstable_segments",
            "impact_intervals", "merge_intervals", "impact_span", "contact_windows",
            "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
@@ -62,6 +63,29 @@ class FoldPair:
 
 
 @dataclass(frozen=True)
+class UnstableSegment:
+    """Consecutive unstable points of a branch (in branch order) with one leading kind.
+
+    ``kind`` is one of :data:`hbm.stability.KINDS` but ``"stable"`` (or
+    ``"unclassified"`` for a kind code outside them, e.g. read from an old file): how the periodic
+    orbit loses stability there (``"fold"``: the middle part of an amplitude jump;
+    ``"period_doubling"``: a response at half the fundamental frequency takes over;
+    ``"neimark_sacker"``: a quasi-periodic or a coexisting response takes over).
+    ``rpm`` is the (lowest, highest) speed of the segment's points, ``peak_std`` the
+    largest mesh-load std on it (N).
+    """
+
+    kind: str
+    rpm: tuple[float, float]
+    points: int
+    peak_std: float
+
+    def contains(self, rpm: float) -> bool:
+        """Whether ``rpm`` lies within the segment's speed interval."""
+        return self.rpm[0] <= rpm <= self.rpm[1]
+
+
+@dataclass(frozen=True)
 class CurveSummary:
     """What the paper compares between runs (Sect. 4.2–4.3), SI / rpm.
 
@@ -88,6 +112,9 @@ class CurveSummary:
         The continuation reached the end of its range.
     folds
         Fold pairs (amplitude jumps) along the branch, in branch order.
+    unstable
+        Unstable segments along the branch, in branch order (:func:`unstable_segments`;
+        empty when the run computed no stability).
     """
 
     speed_range: tuple[float, float]
@@ -101,6 +128,11 @@ class CurveSummary:
     max_std_rpm: float
     complete: bool = True
     folds: tuple[FoldPair, ...] = ()
+    unstable: tuple[UnstableSegment, ...] = ()
+
+    def unstable_at(self, rpm: float) -> list[UnstableSegment]:
+        """The unstable segments whose speed interval holds ``rpm``."""
+        return [u for u in self.unstable if u.contains(rpm)]
 
     def strongest(self, n: int) -> list[Peak]:
         """The ``n`` most prominent peaks, sorted by speed."""
@@ -211,10 +243,52 @@ def fold_pairs(rpm: np.ndarray, std: np.ndarray, fold_index: Iterable[int]) -> l
             for i, j in zip(idx[0::2], idx[1::2], strict=False)]
 
 
+def unstable_segments(rpm: np.ndarray, std: np.ndarray, stable: np.ndarray,
+                      kind: np.ndarray) -> list[UnstableSegment]:
+    """Runs of consecutive unstable points with the same leading kind, in branch order.
+
+    Parameters
+    ----------
+    rpm, std
+        Speed (rpm) and mesh-load std (N) per point.
+    stable
+        Stability verdict per point (bool).
+    kind
+        Index in :data:`hbm.stability.KINDS` of the leading exponent per point
+        (0 stable, 1 fold, 2 period doubling, 3 Neimark–Sacker); an unstable point
+        with another code is ``"unclassified"``.
+    """
+    from hbm.stability import KINDS
+
+    rpm = np.asarray(rpm, dtype=float)
+    std = np.asarray(std, dtype=float)
+    bad = ~np.asarray(stable, dtype=bool)
+    kind = np.asarray(kind, dtype=int)
+    if not (rpm.shape == std.shape == bad.shape == kind.shape):
+        raise ValueError(f"rpm, std, stable, kind shapes = {rpm.shape}, {std.shape}, "
+                         f"{bad.shape}, {kind.shape}: must be equal")
+    out: list[UnstableSegment] = []
+    i, n = 0, rpm.size
+    while i < n:
+        if not bad[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and bad[j + 1] and kind[j + 1] == kind[i]:
+            j += 1
+        seg = slice(i, j + 1)
+        name = KINDS[kind[i]] if 1 <= kind[i] < len(KINDS) else "unclassified"
+        out.append(UnstableSegment(name, (float(rpm[seg].min()), float(rpm[seg].max())),
+                                   j - i + 1, float(std[seg].max())))
+        i = j + 1
+    return out
+
+
 def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = True,
-                    fold_index: Iterable[int] = ()) -> CurveSummary:
-    """:class:`CurveSummary` of per-point arrays, grazing speeds (rpm) and the indices
-    of the folds (:func:`fold_pairs`)."""
+                    fold_index: Iterable[int] = (), stable=None, kind=None) -> CurveSummary:
+    """:class:`CurveSummary` of per-point arrays, grazing speeds (rpm), the indices
+    of the folds (:func:`fold_pairs`) and, if given, the stability verdict and leading
+    kind per point (:func:`unstable_segments`)."""
     rpm = np.asarray(rpm, dtype=float)
     std = np.asarray(std, dtype=float)
     iv = impact_intervals(rpm, contact)
@@ -226,7 +300,8 @@ def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = Tr
         impacts=iv, windows=contact_windows(iv), span=impact_span(iv),
         max_std=float(std[i]) if std.size else float("nan"),
         max_std_rpm=float(rpm[i]) if rpm.size else float("nan"), complete=complete,
-        folds=tuple(fold_pairs(rpm, std, fold_index)))
+        folds=tuple(fold_pairs(rpm, std, fold_index)),
+        unstable=() if stable is None else tuple(unstable_segments(rpm, std, stable, kind)))
 
 
 def summarize_branch(branch) -> CurveSummary:
@@ -235,7 +310,8 @@ def summarize_branch(branch) -> CurveSummary:
                            [g.rpm for g in branch.grazing],
                            (branch.rpm_start, branch.rpm_end),
                            complete=branch.status == "completed",
-                           fold_index=branch.fold_index)
+                           fold_index=branch.fold_index, stable=branch.stable,
+                           kind=branch.floquet_kind)
 
 
 def ipp_runs(ipp: np.ndarray) -> list[tuple[int, float]]:

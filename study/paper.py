@@ -207,6 +207,18 @@ def _jumps_text(s: CurveSummary | None, peak: Peak | None, rel: float = 0.15) ->
                      f"std {f.std[0]:.1f} / {f.std[1]:.1f} N)" for f in near)
 
 
+def _peak_stability(s: CurveSummary | None, peak: Peak | None) -> str | None:
+    """Why the periodic orbit at ``peak`` is not what the machine does, or None if it
+    is stable (or the run computed no stability)."""
+    if s is None or peak is None:
+        return None
+    segs = s.unstable_at(peak.rpm)
+    if not segs:
+        return None
+    return ", ".join(f"{u.kind.replace('_', ' ')} {u.rpm[0]:.0f}–{u.rpm[1]:.0f} rpm"
+                     for u in segs)
+
+
 def _effect_rows(inp: PaperInputs) -> list[str]:
     pk, sp = PAPER["primary_peak"], PAPER["span_change"]
     a, b = pk.value
@@ -223,6 +235,13 @@ def _effect_rows(inp: PaperInputs) -> list[str]:
         run_pk += f"; largest std of each curve {si.max_std:.1f} → {sa.max_std:.1f} N " \
                   f"({_pct(sa.max_std, si.max_std)}; at {si.max_std_rpm:.0f} → " \
                   f"{sa.max_std_rpm:.0f} rpm)"
+    unstable = {c: _peak_stability(inp.cases.get(c), inp.primary.get(c))
+                for c in ("internal", "all")}
+    if any(unstable.values()):
+        run_pk += "; **the periodic orbit at the peak is unstable** (" + "; ".join(
+            f"{c}: {v}" for c, v in unstable.items() if v) + "): the machine leaves it " \
+            "there, so this row compares orbits the paper's method computes, not the " \
+            "machine's response (each case's report.md, docs/theory.md §13.5)"
     if si is not None and sa is not None and not (si.complete and sa.complete):
         run_sp = f"{si.span:.0f} → {sa.span:.0f} rpm (incomplete curve: not comparable)"
         run_pk += " (incomplete curve: not comparable)"

@@ -8,6 +8,7 @@ import numpy as np
 
 from geometry.files import atomic_write
 from hbm.stability import KINDS
+from study.curves import UnstableSegment, unstable_segments
 from study.fields import velocity_level_db
 from study.plot_common import contact_intervals, order_label
 
@@ -30,6 +31,8 @@ def summary(result) -> dict:
         "unstable_kinds": {KINDS[k]: int(np.sum(br.floquet_kind == k))
                            for k in range(1, len(KINDS)) if np.any(br.floquet_kind == k)},
         "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
+        "unstable_segments": unstable_segments(br.rpm, br.mesh_load_std, br.stable,
+                                               br.floquet_kind),
         "intervals": contact_intervals(br.rpm, br.contact),
     }
 
@@ -43,6 +46,30 @@ def _unresolved(rpm: list[float]) -> list[str]:
             "unstable) but the variational equation finds the orbit stable, so the harmonic "
             "set does not resolve the orbit; raise `hbm.mesh_harmonics` / `sideband_order` "
             "(docs/convergence.md)"]
+
+
+#: what the machine does where the periodic orbit is unstable, per leading kind
+_MEANING = {
+    "fold": "the middle part of an amplitude jump",
+    "period_doubling": "a response at half the fundamental frequency takes over (not "
+                       "computed: the harmonic set holds multiples of the fundamental only)",
+    "neimark_sacker": "a quasi-periodic response or another, coexisting periodic one takes "
+                      "over (not computed)",
+    "unclassified": "unstable, kind not recorded",
+}
+
+
+def unstable_lines(segments: list[UnstableSegment]) -> list[str]:
+    """Report lines for the unstable segments of a branch and what each kind means."""
+    if not segments:
+        return []
+    out = ["- unstable segments (branch order; the curve shows the periodic orbit, which the "
+           "machine leaves there; integrate in time to see its response, docs/theory.md "
+           "§11):"]
+    for u in segments:
+        out.append(f"  - {u.rpm[0]:.1f}–{u.rpm[1]:.1f} rpm, {u.points} points, std up to "
+                   f"{u.peak_std:.4g} N: {u.kind.replace('_', ' ')}, {_MEANING[u.kind]}")
+    return out
 
 
 def _loops(br) -> list[str]:
@@ -95,6 +122,7 @@ def write_report(result) -> Path:
              + (" (" + ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in
                                  s["unstable_kinds"].items()) + ")" if s["unstable_kinds"] else "")
              + " — Floquet exponents of the variational equation, every mode",
+             *unstable_lines(s["unstable_segments"]),
              *_unresolved(s["unresolved_rpm"]),
              "- folds (jumps) near: " + (", ".join(f"{f:.1f}" for f in s["folds"]) or "none")
              + " rpm", "", "### Grazing bifurcations", "",

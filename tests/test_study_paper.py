@@ -18,6 +18,7 @@ from study.curves import (
     primary_peak,
     resonance_peaks,
     summarize_curve,
+    unstable_segments,
 )
 from study.paper import IppAt, PaperInputs, SpectrumAt, paper_markdown, write_paper
 
@@ -91,6 +92,26 @@ def test_fold_pairs_of_a_softening_s_curve():
     assert fold_pairs(r, y, [40]) == [] and fold_pairs(r, y, [-(10 ** 9), 40]) == []
     s = summarize_curve(r, y, np.zeros(r.size, int), [], (2500.0, 3200.0), fold_index=turns)
     assert s.folds == (f,)
+
+
+def test_unstable_segments_split_by_kind_in_branch_order():
+    r = np.arange(10, dtype=float) * 100.0
+    y = np.arange(10, dtype=float)
+    stable = np.array([1, 0, 0, 0, 1, 0, 0, 1, 0, 1], bool)
+    kind = np.array([0, 3, 3, 2, 0, 1, 1, 0, 7, 0])       # 7: not a kind (an old file)
+    segs = unstable_segments(r, y, stable, kind)
+    assert [(u.kind, u.rpm, u.points, u.peak_std) for u in segs] == [
+        ("neimark_sacker", (100.0, 200.0), 2, 2.0), ("period_doubling", (300.0, 300.0), 1, 3.0),
+        ("fold", (500.0, 600.0), 2, 6.0), ("unclassified", (800.0, 800.0), 1, 8.0)]
+    assert unstable_segments(r, y, np.ones(10, bool), np.zeros(10, int)) == []
+    # a segment that folds back: its speed interval is that of its points
+    (u,) = unstable_segments([1.0, 3.0, 2.0], [0, 0, 0], [False] * 3, [1] * 3)
+    assert u.rpm == (1.0, 3.0) and u.contains(2.5) and not u.contains(3.5)
+    s = summarize_curve(r, y, np.zeros(10, int), [], (0.0, 900.0), stable=stable, kind=kind)
+    assert s.unstable == tuple(segs) and s.unstable_at(150.0) == [segs[0]]
+    assert summarize_curve(r, y, np.zeros(10, int), [], (0.0, 900.0)).unstable == ()
+    with pytest.raises(ValueError, match="shapes"):
+        unstable_segments(r, y, stable[:5], kind)
 
 
 def test_peaks_of_a_branch_winding_at_one_speed_count_once():
@@ -190,6 +211,14 @@ def test_paper_table_rows_from_the_curves(tmp_path):
                                                                   folds=(far, near))})
     assert "| internal only: 2790–2810 rpm (20.0 rpm wide, std 100.0 / 80.0 N); all: none" \
         in _row(paper_markdown(jumped), "| amplitude jumps")
+    assert "unstable" not in pk                      # no stability computed: no note
+    pi = inp.primary["internal"].rpm
+    ns = unstable_segments(RPM, _std(RPM), np.abs(RPM - pi) > 45.0, np.full(RPM.size, 3))
+    shaky = replace(inp, cases={**inp.cases, "internal": replace(inp.cases["internal"],
+                                                                 unstable=tuple(ns))})
+    assert f"**the periodic orbit at the peak is unstable** (internal: neimark sacker " \
+           f"{ns[0].rpm[0]:.0f}–{ns[0].rpm[1]:.0f} rpm): the machine leaves it" \
+        in _row(paper_markdown(shaky), "| primary peak")
     span = _row(md, "| vibro-impact span")
     assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
     ipp = _row(md, "| IPP sequence at 1700")

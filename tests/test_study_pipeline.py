@@ -343,9 +343,24 @@ def test_report_from_existing_results(sdof_run):
     with h5py.File(out / "results.h5", "r") as f:
         n = f["continuation/rpm"].size
         g = f["grazing/rpm"][()]
+        rpm, std = f["continuation/rpm"][()], f["continuation/mesh_load_std"][()]
+        stable, kind = f["continuation/stable"][()], f["continuation/floquet_kind"][()]
     assert f"{n} points" in text
     for r in g:
         assert f"{r:.2f}" in text
+    # unstable segments: runs of unstable points of one kind, found here by diff
+    bad = ~stable.astype(bool)
+    key = np.where(bad, kind, -1)
+    starts = np.flatnonzero(bad & np.r_[True, key[1:] != key[:-1]])
+    assert starts.size, "the SDOF curve has jumps: their middle parts are unstable"
+    names = {1: "fold", 2: "period doubling", 3: "neimark sacker"}
+    for i in starts:
+        j = i
+        while j + 1 < n and key[j + 1] == key[i]:
+            j += 1
+        r = rpm[i:j + 1]
+        assert (f"  - {r.min():.1f}–{r.max():.1f} rpm, {j - i + 1} points, std up to "
+                f"{std[i:j + 1].max():.4g} N: {names[int(kind[i])]}, ") in text
     assert (out / "forced_response.png").exists()
 
 

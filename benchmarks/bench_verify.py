@@ -135,6 +135,8 @@ def _rhs(mm: ModalModel) -> Callable[[float, np.ndarray], np.ndarray]:
     m = mm.n_modes
     gam, w2, damp, P, kw, b, kbar = (mm.gamma, mm.w2, mm.damp, mm.forcing, mm.kw,
                                      mm.backlash, mm.kbar)
+    loaded_rows = np.any(P != 0, axis=1)     # only the forced harmonics: exact, and the
+    P, kw = P[loaded_rows], kw[loaded_rows]  # shaft-order sets hold hundreds of unforced ones
     modal = damp.ndim == 1
     mesh = mm.mesh
     k_coef = list(mesh.stiffness.items())

@@ -122,3 +122,36 @@ def test_internal_only_impacts_reach_the_end_of_the_range(work):
     br = r.branch
     assert br.status == "completed" and br.rpm.max() == pytest.approx(7000.0)
     assert np.all(br.contact > 0), br.rpm[br.contact == 0]
+
+
+def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
+    """docs/theory.md §13.5, "Stability along the curves": near the H_Z resonance the
+    contact loss softens the rotor-against-rotor mode (288 Hz, ρ 0.61) and the periodic
+    orbit loses stability by a Neimark–Sacker pair. Time integration from the orbit
+    (an independent method) leaves it for a response with a line of that softened mode:
+    std up by ≥ 10 %, its strongest low-order line between half the linear mode and the
+    mode (session 13: 119.6 against 104.6 N, 100 N at 201 Hz, order 4.125)."""
+    import study
+    from benchmarks.bench_verify import hbm_load, initial_state, modal_model
+    from benchmarks.ti_attractor import integrate
+    from study.excitations import case_scenes
+    from study.scene_load import load_scene
+
+    scene = load_scene(SCENE, {**RANGE, "hbm.stability": True,
+                               "continuation.speed_rpm": [2850.0, 2925.0]})
+    r = study.run(case_scenes(scene)["internal"], work / "internal-peak",
+                  cache_dir=work / "cache")
+    br = r.branch
+    assert br.status == "completed"
+    i = int(np.argmax(br.rpm))
+    assert not br.stable[i] and br.floquet_kind[i] == 3, (br.stable[i], br.floquet_kind[i])
+    rom = r.rom
+    top = rom.frequencies_hz[int(np.argmax(rom.mesh_energy))]
+    assert 280.0 < top < 300.0 and rom.mesh_energy.max() > 0.55
+    point = r.problem.solve(float(br.rpm[i]), x0=br.unknowns[i], tol=1e-10)
+    y0 = initial_state(r.problem, point, modal_model(r.problem, float(br.rpm[i])))
+    rec, _ = integrate(r.problem, float(br.rpm[i]), y0, turns=20, window=4)
+    hbm_std = float(hbm_load(r.problem, point, 64).std())
+    assert rec["std_window"] > 1.1 * hbm_std, (rec["std_window"], hbm_std)
+    low = [ln for ln in rec["lines"] if ln["hz"] < 1000.0]
+    assert low and 0.5 * top < low[0]["hz"] < top, rec["lines"][:5]

@@ -1,0 +1,186 @@
+"""What the machine does where the HBM orbit is unstable: time integration from it.
+
+For a scene, an excitation case (``all`` as the scene is; ``internal``: ``[external]``
+removed, as ``geardyn excitations`` does) and a list of speeds, the HBM point at each
+speed is solved by Newton from the nearest point of a saved run (``--from
+OUT/<case>/results.h5``), then the ROM is integrated in time from it
+(:func:`benchmarks.bench_verify.modal_model`, DOP853, rtol 1e-9) over ``--transient``
+shaft turns and ``--window`` more. Per speed the record keeps the HBM orbit's mesh-load
+std, its stability, the std of each integrated turn of the window, and the strongest
+lines of the mesh-load spectrum over the window (resolution 1/window shaft orders):
+an attractor is the HBM orbit when its std and lines are those of the orbit; a
+periodic attractor has lines at integer orders only and the same std every turn; a
+quasi-periodic one has lines between them (docs/theory.md §13.5, "Stability along the
+curves"). With ``--sweep`` each speed after the first starts from the state the
+previous one ended in: a slow run-up (or run-down) as on a test rig.
+
+Run (a few minutes per speed on the pump-paper ROM)::
+
+    OMP_NUM_THREADS=1 nice .venv/bin/python -m benchmarks.ti_attractor \\
+        --scene scenes/pump-paper.toml --case internal --rpm 2922 5900 \\
+        --from OUT/internal/results.h5 --cache CACHE
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from benchmarks.bench_verify import (
+    _rhs,
+    hbm_load,
+    initial_state,
+    mesh_load,
+    modal_model,
+    state_atol,
+)
+from benchmarks.common import RESULTS
+from geometry.files import atomic_write
+
+log = logging.getLogger("ti_attractor")
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUT = RESULTS / "ti_attractor_pump_paper.json"
+SAMPLES_PER_MESH_PERIOD = 64
+
+
+def case_scene(path: Path, case: str):
+    """The scene of an excitation case: ``all`` as it is, ``internal`` without
+    ``[external]`` (its HBM fundamental is then the mesh frequency)."""
+    import study
+    from study.scene_load import scene_from_dict
+
+    scene = study.load_scene(path)
+    if case == "all":
+        return scene
+    if case != "internal":
+        raise ValueError(f"--case = {case!r}: must be 'all' or 'internal'")
+    raw = copy.deepcopy(scene.raw)
+    raw.pop("external", None)
+    return scene_from_dict(raw, f"{scene.name}-internal", scene.text)
+
+
+def start_point(problem, run: Path, rpm: float):
+    """Newton solution at ``rpm`` from the nearest point of the run's branch, and that
+    point's stability verdict."""
+    import h5py
+
+    with h5py.File(run, "r") as f:
+        c = f["continuation"]
+        r = c["rpm"][()]
+        i = int(np.argmin(np.abs(r - rpm)))
+        x0, stable, kind = c["unknowns"][i], bool(c["stable"][i]), int(c["floquet_kind"][i])
+    if x0.size != problem.n_unknowns:
+        raise ValueError(f"--from {run}: {x0.size} unknowns per point, the case's problem "
+                         f"has {problem.n_unknowns} (another case or harmonic set?)")
+    return problem.solve(rpm, x0=x0, tol=1e-10), stable, kind
+
+
+def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
+              ) -> tuple[dict, np.ndarray]:
+    """Integrate ``turns + window`` shaft turns from the modal state ``y0``; the window's
+    std per turn and spectrum, and the state at the end."""
+    mm = modal_model(problem, rpm)
+    z = problem.mesh.n_teeth
+    per_turn = round(2 * np.pi / (rpm * np.pi / 30.0) / mm.period)   # fundamentals per turn
+    T = per_turn * mm.period
+    n = z * SAMPLES_PER_MESH_PERIOD
+    te = T * np.arange(n) / n
+    y = np.array(y0, dtype=float)
+    fun, atol, m = _rhs(mm), state_atol(mm, y, 1e-9), mm.n_modes
+    stds, loads = [], []
+    t0 = time.perf_counter()
+    for k in range(turns + window):
+        sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=1e-9, atol=atol,
+                        t_eval=np.append(te, T))
+        if not sol.success:
+            raise RuntimeError(f"{rpm} rpm: solve_ivp failed after {k} turns: {sol.message}")
+        y = sol.y[:, -1]
+        load = mesh_load(mm, mm.gamma @ sol.y[:m, :-1], te)
+        stds.append(float(load.std()))
+        if k >= turns:
+            loads.append(load)
+    sig = np.concatenate(loads)
+    spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
+    top = np.argsort(-spec)[:12]
+    rec = {"turns": turns, "window": window, "seconds": round(time.perf_counter() - t0, 1),
+           "std_per_turn": [round(s, 4) for s in stds],
+           "std_window": round(float(sig.std()), 4),
+           "max_load": round(float(sig.max()), 3),
+           "lines": [{"order": round(j / window, 4), "hz": round(j / window * rpm / 60, 1),
+                      "N": round(float(spec[j]), 3)} for j in top]}
+    return rec, y
+
+
+def nearest_branch_point(run: Path, rpm: float) -> dict:
+    """The saved branch's point nearest to ``rpm``: its speed, std and stability."""
+    import h5py
+
+    with h5py.File(run, "r") as f:
+        c = f["continuation"]
+        r = c["rpm"][()]
+        i = int(np.argmin(np.abs(r - rpm)))
+        return {"rpm": round(float(r[i]), 2), "std": round(float(c["mesh_load_std"][i]), 4),
+                "stable": bool(c["stable"][i]), "kind": int(c["floquet_kind"][i])}
+
+
+def main(argv: list[str] | None = None) -> dict:
+    from study.pipeline import Pipeline
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", type=Path, default=ROOT / "scenes" / "pump-paper.toml")
+    ap.add_argument("--case", default="all", choices=("all", "internal"))
+    ap.add_argument("--rpm", type=float, nargs="+", required=True)
+    ap.add_argument("--from", dest="run", type=Path, required=True,
+                    help="results.h5 of a run of that case (start points)")
+    ap.add_argument("--cache", type=Path, required=True, help="stage cache holding the ROM")
+    ap.add_argument("--transient", type=int, default=30, help="shaft turns left out")
+    ap.add_argument("--window", type=int, default=16, help="shaft turns analysed")
+    ap.add_argument("--sweep", action="store_true",
+                    help="each speed starts from the state the previous one ended in (a "
+                         "run-up or run-down, in the order given) instead of its HBM point")
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    args = ap.parse_args(argv)
+    if args.transient < 0 or args.window < 1:
+        raise ValueError(f"--transient = {args.transient}, --window = {args.window}: must be "
+                         ">= 0 and >= 1")
+    if any(not r > 0 for r in args.rpm):
+        raise ValueError(f"--rpm = {args.rpm}: must be > 0")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
+    scene = case_scene(args.scene, args.case)
+    problem, _ = Pipeline(scene, args.cache.parent / "ti-attractor", cache_dir=args.cache,
+                          progress=False).problem()
+    old = json.loads(args.out.read_text()) if args.out.exists() else {"records": []}
+    records = [r for r in old["records"]
+               if not (r["case"] == args.case and r["rpm"] in args.rpm
+                       and r.get("sweep", False) == args.sweep)]
+    y = None
+    for rpm in args.rpm:
+        rec = {"scene": str(args.scene), "case": args.case, "rpm": rpm,
+               "sweep": args.sweep, "hbm_nearest": nearest_branch_point(args.run, rpm)}
+        if y is None or not args.sweep:
+            pt, stable, kind = start_point(problem, args.run, rpm)
+            samples = problem.mesh_step * SAMPLES_PER_MESH_PERIOD
+            rec.update(hbm_std=round(float(hbm_load(problem, pt, samples).std()), 4),
+                       hbm_stable=stable, hbm_kind=kind)
+            y = initial_state(problem, pt, modal_model(problem, rpm))
+        out, y = integrate(problem, rpm, y, args.transient, args.window)
+        rec.update(out)
+        log.info("%s %.0f rpm: HBM std %.2f N near (stable %s); attractor std %.2f N, "
+                 "lines %s", args.case, rpm, rec["hbm_nearest"]["std"],
+                 rec["hbm_nearest"]["stable"], rec["std_window"],
+                 ", ".join(f"{ln['order']:g}: {ln['N']:.1f} N" for ln in rec["lines"][:5]))
+        records.append(rec)
+        with atomic_write(args.out, "w") as fh:
+            json.dump({"records": records}, fh, indent=1)
+            fh.write("\n")
+    return {"records": records}
+
+
+if __name__ == "__main__":
+    main()

@@ -226,7 +226,8 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
           stability: bool = True, overshoot: float = 0.25,
           grazing_tol_rpm: float | None = None, start_fallback: bool = True,
           stability_process: bool | None = None,
-          retry_steps: tuple[float, ...] = RETRY_STEPS) -> Branch:
+          retry_steps: tuple[float, ...] = RETRY_STEPS,
+          start: np.ndarray | None = None) -> Branch:
     """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
 
     Parameters
@@ -271,6 +272,12 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         (status ``"reversal"``, ``"loop"``, ``"step_failed"``) is resumed from before the
         speeds where it was caught (:func:`hbm.loops.resume_point`) with ``step`` times
         each factor in turn, until one gets through; ``()`` stops at the first failure.
+    start
+        Unknowns from which Newton finds the first point at ``rpm_start`` (a point of
+        another, coexisting branch, e.g. from a time integration); without it Newton
+        starts from the linear response. With ``start`` there is no fallback: if Newton
+        fails from it the trace stops (status ``"start_failed"``) rather than follow
+        another branch.
 
     Returns
     -------
@@ -278,6 +285,13 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         Never holds an unconverged point; ``status``/``message`` say why it stopped.
     """
     _check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points, overshoot)
+    if start is not None:
+        start = np.asarray(start, dtype=float)
+        if start.shape != (problem.n_unknowns,) or not np.all(np.isfinite(start)):
+            raise ValueError(f"start shape = {start.shape}: must be ({problem.n_unknowns},) "
+                             "finite floats")
+        if resume is not None:
+            raise ValueError("start and resume: give one of them")
     bounds = _Range(rpm_start, rpm_end, overshoot)
     if resume is not None:
         _check_resume(problem, resume)
@@ -294,7 +308,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         measure.worker = StabilityProcess(problem)
     try:
         branch = _run(ctx, rec, bounds, resume, step, min_step, max_step, max_points,
-                      on_point, start_fallback)
+                      on_point, start_fallback, start=start)
         for factor in retry_steps:
             if branch.status not in RETRIED:
                 break
@@ -313,7 +327,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
 def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | None,
          step: float, min_step: float, max_step: float, max_points: int,
          on_point: Callable[[Branch], None] | None, start_fallback: bool,
-         trapped: tuple[str, ...] = TRAPPED) -> Branch:
+         trapped: tuple[str, ...] = TRAPPED, start: np.ndarray | None = None) -> Branch:
     """The PREDICT / CORRECT / ACCEPT loop of :func:`trace`; a ``resume`` whose status is
     in ``trapped`` restarts from before the speeds where it stopped."""
     rpm_start = bounds.rpm_start
@@ -326,7 +340,8 @@ def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | Non
             rec.truncate(keep)
         ds = _resumed_step(resume, step, min_step, max_step)
     else:
-        failed = _first_point(ctx, rec, rpm_start, bounds.dirn, start_fallback, max_points)
+        failed = _first_point(ctx, rec, rpm_start, bounds.dirn, start_fallback, max_points,
+                              start)
         if failed:
             return rec.branch("start_failed", failed, step)
         ds = step
@@ -409,17 +424,20 @@ def _check_resume(problem: HBMProblem, resume: Branch) -> None:
 
 
 def _first_point(ctx: TraceContext, rec: _Recorder, rpm_start: float, dirn: float,
-                 start_fallback: bool, max_points: int) -> str:
-    """Record the solution at ``rpm_start`` with its tangent; "" or why there is none."""
+                 start_fallback: bool, max_points: int, start: np.ndarray | None = None
+                 ) -> str:
+    """Record the solution at ``rpm_start`` (Newton from ``start`` if given) with its
+    tangent; "" or why there is none."""
     problem = ctx.problem
     try:
-        p0 = problem.solve(rpm_start, tol=ctx.tol)
+        p0 = problem.solve(rpm_start, x0=start, tol=ctx.tol)
     except ConvergenceError as exc:
         p0 = _approach_start(problem, rpm_start, ctx.tol, ctx.max_iter, max_points) if (
-            start_fallback) else None
+            start_fallback and start is None) else None
         if p0 is None:
             msg = f"no converged solution at rpm_start = {rpm_start}: {exc}" + (
-                "; nor by continuation from rpm_start / 4" if start_fallback else "")
+                "; nor by continuation from rpm_start / 4" if start_fallback and start is None
+                else " (from the given start)" if start is not None else "")
             logger.error(msg)
             return msg
     y0 = np.concatenate([p0.unknowns / problem.x_scale, [p0.omega / ctx.wscale]])

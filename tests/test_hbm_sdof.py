@@ -198,3 +198,30 @@ def test_period_doubling_instability_matches_monodromy(rattle_branch):
         if found == 3:
             break
     assert found == 3
+
+
+def test_trace_from_a_given_start_follows_that_branch(softening_branch):
+    """``trace(start=...)`` begins on the coexisting branch its start lies on: inside the
+    hysteresis of the softening jump, the upper (resonant) branch, where Newton from the
+    linear response finds the lower one. (Sweeping up, the branch runs on the lower
+    orbit to the fold at ``hi``, back through the unstable middle to ``lo`` and on along
+    the upper orbit.)"""
+    pb, full = softening_branch
+    i1, i2 = full.fold_index
+    lo, hi = min(full.folds), max(full.folds)
+    s = 0.5 * (lo + hi)
+    upper = np.arange(i2 + 1, len(full))             # after the second fold
+    j = upper[np.argmin(np.abs(full.rpm[upper] - s))]
+    want = np.interp(s, full.rpm[upper], full.mesh_load_std[upper])
+    low = np.arange(i1)                              # before the first fold
+    want_low = np.interp(s, full.rpm[low], full.mesh_load_std[low])
+    assert want > 1.5 * want_low                      # two distinct orbits at s
+    plain = hbm.trace(pb, s, 1.6 / RPM, max_points=3)
+    given = hbm.trace(pb, s, 1.6 / RPM, max_points=3, start=full.unknowns[j])
+    assert plain.mesh_load_std[0] == pytest.approx(want_low, rel=1e-2)
+    assert given.mesh_load_std[0] == pytest.approx(want, rel=1e-2)
+    assert given.rpm[0] == pytest.approx(s, rel=1e-12) and given.stable[0]
+    with pytest.raises(ValueError, match="start shape"):
+        hbm.trace(pb, s, 1.6 / RPM, start=full.unknowns[j][:-1])
+    with pytest.raises(ValueError, match="start and resume"):
+        hbm.trace(pb, s, 1.6 / RPM, start=full.unknowns[j], resume=plain)

@@ -36,6 +36,7 @@ from benchmarks.bench_verify import (
     _rhs,
     hbm_load,
     initial_state,
+    map_unknowns,
     mesh_load,
     modal_model,
     state_atol,
@@ -82,9 +83,10 @@ def start_point(problem, run: Path, rpm: float):
 
 
 def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
-              ) -> tuple[dict, np.ndarray]:
+              ) -> tuple[dict, np.ndarray, np.ndarray]:
     """Integrate ``turns + window`` shaft turns from the modal state ``y0``; the window's
-    std per turn and spectrum, and the state at the end."""
+    std per turn and spectrum, the state at the end and Delta (m) over the last turn
+    (``Z * SAMPLES_PER_MESH_PERIOD`` equally spaced samples from its start)."""
     mm = modal_model(problem, rpm)
     z = problem.mesh.n_teeth
     per_turn = round(2 * np.pi / (rpm * np.pi / 30.0) / mm.period)   # fundamentals per turn
@@ -101,7 +103,8 @@ def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
         if not sol.success:
             raise RuntimeError(f"{rpm} rpm: solve_ivp failed after {k} turns: {sol.message}")
         y = sol.y[:, -1]
-        load = mesh_load(mm, mm.gamma @ sol.y[:m, :-1], te)
+        delta = mm.gamma @ sol.y[:m, :-1]
+        load = mesh_load(mm, delta, te)
         stds.append(float(load.std()))
         if k >= turns:
             loads.append(load)
@@ -114,7 +117,7 @@ def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
            "max_load": round(float(sig.max()), 3),
            "lines": [{"order": round(j / window, 4), "hz": round(j / window * rpm / 60, 1),
                       "N": round(float(spec[j]), 3)} for j in top]}
-    return rec, y
+    return rec, y, delta
 
 
 def nearest_branch_point(run: Path, rpm: float) -> dict:
@@ -127,6 +130,52 @@ def nearest_branch_point(run: Path, rpm: float) -> dict:
         i = int(np.argmin(np.abs(r - rpm)))
         return {"rpm": round(float(r[i]), 2), "std": round(float(c["mesh_load_std"][i]), 4),
                 "stable": bool(c["stable"][i]), "kind": int(c["floquet_kind"][i])}
+
+
+def attractor_point(problem, rpm: float, delta: np.ndarray):
+    """Newton solution at ``rpm`` from the Fourier coefficients of ``Delta`` over one
+    shaft turn (a time-integrated attractor): the harmonic-balance orbit it is, if it
+    is periodic and the harmonic set holds it."""
+    per_turn = problem.mesh.n_teeth // problem.mesh_step       # fundamentals per turn
+    spec = np.fft.rfft(delta) / delta.size
+    coeffs = {int(k): complex(spec[k * per_turn] * (1.0 if k == 0 else 2.0))
+              for k in problem.harmonics.indices if k * per_turn < spec.size}
+    return problem.solve(rpm, x0=map_unknowns(problem, coeffs), tol=1e-10)
+
+
+def trace_attractor(problem, scene, point, ends: tuple[float, float]) -> dict:
+    """Continue the branch of ``point`` (:func:`attractor_point`) down to ``ends[0]`` and
+    up to ``ends[1]`` rpm with the scene's continuation settings and stability; per
+    direction its reach, largest std, unstable segments and arrays."""
+    import hbm
+    from study.curves import unstable_segments
+
+    c = scene.continuation
+    out = {}
+    for name, end in zip(("down", "up"), ends, strict=True):
+        span = abs(end - point.rpm)
+        br = hbm.trace(problem, point.rpm, end, step=c.step / span,
+                       min_step=c.min_step / span, max_step=c.max_step / span,
+                       tol=c.tolerance, max_points=c.max_points, start=point.unknowns)
+        i = int(np.argmax(br.mesh_load_std))
+        out[name] = {
+            "status": br.status, "points": len(br),
+            "rpm_range": [round(float(br.rpm.min()), 2), round(float(br.rpm.max()), 2)],
+            "max_std": round(float(br.mesh_load_std[i]), 4),
+            "max_std_rpm": round(float(br.rpm[i]), 2), "stable_max_std": round(float(
+                np.max(br.mesh_load_std[br.stable.astype(bool)], initial=0.0)), 4),
+            "folds": [round(float(f), 2) for f in br.folds],
+            "unstable": [{"kind": u.kind, "rpm": [round(u.rpm[0], 2), round(u.rpm[1], 2)],
+                          "points": u.points} for u in unstable_segments(
+                              br.rpm, br.mesh_load_std, br.stable, br.floquet_kind)],
+            "rpm": [round(float(r), 3) for r in br.rpm],
+            "std": [round(float(v), 4) for v in br.mesh_load_std],
+            "stable": [bool(v) for v in br.stable]}
+        log.info("attractor branch %s from %.1f rpm: %s, %d points, %.1f-%.1f rpm, largest "
+                 "std %.2f N at %.1f rpm (stable points: %.2f N), unstable %s", name,
+                 point.rpm, br.status, len(br), *out[name]["rpm_range"], out[name]["max_std"],
+                 out[name]["max_std_rpm"], out[name]["stable_max_std"], out[name]["unstable"])
+    return out
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -144,6 +193,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--sweep", action="store_true",
                     help="each speed starts from the state the previous one ended in (a "
                          "run-up or run-down, in the order given) instead of its HBM point")
+    ap.add_argument("--trace", type=float, nargs=2, metavar=("LO", "HI"),
+                    help="if the attractor at a speed is a periodic orbit of the harmonic "
+                         "set, continue its branch down to LO and up to HI rpm")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     args = ap.parse_args(argv)
     if args.transient < 0 or args.window < 1:
@@ -156,21 +208,36 @@ def main(argv: list[str] | None = None) -> dict:
     problem, _ = Pipeline(scene, args.cache.parent / "ti-attractor", cache_dir=args.cache,
                           progress=False).problem()
     old = json.loads(args.out.read_text()) if args.out.exists() else {"records": []}
+    sweep = (("up" if args.rpm[-1] >= args.rpm[0] else "down") if args.sweep else False)
     records = [r for r in old["records"]
                if not (r["case"] == args.case and r["rpm"] in args.rpm
-                       and r.get("sweep", False) == args.sweep)]
+                       and r.get("sweep", False) == sweep)]
     y = None
     for rpm in args.rpm:
         rec = {"scene": str(args.scene), "case": args.case, "rpm": rpm,
-               "sweep": args.sweep, "hbm_nearest": nearest_branch_point(args.run, rpm)}
+               "sweep": sweep, "hbm_nearest": nearest_branch_point(args.run, rpm)}
         if y is None or not args.sweep:
             pt, stable, kind = start_point(problem, args.run, rpm)
             samples = problem.mesh_step * SAMPLES_PER_MESH_PERIOD
             rec.update(hbm_std=round(float(hbm_load(problem, pt, samples).std()), 4),
                        hbm_stable=stable, hbm_kind=kind)
             y = initial_state(problem, pt, modal_model(problem, rpm))
-        out, y = integrate(problem, rpm, y, args.transient, args.window)
+        out, y, delta = integrate(problem, rpm, y, args.transient, args.window)
         rec.update(out)
+        if args.trace:
+            try:
+                ap_pt = attractor_point(problem, rpm, delta)
+            except Exception as exc:             # noqa: BLE001 - recorded, not fatal
+                rec["attractor_orbit"] = f"no orbit of the harmonic set: {exc}"
+            else:
+                hstd = float(hbm_load(problem, ap_pt, problem.mesh_step
+                                      * SAMPLES_PER_MESH_PERIOD).std())
+                rec["attractor_orbit"] = {"std": round(hstd, 4),
+                                          "vs_time_integration": round(
+                                              hstd / rec["std_window"] - 1.0, 6)}
+                if abs(hstd / rec["std_window"] - 1.0) < 1e-3:
+                    rec["attractor_branch"] = trace_attractor(problem, scene, ap_pt,
+                                                              tuple(args.trace))
         log.info("%s %.0f rpm: HBM std %.2f N near (stable %s); attractor std %.2f N, "
                  "lines %s", args.case, rpm, rec["hbm_nearest"]["std"],
                  rec["hbm_nearest"]["stable"], rec["std_window"],

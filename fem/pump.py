@@ -23,7 +23,7 @@ from .lumped import axial_spring, disk_mass, rigid_body_mass
 from .materials import Material
 from .mesh import FEMesh, load_meshed_model
 from .model import FEModel, build_model
-from .spec import ModelSpec
+from .spec import LINK_KINDS, ModelSpec
 
 log = logging.getLogger(__name__)
 
@@ -126,6 +126,24 @@ class BearingParams:
 
 
 @dataclass(frozen=True)
+class LinkParams:
+    """Kind of link of the gear hubs (``{s}/hub`` -> ``{s}/gear``) and of the bearing
+    journal seats (``{s}/bearing_a|b``) to their nodes: ``"rigid"`` (RBE2, the paper's)
+    or ``"distributing"`` (RBE3-type, no added stiffness; :mod:`fem.distributing`).
+    Bores, stations and couplings stay rigid."""
+
+    hub: str = "rigid"
+    journal: str = "rigid"
+
+    def __post_init__(self) -> None:
+        for name in ("hub", "journal"):
+            val = getattr(self, name)
+            if val not in LINK_KINDS:
+                raise ValueError(f"links.{name} = {val!r}: allowed "
+                                 f"{', '.join(repr(k) for k in LINK_KINDS)}")
+
+
+@dataclass(frozen=True)
 class DriveParams:
     """Motor torsional stiffness on ``in/coupling`` (to ground, about z, N m/rad) and
     impeller polar inertia (kg m^2) and mass (kg) on ``out/coupling``."""
@@ -202,8 +220,11 @@ def pump_spec(
     bearings: BearingParams,
     drive: DriveParams,
     rotors: RotorParams | None = None,
+    links: LinkParams | None = None,
 ) -> ModelSpec:
-    """Nodes, links, clamp and lumped parts of the pump (see module docstring)."""
+    """Nodes, links, clamp and lumped parts of the pump (see module docstring); the
+    kinds of the hub and journal-seat links from ``links`` (default: rigid)."""
+    links = LinkParams() if links is None else links
     for name in ("housing/feet", *(f"{s}/hub" for s in SHAFTS)):
         if name not in groups:
             raise ValueError(f"groups: missing surface group {name!r}")
@@ -217,7 +238,7 @@ def pump_spec(
 
     for i, s in enumerate(SHAFTS, start=1):
         spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
-        spec.add_link(f"{s}/hub", f"{s}/gear")
+        spec.add_link(f"{s}/hub", f"{s}/gear", kind=links.hub)
         spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i), gears.bore_radius,
                                              gears.face_width, gears.density))  # fmt: skip
         for end in ("a", "b"):
@@ -228,7 +249,7 @@ def pump_spec(
                 log.warning("bearing %s: shaft and bore centres %.3g m apart", shaft_node, gap)
             spec.add_node(shaft_node, c_shaft)
             spec.add_node(bore_node, c_bore)
-            spec.add_link(shaft_node, shaft_node)
+            spec.add_link(shaft_node, shaft_node, kind=links.journal)
             spec.add_link(bore_node, bore_node)
             spec.add_spring(shaft_node, bearings.matrix(), other=bore_node)
         for k in range(1, N_STATIONS + 1):
@@ -257,6 +278,7 @@ def build_pump_model(
     quadrature_degree: int | None = None,
     fe_mesh: FEMesh | None = None,
     rotors: RotorParams | None = None,
+    links: LinkParams | None = None,
 ) -> FEModel:
     """Build the pump's FEModel from a ``geometry.MeshedModel`` (gmsh model alive).
 
@@ -272,6 +294,8 @@ def build_pump_model(
         An already distributed mesh (with ``groups`` and ``centres``).
     rotors : RotorParams, optional
         Lumped rotor parts on the gears (default: none).
+    links : LinkParams, optional
+        Kinds of the hub and journal-seat links (default: rigid).
 
     Returns
     -------
@@ -286,7 +310,7 @@ def build_pump_model(
     drive = DriveParams() if drive is None else drive
     if fe_mesh is None:
         fe_mesh = load_meshed_model(meshed, comm)
-    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors)
+    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors, links)
     mats = {k: v for k, v in materials.by_volume().items() if k in fe_mesh.groups}
     return build_model(fe_mesh, mats, spec, quadrature_degree=quadrature_degree,
                        gear_nodes=("in/gear", "out/gear"), G=gears.G())  # fmt: skip

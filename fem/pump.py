@@ -10,6 +10,7 @@ also ``{s}/rotor`` (rotation about the shaft axis only). ``housing/feet`` is cla
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -37,6 +38,12 @@ def _check(cls: str, name: str, value: float, lo: float, hi: float = math.inf,
     if not ok:
         rng = f"{'(' if lo_open else '['}{lo}, {hi})"
         raise ValueError(f"{cls}.{name} = {value}: must be in {rng}")
+
+
+def _check_kind(cls: str, name: str, value: str) -> None:
+    if value not in LINK_KINDS:
+        raise ValueError(f"{cls}.{name} = {value!r}: allowed "
+                         f"{', '.join(repr(k) for k in LINK_KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -68,7 +75,9 @@ class GearParams:
     """Gear pair of Table 1 (SI: m, rad, kg/m^3); blanks are rigid disks.
 
     ``outer_radius`` defaults to the tip radius rb / cos(alpha) + 100/76 mm,
-    ``bore_radius`` to the hub seat radius of the geometry (16 mm).
+    ``bore_radius`` to the hub seat radius of the geometry (16 mm). ``hub_link``: kind
+    of the link of hub seat ``{s}/hub`` to the gear node, ``"rigid"`` (RBE2, the
+    paper's) or ``"distributing"`` (RBE3-type, no added stiffness; fem.distributing).
     """
 
     base_radius_1: float = 46.984e-3
@@ -79,8 +88,10 @@ class GearParams:
     bore_radius: float = 0.016
     outer_radius: float = 0.0
     density: float = 7850.0
+    hub_link: str = "rigid"
 
     def __post_init__(self) -> None:
+        _check_kind("gears", "hub_link", self.hub_link)
         _check("gears", "base_radius_1", self.base_radius_1, 0.0)
         _check("gears", "base_radius_2", self.base_radius_2, 0.0)
         _check("gears", "pressure_angle", self.pressure_angle, 0.0, 0.5 * math.pi, False)
@@ -109,13 +120,20 @@ class GearParams:
 
 @dataclass(frozen=True)
 class BearingParams:
-    """Ball-bearing stiffness between shaft and bore nodes (N/m, N m/rad)."""
+    """Ball-bearing stiffness between shaft and bore nodes (N/m, N m/rad).
+
+    ``seat_link``: kind of the link of the journal seats ``{s}/bearing_a|b`` to the
+    shaft bearing nodes, ``"rigid"`` (RBE2, the paper's) or ``"distributing"``
+    (RBE3-type; fem.distributing). The bores stay rigidly linked.
+    """
 
     radial: float = 1.0e8
     axial: float = 2.0e7
     tilting: float = 0.0
+    seat_link: str = "rigid"
 
     def __post_init__(self) -> None:
+        _check_kind("bearings", "seat_link", self.seat_link)
         _check("bearings", "radial", self.radial, 0.0)
         _check("bearings", "axial", self.axial, 0.0)
         _check("bearings", "tilting", self.tilting, 0.0, lo_open=False)
@@ -127,20 +145,23 @@ class BearingParams:
 
 @dataclass(frozen=True)
 class LinkParams:
-    """Kind of link of the gear hubs (``{s}/hub`` -> ``{s}/gear``) and of the bearing
-    journal seats (``{s}/bearing_a|b``) to their nodes: ``"rigid"`` (RBE2, the paper's)
-    or ``"distributing"`` (RBE3-type, no added stiffness; :mod:`fem.distributing`).
+    """Scene section ``[links]``: kinds of the gear-hub and journal-seat links,
+    ``"rigid"`` (default) or ``"distributing"``; they reach the model as
+    :attr:`GearParams.hub_link` and :attr:`BearingParams.seat_link` (:meth:`apply`).
     Bores, stations and couplings stay rigid."""
 
     hub: str = "rigid"
     journal: str = "rigid"
 
     def __post_init__(self) -> None:
-        for name in ("hub", "journal"):
-            val = getattr(self, name)
-            if val not in LINK_KINDS:
-                raise ValueError(f"links.{name} = {val!r}: allowed "
-                                 f"{', '.join(repr(k) for k in LINK_KINDS)}")
+        _check_kind("links", "hub", self.hub)
+        _check_kind("links", "journal", self.journal)
+
+    def apply(self, gears: GearParams, bearings: BearingParams
+              ) -> tuple[GearParams, BearingParams]:
+        """``gears`` and ``bearings`` with these link kinds."""
+        return (dataclasses.replace(gears, hub_link=self.hub),
+                dataclasses.replace(bearings, seat_link=self.journal))
 
 
 @dataclass(frozen=True)
@@ -220,11 +241,9 @@ def pump_spec(
     bearings: BearingParams,
     drive: DriveParams,
     rotors: RotorParams | None = None,
-    links: LinkParams | None = None,
 ) -> ModelSpec:
     """Nodes, links, clamp and lumped parts of the pump (see module docstring); the
-    kinds of the hub and journal-seat links from ``links`` (default: rigid)."""
-    links = LinkParams() if links is None else links
+    hub and journal-seat links of the kinds ``gears.hub_link``, ``bearings.seat_link``."""
     for name in ("housing/feet", *(f"{s}/hub" for s in SHAFTS)):
         if name not in groups:
             raise ValueError(f"groups: missing surface group {name!r}")
@@ -238,7 +257,7 @@ def pump_spec(
 
     for i, s in enumerate(SHAFTS, start=1):
         spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
-        spec.add_link(f"{s}/hub", f"{s}/gear", kind=links.hub)
+        spec.add_link(f"{s}/hub", f"{s}/gear", kind=gears.hub_link)
         spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i), gears.bore_radius,
                                              gears.face_width, gears.density))  # fmt: skip
         for end in ("a", "b"):
@@ -249,7 +268,7 @@ def pump_spec(
                 log.warning("bearing %s: shaft and bore centres %.3g m apart", shaft_node, gap)
             spec.add_node(shaft_node, c_shaft)
             spec.add_node(bore_node, c_bore)
-            spec.add_link(shaft_node, shaft_node, kind=links.journal)
+            spec.add_link(shaft_node, shaft_node, kind=bearings.seat_link)
             spec.add_link(bore_node, bore_node)
             spec.add_spring(shaft_node, bearings.matrix(), other=bore_node)
         for k in range(1, N_STATIONS + 1):
@@ -278,7 +297,6 @@ def build_pump_model(
     quadrature_degree: int | None = None,
     fe_mesh: FEMesh | None = None,
     rotors: RotorParams | None = None,
-    links: LinkParams | None = None,
 ) -> FEModel:
     """Build the pump's FEModel from a ``geometry.MeshedModel`` (gmsh model alive).
 
@@ -294,8 +312,6 @@ def build_pump_model(
         An already distributed mesh (with ``groups`` and ``centres``).
     rotors : RotorParams, optional
         Lumped rotor parts on the gears (default: none).
-    links : LinkParams, optional
-        Kinds of the hub and journal-seat links (default: rigid).
 
     Returns
     -------
@@ -310,7 +326,7 @@ def build_pump_model(
     drive = DriveParams() if drive is None else drive
     if fe_mesh is None:
         fe_mesh = load_meshed_model(meshed, comm)
-    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors, links)
+    spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors)
     mats = {k: v for k, v in materials.by_volume().items() if k in fe_mesh.groups}
     return build_model(fe_mesh, mats, spec, quadrature_degree=quadrature_degree,
                        gear_nodes=("in/gear", "out/gear"), G=gears.G())  # fmt: skip

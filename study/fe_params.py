@@ -4,7 +4,8 @@
 and ``[links]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
 :class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`,
 :class:`fem.RotorParams`, :class:`fem.LinkParams` and :class:`fem.GearParams`
-(:func:`fe_parameters`). Keys
+(:func:`fe_parameters`; ``[links]`` sets ``GearParams.hub_link`` and
+``BearingParams.seat_link``). Keys
 are the dataclass field names in SI units, or the field name with a unit suffix of
 :data:`study.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
 ``radial_N_per_um = 100``). geometry and fem are imported inside
@@ -125,6 +126,9 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         opts.validate()
         mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
                                              fem.MaterialParams))
+        if "seat_link" in fe.get("bearings", {}):
+            raise SceneError("bearings.seat_link: set the journal-seat link kind as "
+                             "links.journal ('rigid' or 'distributing')")
         bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
                                             fem.BearingParams))
         drive = fem.DriveParams(**_convert("drive", fe.get("drive", {}), fem.DriveParams))
@@ -137,4 +141,5 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         raise
     except (TypeError, ValueError) as exc:
         raise SceneError(f"FE parameters: {exc}") from exc
+    gears, bear = links.apply(gears, bear)
     return FEParams(pump, opts, mats, bear, drive, gears, rotors, links)

@@ -79,7 +79,7 @@ def fe_stage(scene, mesh_dir: Path, comm=None):
             gmsh.merge(str(Path(mesh_dir) / "pump.msh"))
         fe_mesh = load_gmsh_mesh(None, comm, 0, groups=groups, centres=centres)
     return build_pump_model(None, p.materials, p.gears, p.bearings, p.drive, fe_mesh=fe_mesh,
-                            rotors=p.rotors, links=p.links)
+                            rotors=p.rotors)
 
 
 def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:

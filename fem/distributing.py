@@ -10,7 +10,14 @@ surface's consistent mass matrix M_S (P2, ``inner(u, v) * ds``):
 
 so G A = I. The node's 6 DOF stay reduced unknowns; 6 surface DOF m (the "UM set" of
 Nastran's RBE3) are eliminated instead: u_m = G_m^{-1} (q'_c - G_r u_r), with G_m (6x6)
-chosen well conditioned by column-pivoted QR. The force side is G^T F_c (through P^T).
+chosen well conditioned by column-pivoted QR and maxvol swaps. :mod:`fem.prolongation`
+writes the other free surface DOF as deviations from the node's rigid motion
+(u_r = A_r q'_c + w_r), so that u_m = A_m q'_c - G_m^{-1} G_r w_r has O(1) coefficients.
+The force side is G^T F_c (through P^T).
+
+Cost: a UM row is dense over the surface, so K_bar = P^T K P (and M_bar) holds a dense
+block over each distributing surface's n_S DOF (rank-6 in K_mm, stored as n_S^2
+entries): 7e7 for the pump's hub seat on 1.9 mm shaft elements (n_S = 8 340).
 
 These equations are this project's; the idea is Nastran's RBE3 element with its UM set
 (MSC Nastran Quick Reference Guide, "RBE3"). The paper uses rigid links only.

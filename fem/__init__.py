@@ -1,9 +1,9 @@
 """DOLFINx (0.5) linear structural model of geared machines, eq. (4).
 
-P2 elasticity with a material per volume, extra 6-DOF nodes, rigid links (RBE2)
-and clamps eliminated exactly by a prolongation P (K_bar = P^T K P), lumped
-masses and springs, and the pump's named nodes. Matrices stay distributed PETSc
-``Mat`` objects. See docs/fem.md.
+P2 elasticity with a material per volume, extra 6-DOF nodes, rigid links (RBE2),
+distributing links (RBE3-type) and clamps eliminated exactly by a prolongation P
+(K_bar = P^T K P), lumped masses and springs, and the pump's named nodes. Matrices
+stay distributed PETSc ``Mat`` objects. See docs/fem.md.
 """
 
 from .eigen import eigenfrequencies
@@ -17,6 +17,7 @@ from .pump import (
     BearingParams,
     DriveParams,
     GearParams,
+    LinkParams,
     MaterialParams,
     RotorParams,
     build_pump_model,
@@ -34,6 +35,7 @@ __all__ = [
     "FEModel",
     "GearParams",
     "Link",
+    "LinkParams",
     "Lumped",
     "Material",
     "MaterialParams",

@@ -82,8 +82,8 @@ class FEModel:
         read back onto another partition (``reduction.load_basis``).
         """
         pro = self.prolongation
-        if pro.free_blocks is None:
-            raise ValueError("prolongation.free_blocks = None: model built without it")
+        if pro.free_dofs is None:
+            raise ValueError("prolongation.free_dofs = None: model built without it")
         mesh = self.fe_mesh.mesh
         geo = mesh.geometry
         igi = np.asarray(geo.input_global_indices, dtype=np.int64)
@@ -98,7 +98,7 @@ class FEModel:
         im = self.V.dofmap.index_map
         geo_of_block = np.full(im.size_local + im.num_ghosts, -1, dtype=np.int64)
         geo_of_block[dofs.ravel()] = gdofs.ravel()
-        blocks = pro.free_blocks
+        blocks = pro.free_dofs // 3
         g = geo_of_block[blocks]
         if np.any(g < 0):
             raise ValueError("row keys: a free DOF block is in no local cell")
@@ -106,8 +106,7 @@ class FEModel:
         xb = self.V.tabulate_dof_coordinates()[blocks]
         if blocks.size and not np.allclose(geo.x[g], xb, rtol=0, atol=1e-12):
             raise ValueError("row keys: V's DOF do not sit on the geometry nodes")
-        own = igi[g]
-        keys = (3 * own[:, None] + np.arange(3)).ravel()
+        keys = 3 * igi[g] + pro.free_dofs % 3
         r0, r1 = pro.red_range
         n_node_local = (r1 - r0) - keys.size
         if n_node_local:
@@ -187,6 +186,8 @@ class FEModel:
         n_free = pro.free_comp.size
         field_ = a + np.cross(th, pro.free_coords - o)
         arr[:n_free] = field_[np.arange(n_free), pro.free_comp]
+        if pro.free_relative is not None:  # deviations from a node's rigid motion
+            arr[:n_free][pro.free_relative] = 0.0
         if self.comm.rank == self.comm.size - 1:
             lo = v.getOwnershipRange()[0]
             for node in self.spec.nodes:

@@ -10,6 +10,7 @@ also ``{s}/rotor`` (rotation about the shaft axis only). ``housing/feet`` is cla
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -23,7 +24,7 @@ from .lumped import axial_spring, disk_mass, rigid_body_mass
 from .materials import Material
 from .mesh import FEMesh, load_meshed_model
 from .model import FEModel, build_model
-from .spec import ModelSpec
+from .spec import LINK_KINDS, ModelSpec
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +38,12 @@ def _check(cls: str, name: str, value: float, lo: float, hi: float = math.inf,
     if not ok:
         rng = f"{'(' if lo_open else '['}{lo}, {hi})"
         raise ValueError(f"{cls}.{name} = {value}: must be in {rng}")
+
+
+def _check_kind(cls: str, name: str, value: str) -> None:
+    if value not in LINK_KINDS:
+        raise ValueError(f"{cls}.{name} = {value!r}: allowed "
+                         f"{', '.join(repr(k) for k in LINK_KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -68,7 +75,9 @@ class GearParams:
     """Gear pair of Table 1 (SI: m, rad, kg/m^3); blanks are rigid disks.
 
     ``outer_radius`` defaults to the tip radius rb / cos(alpha) + 100/76 mm,
-    ``bore_radius`` to the hub seat radius of the geometry (16 mm).
+    ``bore_radius`` to the hub seat radius of the geometry (16 mm). ``hub_link``: kind
+    of the link of hub seat ``{s}/hub`` to the gear node, ``"rigid"`` (RBE2, the
+    paper's) or ``"distributing"`` (RBE3-type, no added stiffness; fem.distributing).
     """
 
     base_radius_1: float = 46.984e-3
@@ -79,8 +88,10 @@ class GearParams:
     bore_radius: float = 0.016
     outer_radius: float = 0.0
     density: float = 7850.0
+    hub_link: str = "rigid"
 
     def __post_init__(self) -> None:
+        _check_kind("gears", "hub_link", self.hub_link)
         _check("gears", "base_radius_1", self.base_radius_1, 0.0)
         _check("gears", "base_radius_2", self.base_radius_2, 0.0)
         _check("gears", "pressure_angle", self.pressure_angle, 0.0, 0.5 * math.pi, False)
@@ -109,13 +120,20 @@ class GearParams:
 
 @dataclass(frozen=True)
 class BearingParams:
-    """Ball-bearing stiffness between shaft and bore nodes (N/m, N m/rad)."""
+    """Ball-bearing stiffness between shaft and bore nodes (N/m, N m/rad).
+
+    ``seat_link``: kind of the link of the journal seats ``{s}/bearing_a|b`` to the
+    shaft bearing nodes, ``"rigid"`` (RBE2, the paper's) or ``"distributing"``
+    (RBE3-type; fem.distributing). The bores stay rigidly linked.
+    """
 
     radial: float = 1.0e8
     axial: float = 2.0e7
     tilting: float = 0.0
+    seat_link: str = "rigid"
 
     def __post_init__(self) -> None:
+        _check_kind("bearings", "seat_link", self.seat_link)
         _check("bearings", "radial", self.radial, 0.0)
         _check("bearings", "axial", self.axial, 0.0)
         _check("bearings", "tilting", self.tilting, 0.0, lo_open=False)
@@ -123,6 +141,27 @@ class BearingParams:
     def matrix(self) -> np.ndarray:
         """6x6 stiffness on the relative motion, shaft axis z."""
         return axial_spring(self.radial, self.axial, self.tilting, 0.0, axis=2)
+
+
+@dataclass(frozen=True)
+class LinkParams:
+    """Scene section ``[links]``: kinds of the gear-hub and journal-seat links,
+    ``"rigid"`` (default) or ``"distributing"``; they reach the model as
+    :attr:`GearParams.hub_link` and :attr:`BearingParams.seat_link` (:meth:`apply`).
+    Bores, stations and couplings stay rigid."""
+
+    hub: str = "rigid"
+    journal: str = "rigid"
+
+    def __post_init__(self) -> None:
+        _check_kind("links", "hub", self.hub)
+        _check_kind("links", "journal", self.journal)
+
+    def apply(self, gears: GearParams, bearings: BearingParams
+              ) -> tuple[GearParams, BearingParams]:
+        """``gears`` and ``bearings`` with these link kinds."""
+        return (dataclasses.replace(gears, hub_link=self.hub),
+                dataclasses.replace(bearings, seat_link=self.journal))
 
 
 @dataclass(frozen=True)
@@ -203,7 +242,8 @@ def pump_spec(
     drive: DriveParams,
     rotors: RotorParams | None = None,
 ) -> ModelSpec:
-    """Nodes, links, clamp and lumped parts of the pump (see module docstring)."""
+    """Nodes, links, clamp and lumped parts of the pump (see module docstring); the
+    hub and journal-seat links of the kinds ``gears.hub_link``, ``bearings.seat_link``."""
     for name in ("housing/feet", *(f"{s}/hub" for s in SHAFTS)):
         if name not in groups:
             raise ValueError(f"groups: missing surface group {name!r}")
@@ -217,7 +257,7 @@ def pump_spec(
 
     for i, s in enumerate(SHAFTS, start=1):
         spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
-        spec.add_link(f"{s}/hub", f"{s}/gear")
+        spec.add_link(f"{s}/hub", f"{s}/gear", kind=gears.hub_link)
         spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i), gears.bore_radius,
                                              gears.face_width, gears.density))  # fmt: skip
         for end in ("a", "b"):
@@ -228,7 +268,7 @@ def pump_spec(
                 log.warning("bearing %s: shaft and bore centres %.3g m apart", shaft_node, gap)
             spec.add_node(shaft_node, c_shaft)
             spec.add_node(bore_node, c_bore)
-            spec.add_link(shaft_node, shaft_node)
+            spec.add_link(shaft_node, shaft_node, kind=bearings.seat_link)
             spec.add_link(bore_node, bore_node)
             spec.add_spring(shaft_node, bearings.matrix(), other=bore_node)
         for k in range(1, N_STATIONS + 1):

@@ -30,12 +30,27 @@ class Node:
     fixed: np.ndarray
 
 
+#: Allowed values of :attr:`Link.kind`.
+LINK_KINDS = ("rigid", "distributing")
+
+
 @dataclass
 class Link:
-    """Rigid link (RBE2): every FE DOF of ``surface`` follows ``node``."""
+    """A link of surface group ``surface`` to ``node``.
+
+    ``kind = "rigid"`` (RBE2): every FE DOF of the surface follows the node.
+    ``kind = "distributing"`` (RBE3-type): the node follows the mass-weighted rigid fit
+    of the surface's displacement, which adds no stiffness (see :mod:`fem.distributing`).
+    """
 
     surface: str
     node: str
+    kind: str = "rigid"
+
+    def __post_init__(self) -> None:
+        if self.kind not in LINK_KINDS:
+            raise ValueError(f"link {self.surface!r} -> {self.node!r}: kind = {self.kind!r}; "
+                             f"allowed: {', '.join(repr(k) for k in LINK_KINDS)}")
 
 
 @dataclass
@@ -101,10 +116,15 @@ class ModelSpec:
         self.nodes.append(node)
         return node
 
-    def add_link(self, surface: str, node: str) -> None:
-        """Tie every FE DOF of surface group ``surface`` rigidly to ``node`` (RBE2)."""
+    def add_link(self, surface: str, node: str, kind: str = "rigid") -> None:
+        """Link surface group ``surface`` to ``node``.
+
+        ``kind`` is ``"rigid"`` (RBE2: every FE DOF of the surface follows the node) or
+        ``"distributing"`` (RBE3-type: the node follows the surface's mass-weighted rigid
+        fit); ValueError otherwise.
+        """
         self.node_index(node)
-        self.links.append(Link(surface, node))
+        self.links.append(Link(surface, node, kind))
 
     def add_clamp(self, surface: str) -> None:
         """Hold every FE DOF of surface group ``surface`` at zero."""

@@ -1,9 +1,11 @@
 """Scene FE sections -> the FE packages' parameter dataclasses.
 
-``[geometry]``, ``[mesh]``, ``[materials]``, ``[bearings]``, ``[drive]`` and
-``[rotors]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
+``[geometry]``, ``[mesh]``, ``[materials]``, ``[bearings]``, ``[drive]``, ``[rotors]``
+and ``[links]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
 :class:`fem.MaterialParams`, :class:`fem.BearingParams`, :class:`fem.DriveParams`,
-:class:`fem.RotorParams` and :class:`fem.GearParams` (:func:`fe_parameters`). Keys
+:class:`fem.RotorParams`, :class:`fem.LinkParams` and :class:`fem.GearParams`
+(:func:`fe_parameters`; ``[links]`` sets ``GearParams.hub_link`` and
+``BearingParams.seat_link``). Keys
 are the dataclass field names in SI units, or the field name with a unit suffix of
 :data:`study.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
 ``radial_N_per_um = 100``). geometry and fem are imported inside
@@ -34,6 +36,7 @@ class FEParams:
     drive: Any
     gears: Any
     rotors: Any
+    links: Any = None
 
 
 def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | None = None,
@@ -123,10 +126,14 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         opts.validate()
         mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
                                              fem.MaterialParams))
+        if "seat_link" in fe.get("bearings", {}):
+            raise SceneError("bearings.seat_link: set the journal-seat link kind as "
+                             "links.journal ('rigid' or 'distributing')")
         bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
                                             fem.BearingParams))
         drive = fem.DriveParams(**_convert("drive", fe.get("drive", {}), fem.DriveParams))
         rotors = fem.RotorParams(**_convert("rotors", fe.get("rotors", {}), fem.RotorParams))
+        links = fem.LinkParams(**_convert("links", fe.get("links", {}), fem.LinkParams))
         gears = fem.GearParams(base_radius_1=gear.base_radius, base_radius_2=gear.base_radius,
                                pressure_angle=gear.pressure_angle, helix_angle=gear.helix_angle,
                                face_width=gear.face_width, outer_radius=gear.tip_radius)
@@ -134,4 +141,5 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         raise
     except (TypeError, ValueError) as exc:
         raise SceneError(f"FE parameters: {exc}") from exc
-    return FEParams(pump, opts, mats, bear, drive, gears, rotors)
+    gears, bear = links.apply(gears, bear)
+    return FEParams(pump, opts, mats, bear, drive, gears, rotors, links)

@@ -7,7 +7,8 @@ the inputs it depends on plus the source code of the packages that compute it:
 stage     key inputs
 ========  =====================================================================
 mesh      ``[geometry]``, ``[mesh]``, gear face width/tip radius, centre distance
-fe        mesh key, ``[materials]``, ``[bearings]``, ``[drive]``, ``[rotors]``, gear data of G
+fe        mesh key, ``[materials]``, ``[bearings]``, ``[drive]``, ``[rotors]``, ``[links]``,
+          gear data of G
           (key only: the FE model is rebuilt from the cached mesh when needed)
 rom       fe key, ``[rom]``
 hbm       rom key (FE) or ``[lumped]`` + gear (lumped), mesh stiffness, TE, load,
@@ -144,8 +145,10 @@ class Pipeline:
         s = self.scene
         return stage_key("fe", {"mesh": self.mesh_key(),
                                 **{k: s.fe.get(k, {}) for k in ("materials", "bearings", "drive")},
-                                # only when given, so that scenes without rotors keep their keys
+                                # only when given, so that scenes without rotors or links
+                                # keep their keys
                                 **({"rotors": s.fe["rotors"]} if s.fe.get("rotors") else {}),
+                                **({"links": s.fe["links"]} if s.fe.get("links") else {}),
                                 "gear": {"base_radius": s.gear.base_radius,
                                          "pressure_angle": s.gear.pressure_angle,
                                          "helix_angle": s.gear.helix_angle,

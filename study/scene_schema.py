@@ -59,7 +59,7 @@ def _c(default, choices, doc=""):
 
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
-FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors")
+FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
 
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
 #: sections (``external.aero``, ``external.unbalance``) have their own entries.

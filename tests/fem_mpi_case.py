@@ -42,11 +42,35 @@ def main(out: str) -> None:
     m.K.mult(q, kq)
     res = {"size": comm.size, "f": [float(x) for x in f], "u2": float(u2),
            "kq": float(kq.norm()), "n_red": int(m.n_red),
-           "gear_node": [int(i) for i in m.node_dofs["b"]]}  # fmt: skip
+           "gear_node": [int(i) for i in m.node_dofs["b"]],
+           **distributing_case(fe_mesh)}  # fmt: skip
     if comm.rank == 0:
         with atomic_write(out, "w") as fh:
             fh.write(json.dumps(res))
     np.testing.assert_array_less(0, f)
+
+
+def distributing_case(fe_mesh: object) -> dict:
+    """The clamped shaft with distributing links on the free end (gear frame, a fixed
+    DOF) and on the side (shares the end's rim): frequencies, rigid-motion residual."""
+    import fem_support as fs
+    import numpy as np
+
+    import fem
+
+    spec = fem.ModelSpec()
+    spec.add_clamp("end_a")
+    spec.add_node("b", fe_mesh.centres["end_b"], frame=fem.gear_pair_frame(0.349),
+                  fixed=np.array([False] * 4 + [True, False]))
+    spec.add_link("end_b", "b", kind="distributing")
+    spec.add_mass("b", fem.disk_mass(0.05, 0.016, 0.02, 7850.0))
+    spec.add_node("s", [0.0, 0.0, 0.1])
+    spec.add_link("side", "s", kind="distributing")
+    spec.add_mass("s", fem.rigid_body_mass(0.2, [1e-4, 1e-4, 2e-4]))
+    m = fem.build_model(fe_mesh, {"shaft": fs.STEEL_TEST}, spec)
+    f = fem.eigenfrequencies(m.K, m.M, 10, sigma=0.0)
+    return {"f_dist": [float(x) for x in f], "n_red_dist": int(m.n_red),
+            "linked_dist": int(m.info["linked"])}
 
 
 if __name__ == "__main__":

@@ -70,6 +70,33 @@ def build_cylinder(length: float, radius: float, h: float, comm_rank: int = 0) -
     return {"end_a": np.zeros(3), "end_b": np.array([0.0, 0.0, length])}
 
 
+def build_box_bar(length: float, width: float, h: float, comm_rank: int = 0) -> dict:
+    """A square z-axis bar [-w/2, w/2]^2 x [0, length] meshed in tet10 on rank 0.
+
+    Flat faces only, so the P2 geometry is exact. Groups: volume ``shaft``; surfaces
+    ``end_a`` (z = 0), ``end_b`` (z = length), ``side``. Returns the end-face centres.
+    """
+    import gmsh
+
+    model = gmsh.model
+    if comm_rank == 0:
+        model.add("box_bar")
+        vol = model.occ.addBox(-0.5 * width, -0.5 * width, 0, width, width, length)
+        model.occ.synchronize()
+        faces: dict[str, list[int]] = {"end_a": [], "end_b": [], "side": []}
+        for _, tag in model.getBoundary([(3, vol)], oriented=False):
+            z = model.occ.getCenterOfMass(2, tag)[2]
+            key = "end_a" if abs(z) < 1e-9 else ("end_b" if abs(z - length) < 1e-9 else "side")
+            faces[key].append(tag)
+        model.addPhysicalGroup(3, [vol], 1)
+        model.setPhysicalName(3, 1, "shaft")
+        for i, name in enumerate(("end_a", "end_b", "side")):
+            model.addPhysicalGroup(2, faces[name], 10 + i)
+            model.setPhysicalName(2, 10 + i, name)
+        _mesh_tet10(model, h)
+    return {"end_a": np.zeros(3), "end_b": np.array([0.0, 0.0, length])}
+
+
 def build_housing_block(size: tuple[float, float, float], bore_radius: float, h: float,
                         comm_rank: int = 0) -> dict:
     """A hollow box (housing-like): box with a z-through bore, feet = bottom face.

@@ -99,6 +99,7 @@ def test_scene_digest_tells_structures_apart_not_tes(tmp_path):
     d0 = cp.scene_digest(scene, {})
     assert len(d0) == 10 and d0 == cp.scene_digest(scene, {})
     assert cp.scene_digest(scene, {"rotors.gear_mass_kg": 3.0}) != d0
+    assert cp.scene_digest(scene, {"links.hub": "distributing"}) != d0
     assert cp.scene_digest(scene, {"transmission_error.amplitudes_um": [0.3, 0.1, 0.05],
                                    "continuation.speed_rpm": [500.0, 4000.0],
                                    "continuation.max_points": 10}) == d0

@@ -1,5 +1,6 @@
 """The same model under mpirun -n 2 and in serial: eigenfrequencies equal within 1e-8
-relative (measured ~1e-11), same reduced size and reconstruction."""
+relative (measured ~1e-11), same reduced size and reconstruction; likewise a model with
+distributing links."""
 
 from __future__ import annotations
 
@@ -43,3 +44,8 @@ def test_two_ranks_equal_serial(tmp_path: Path) -> None:
     # the free shaft end, node and spring see no strain from the rigid field except
     # through the clamp: the residual norms agree too
     assert abs(par["kq"] / serial["kq"] - 1) < 1e-8
+    # distributing links (UM rows over surface DOF of both ranks): same spectrum
+    assert par["n_red_dist"] == serial["n_red_dist"]
+    assert par["linked_dist"] == serial["linked_dist"] == 12
+    for a, b in zip(serial["f_dist"], par["f_dist"], strict=True):
+        assert abs(b / a - 1) < 1e-8, (serial["f_dist"], par["f_dist"])

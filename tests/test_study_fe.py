@@ -37,6 +37,9 @@ def test_pump_scene_loads():
     ({"drive": {"impeller_inertia": "big"}}, "impeller_inertia"),
     ({"rotors": {"inertia_kgm2": 0.05}}, "rotors.torsional_stiffness"),
     ({"rotors": {"lateral_stiffness_N_per_um": -2.0}}, "rotors.lateral_stiffness = -2000000"),
+    ({"links": {"hub": "rbe3"}}, "links.hub = 'rbe3': allowed 'rigid', 'distributing'"),
+    ({"links": {"seat": "rigid"}}, "links.seat: unknown key; allowed: hub, journal"),
+    ({"bearings": {"seat_link": "distributing"}}, "as links.journal"),
 ])
 def test_broken_fe_sections(patch, message):
     import tomllib
@@ -66,6 +69,40 @@ def test_rotors_enter_the_fe_key_only_when_given(tmp_path):
     assert with_rotors.fe_key() != base.fe_key()
     # scenes without [rotors] keep the keys they had before the section existed
     assert "rotors" not in load_scene(PUMP).fe
+
+
+
+def _pump_groups_and_centres() -> tuple[dict, dict]:
+    """Every group and centre name pump_spec asks for (values are not used)."""
+    names = ["housing/feet"] + [f"{s}/{n}" for s in ("in", "out")
+                                for n in ("hub", "gear", "bearing_a", "bearing_b", "coupling",
+                                          *(f"station_{k}" for k in range(1, 7)))]
+    names += [f"housing/bore_{s}_{e}" for s in ("in", "out") for e in ("a", "b")]
+    return {n: (2, i) for i, n in enumerate(names)}, {n: np.zeros(3) for n in names}
+
+
+def test_links_enter_the_fe_key_only_when_given(tmp_path):
+    """[links] reaches the pump's hub and journal-seat links and the fe key (so rom and
+    hbm), not the mesh key; scenes without it keep their keys."""
+    import fem
+    from study.fe_params import fe_parameters
+    from study.pipeline import Pipeline
+    from study.scene import load_scene
+
+    base = Pipeline(load_scene(PUMP), tmp_path)
+    sc = load_scene(PUMP, {"links.hub": "distributing", "links.journal": "distributing"})
+    p = fe_parameters(sc.fe, sc.gear)
+    assert p.links == fem.LinkParams("distributing", "distributing")
+    assert p.gears.hub_link == p.bearings.seat_link == "distributing"
+    spec = fem.pump_spec(*_pump_groups_and_centres(), p.gears, p.bearings, p.drive)
+    kinds = {link.surface: link.kind for link in spec.links}
+    assert kinds["in/hub"] == kinds["out/bearing_b"] == "distributing"
+    assert kinds["housing/bore_in_a"] == kinds["in/station_1"] == "rigid"
+    dist = Pipeline(sc, tmp_path)
+    assert dist.mesh_key() == base.mesh_key()
+    assert dist.fe_key() != base.fe_key() and dist.rom_key() != base.rom_key()
+    assert "links" not in load_scene(PUMP).fe
+    assert fe_parameters(load_scene(PUMP).fe, sc.gear).links == fem.LinkParams()
 
 
 FAST = {"rom.n_cm": 20, "rom.n_check": 6, "continuation.speed_rpm": [600.0, 640.0],

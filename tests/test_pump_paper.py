@@ -150,7 +150,7 @@ def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
     assert 280.0 < top < 300.0 and rom.mesh_energy.max() > 0.55
     point = r.problem.solve(float(br.rpm[i]), x0=br.unknowns[i], tol=1e-10)
     y0 = initial_state(r.problem, point, modal_model(r.problem, float(br.rpm[i])))
-    rec, _ = integrate(r.problem, float(br.rpm[i]), y0, turns=20, window=4)
+    rec, _, _ = integrate(r.problem, float(br.rpm[i]), y0, turns=20, window=4)
     hbm_std = float(hbm_load(r.problem, point, 64).std())
     assert rec["std_window"] > 1.1 * hbm_std, (rec["std_window"], hbm_std)
     low = [ln for ln in rec["lines"] if ln["hz"] < 1000.0]

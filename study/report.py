@@ -64,8 +64,8 @@ def unstable_lines(segments: list[UnstableSegment]) -> list[str]:
     if not segments:
         return []
     out = ["- unstable segments (branch order; the curve shows the periodic orbit, which the "
-           "machine leaves there; integrate in time to see its response, docs/theory.md "
-           "§11):"]
+           "machine leaves there; to see its response, integrate in time from the orbit: "
+           "`python -m benchmarks.ti_attractor`, docs/theory.md §11 and §13.5):"]
     for u in segments:
         out.append(f"  - {u.rpm[0]:.1f}–{u.rpm[1]:.1f} rpm, {u.points} points, std up to "
                    f"{u.peak_std:.4g} N: {u.kind.replace('_', ' ')}, {_MEANING[u.kind]}")

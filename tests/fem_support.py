@@ -231,3 +231,21 @@ def keep_only_housing(meshed: object) -> None:
     gmsh.model.mesh.renumberElements()
     for k in drop:
         meshed.groups.pop(k)
+
+
+def rigid_motion_residuals(model: object, a: np.ndarray, th: np.ndarray,
+                           o: np.ndarray) -> tuple[object, float, float]:
+    """The reduced vector q of the rigid motion u = a + th x (x - o), ||K q|| relative to
+    ||K||_F ||q|| (the scale of an arbitrary vector), and the largest error (m) of the
+    field rebuilt by the prolongation at every P2 DOF against the exact one (all ranks)."""
+    from mpi4py import MPI
+
+    q = model.rigid_motion(a, th, o)
+    r = model.K.createVecLeft()
+    model.K.mult(q, r)
+    strain = r.norm() / (model.K.norm() * q.norm())
+    u = model.displacement(q)
+    n = model.V.dofmap.index_map.size_local
+    x = model.V.tabulate_dof_coordinates()[:n]
+    err = np.abs(u.x.array[: 3 * n].reshape(-1, 3) - (a + np.cross(th, x - o))).max()
+    return q, strain, model.comm.allreduce(err, op=MPI.MAX)

@@ -80,6 +80,11 @@ class UnstableSegment:
     points: int
     peak_std: float
 
+    @property
+    def label(self) -> str:
+        """The kind as words ("Neimark–Sacker", "period doubling", "fold")."""
+        return {"neimark_sacker": "Neimark–Sacker"}.get(self.kind, self.kind.replace("_", " "))
+
     def contains(self, rpm: float) -> bool:
         """Whether ``rpm`` lies within the segment's speed interval."""
         return self.rpm[0] <= rpm <= self.rpm[1]

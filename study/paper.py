@@ -215,7 +215,7 @@ def _peak_stability(s: CurveSummary | None, peak: Peak | None) -> str | None:
     segs = s.unstable_at(peak.rpm)
     if not segs:
         return None
-    return ", ".join(f"{u.kind.replace('_', ' ')} {u.rpm[0]:.0f}–{u.rpm[1]:.0f} rpm"
+    return ", ".join(f"{u.label} {u.rpm[0]:.0f}–{u.rpm[1]:.0f} rpm"
                      for u in segs)
 
 

@@ -68,7 +68,7 @@ def unstable_lines(segments: list[UnstableSegment]) -> list[str]:
            "`python -m benchmarks.ti_attractor`, docs/theory.md §11 and §13.5):"]
     for u in segments:
         out.append(f"  - {u.rpm[0]:.1f}–{u.rpm[1]:.1f} rpm, {u.points} points, std up to "
-                   f"{u.peak_std:.4g} N: {u.kind.replace('_', ' ')}, {_MEANING[u.kind]}")
+                   f"{u.peak_std:.4g} N: {u.label}, {_MEANING[u.kind]}")
     return out
 
 

@@ -109,6 +109,8 @@ def test_unstable_segments_split_by_kind_in_branch_order():
     assert u.rpm == (1.0, 3.0) and u.contains(2.5) and not u.contains(3.5)
     s = summarize_curve(r, y, np.zeros(10, int), [], (0.0, 900.0), stable=stable, kind=kind)
     assert s.unstable == tuple(segs) and s.unstable_at(150.0) == [segs[0]]
+    assert [u.label for u in segs] == ["Neimark–Sacker", "period doubling", "fold",
+                                       "unclassified"]
     assert summarize_curve(r, y, np.zeros(10, int), [], (0.0, 900.0)).unstable == ()
     with pytest.raises(ValueError, match="shapes"):
         unstable_segments(r, y, stable[:5], kind)
@@ -216,7 +218,7 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     ns = unstable_segments(RPM, _std(RPM), np.abs(RPM - pi) > 45.0, np.full(RPM.size, 3))
     shaky = replace(inp, cases={**inp.cases, "internal": replace(inp.cases["internal"],
                                                                  unstable=tuple(ns))})
-    assert f"**the periodic orbit at the peak is unstable** (internal: neimark sacker " \
+    assert f"**the periodic orbit at the peak is unstable** (internal: Neimark–Sacker " \
            f"{ns[0].rpm[0]:.0f}–{ns[0].rpm[1]:.0f} rpm): the machine leaves it" \
         in _row(paper_markdown(shaky), "| primary peak")
     span = _row(md, "| vibro-impact span")

@@ -353,7 +353,7 @@ def test_report_from_existing_results(sdof_run):
     key = np.where(bad, kind, -1)
     starts = np.flatnonzero(bad & np.r_[True, key[1:] != key[:-1]])
     assert starts.size, "the SDOF curve has jumps: their middle parts are unstable"
-    names = {1: "fold", 2: "period doubling", 3: "neimark sacker"}
+    names = {1: "fold", 2: "period doubling", 3: "Neimark–Sacker"}
     for i in starts:
         j = i
         while j + 1 < n and key[j + 1] == key[i]:

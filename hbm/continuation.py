@@ -53,6 +53,7 @@ from .newton import ConvergenceError, newton, solve_checked
 from .predictors import PREDICTORS
 from .problem import RPM_TO_RAD_S, HBMProblem
 from .stability_process import StabilityProcess, wanted
+from .trace_inputs import check_resume, check_settings, check_start
 
 logger = logging.getLogger(__name__)
 
@@ -284,17 +285,11 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     Branch
         Never holds an unconverged point; ``status``/``message`` say why it stopped.
     """
-    _check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points, overshoot)
-    if start is not None:
-        start = np.asarray(start, dtype=float)
-        if start.shape != (problem.n_unknowns,) or not np.all(np.isfinite(start)):
-            raise ValueError(f"start shape = {start.shape}: must be ({problem.n_unknowns},) "
-                             "finite floats")
-        if resume is not None:
-            raise ValueError("start and resume: give one of them")
+    check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points, overshoot)
+    start = check_start(problem, start, resume)
     bounds = _Range(rpm_start, rpm_end, overshoot)
     if resume is not None:
-        _check_resume(problem, resume)
+        check_resume(problem, resume)
         if resume.status == "completed":
             return resume
     wscale = bounds.wscale if resume is None else resume.omega_scale
@@ -395,32 +390,6 @@ def _resumed_step(resume: Branch, step: float, min_step: float, max_step: float)
     ds = resume.next_step if resume.status in ("running", "max_points") and \
         resume.next_step > 0 else step
     return min(max(ds, min_step), max_step)
-
-
-def _check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points,
-                    overshoot) -> None:
-    """Refuse trace settings out of range, naming the argument."""
-    for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end)):
-        if not np.isfinite(v) or v <= 0:
-            raise ValueError(f"trace.{name} = {v!r}: must be > 0 rpm")
-    if rpm_start == rpm_end:
-        raise ValueError(f"trace.rpm_end = {rpm_end!r}: must differ from rpm_start")
-    if not (0 < min_step <= step <= max_step):
-        raise ValueError(f"trace.step = {step!r}: need 0 < min_step ({min_step}) <= step <= "
-                         f"max_step ({max_step})")
-    if not (0 < tol < 1e-2):
-        raise ValueError(f"trace.tol = {tol!r}: must be in (0, 1e-2)")
-    if int(max_points) != max_points or max_points < 1:
-        raise ValueError(f"trace.max_points = {max_points!r}: must be an integer >= 1")
-    if not overshoot >= 0:
-        raise ValueError(f"trace.overshoot = {overshoot!r}: must be >= 0")
-
-
-def _check_resume(problem: HBMProblem, resume: Branch) -> None:
-    if len(resume) == 0:
-        raise ValueError("trace.resume: the branch has no point to resume from")
-    if resume.unknowns.ndim != 2 or resume.unknowns.shape[1] != problem.n_unknowns:
-        raise ValueError("trace.resume: branch does not match this problem's unknowns")
 
 
 def _first_point(ctx: TraceContext, rec: _Recorder, rpm_start: float, dirn: float,

@@ -258,31 +258,14 @@ def build_prolongation(V: Any, fe_mesh: FEMesh, spec: ModelSpec) -> Prolongation
     vals = [np.ones(n_free_local)]
     rel_node = _relative_nodes(dist, spec, free_mask)
     for k, node in enumerate(spec.nodes):
-        r, c, v = _relative_rows(np.flatnonzero(rel_node == k), coords, node,
-                                 node_red[node.name])
-        rows.append(r)
-        cols.append(c)
-        vals.append(v)
-    for k, node in enumerate(spec.nodes):
         blocks = np.flatnonzero(owner == k)
-        if blocks.size == 0:
-            continue
-        d = coords[blocks] - node.centre
-        R = node.frame
-        # coefficient of local DOF m on component j: translations R[j, m],
-        # rotations (R[:, m] x d)[j]  since theta x d = sum_m theta'_m (R[:, m] x d)
-        coef = np.empty((blocks.size, 3, 6))
-        coef[:, :, :3] = R[None, :, :]
-        for m in range(3):
-            coef[:, :, 3 + m] = np.cross(R[:, m][None, :], d)
-        red = node_red[node.name]
-        keep = red >= 0
-        r = np.broadcast_to(3 * blocks[:, None, None] + np.arange(3)[None, :, None], coef.shape)
-        c = np.broadcast_to(red[None, None, :], coef.shape)
-        sel = keep[None, None, :] & (coef != 0.0)
-        rows.append(r[sel])
-        cols.append(c[sel])
-        vals.append(coef[sel])
+        linked = (3 * blocks[:, None] + np.arange(3)).reshape(-1)
+        # per node column: its relative rows, then its rigidly linked ones
+        for dofs in (np.flatnonzero(rel_node == k), linked):
+            r, c, v = _rigid_rows(dofs, coords, node, node_red[node.name])
+            rows.append(r)
+            cols.append(c)
+            vals.append(v)
     rows_fe = np.concatenate([a.reshape(-1) for a in rows]).astype(np.int64)
     cols_fe = np.concatenate([a.reshape(-1) for a in cols]).astype(np.int64)
     vals_fe = np.concatenate([a.reshape(-1) for a in vals])
@@ -359,9 +342,12 @@ def _relative_nodes(dist: list[tuple[SurfaceFit, np.ndarray, np.ndarray]], spec:
     return rel
 
 
-def _relative_rows(dofs: np.ndarray, coords: np.ndarray, node: Any, red: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Entries A q'_c of the free DOF ``dofs`` measured from ``node``'s rigid motion.
+def _rigid_rows(dofs: np.ndarray, coords: np.ndarray, node: Any, red: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Entries A q'_c of P for owned FE DOF ``dofs`` on ``node``'s rigid motion: the
+    whole row of a rigidly linked DOF (u = A q'_c), the node part of a free DOF measured
+    from it (u = A q'_c + w). Local DOF m on component j: translations R[j, m],
+    rotations (R[:, m] x d)[j], since theta x d = sum_m theta'_m (R[:, m] x d).
 
     Parameters
     ----------

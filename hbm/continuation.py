@@ -398,15 +398,16 @@ def _first_point(ctx: TraceContext, rec: _Recorder, rpm_start: float, dirn: floa
     """Record the solution at ``rpm_start`` (Newton from ``start`` if given) with its
     tangent; "" or why there is none."""
     problem = ctx.problem
+    fallback = start_fallback and start is None      # a given start allows no other branch
     try:
         p0 = problem.solve(rpm_start, x0=start, tol=ctx.tol)
     except ConvergenceError as exc:
         p0 = _approach_start(problem, rpm_start, ctx.tol, ctx.max_iter, max_points) if (
-            start_fallback and start is None) else None
+            fallback) else None
         if p0 is None:
-            msg = f"no converged solution at rpm_start = {rpm_start}: {exc}" + (
-                "; nor by continuation from rpm_start / 4" if start_fallback and start is None
-                else " (from the given start)" if start is not None else "")
+            how = ("; nor by continuation from rpm_start / 4" if fallback else
+                   " (from the given start)" if start is not None else "")
+            msg = f"no converged solution at rpm_start = {rpm_start}: {exc}{how}"
             logger.error(msg)
             return msg
     y0 = np.concatenate([p0.unknowns / problem.x_scale, [p0.omega / ctx.wscale]])

@@ -23,7 +23,6 @@ Run (a few minutes per speed on the pump-paper ROM)::
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import logging
 import time
@@ -51,35 +50,51 @@ SAMPLES_PER_MESH_PERIOD = 64
 
 
 def case_scene(path: Path, case: str):
-    """The scene of an excitation case: ``all`` as it is, ``internal`` without
-    ``[external]`` (its HBM fundamental is then the mesh frequency)."""
+    """The scene of an excitation case: ``all`` as it is, ``internal`` as
+    :func:`study.excitations.case_scenes` makes it (``[external]`` removed; its HBM
+    fundamental is then the mesh frequency)."""
     import study
-    from study.scene_load import scene_from_dict
+    from study.excitations import case_scenes
 
     scene = study.load_scene(path)
     if case == "all":
         return scene
     if case != "internal":
         raise ValueError(f"--case = {case!r}: must be 'all' or 'internal'")
-    raw = copy.deepcopy(scene.raw)
-    raw.pop("external", None)
-    return scene_from_dict(raw, f"{scene.name}-internal", scene.text)
+    return case_scenes(scene)["internal"]
 
 
-def start_point(problem, run: Path, rpm: float):
-    """Newton solution at ``rpm`` from the nearest point of the run's branch, and that
-    point's stability verdict."""
+def nearest_branch_point(run: Path, rpm: float) -> dict:
+    """The saved branch's point nearest to ``rpm``: its speed, std, stability, leading
+    kind and unknowns."""
     import h5py
 
     with h5py.File(run, "r") as f:
         c = f["continuation"]
-        r = c["rpm"][()]
-        i = int(np.argmin(np.abs(r - rpm)))
-        x0, stable, kind = c["unknowns"][i], bool(c["stable"][i]), int(c["floquet_kind"][i])
+        i = int(np.argmin(np.abs(c["rpm"][()] - rpm)))
+        return {"rpm": round(float(c["rpm"][i]), 2),
+                "std": round(float(c["mesh_load_std"][i]), 4),
+                "stable": bool(c["stable"][i]), "kind": int(c["floquet_kind"][i]),
+                "unknowns": c["unknowns"][i]}
+
+
+def start_point(problem, near: dict, rpm: float):
+    """Newton solution at ``rpm`` from a branch point (:func:`nearest_branch_point`)."""
+    x0 = near["unknowns"]
     if x0.size != problem.n_unknowns:
-        raise ValueError(f"--from {run}: {x0.size} unknowns per point, the case's problem "
-                         f"has {problem.n_unknowns} (another case or harmonic set?)")
-    return problem.solve(rpm, x0=x0, tol=1e-10), stable, kind
+        raise ValueError(f"--from: {x0.size} unknowns per point, the case's problem has "
+                         f"{problem.n_unknowns} (another case or harmonic set?)")
+    return problem.solve(rpm, x0=x0, tol=1e-10)
+
+
+def fundamentals_per_turn(problem) -> int:
+    """HBM fundamental periods in one shaft turn: 1 (shaft fundamental) or Z (mesh)."""
+    return problem.mesh.n_teeth // problem.mesh_step
+
+
+def orbit_std(problem, point) -> float:
+    """Mesh-load std (N) of an HBM orbit, ``SAMPLES_PER_MESH_PERIOD`` per mesh period."""
+    return float(hbm_load(problem, point, problem.mesh_step * SAMPLES_PER_MESH_PERIOD).std())
 
 
 def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
@@ -88,10 +103,8 @@ def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
     std per turn and spectrum, the state at the end and Delta (m) over the last turn
     (``Z * SAMPLES_PER_MESH_PERIOD`` equally spaced samples from its start)."""
     mm = modal_model(problem, rpm)
-    z = problem.mesh.n_teeth
-    per_turn = round(2 * np.pi / (rpm * np.pi / 30.0) / mm.period)   # fundamentals per turn
-    T = per_turn * mm.period
-    n = z * SAMPLES_PER_MESH_PERIOD
+    T = fundamentals_per_turn(problem) * mm.period
+    n = problem.mesh.n_teeth * SAMPLES_PER_MESH_PERIOD
     te = T * np.arange(n) / n
     y = np.array(y0, dtype=float)
     fun, atol, m = _rhs(mm), state_atol(mm, y, 1e-9), mm.n_modes
@@ -120,23 +133,11 @@ def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
     return rec, y, delta
 
 
-def nearest_branch_point(run: Path, rpm: float) -> dict:
-    """The saved branch's point nearest to ``rpm``: its speed, std and stability."""
-    import h5py
-
-    with h5py.File(run, "r") as f:
-        c = f["continuation"]
-        r = c["rpm"][()]
-        i = int(np.argmin(np.abs(r - rpm)))
-        return {"rpm": round(float(r[i]), 2), "std": round(float(c["mesh_load_std"][i]), 4),
-                "stable": bool(c["stable"][i]), "kind": int(c["floquet_kind"][i])}
-
-
 def attractor_point(problem, rpm: float, delta: np.ndarray):
     """Newton solution at ``rpm`` from the Fourier coefficients of ``Delta`` over one
     shaft turn (a time-integrated attractor): the harmonic-balance orbit it is, if it
     is periodic and the harmonic set holds it."""
-    per_turn = problem.mesh.n_teeth // problem.mesh_step       # fundamentals per turn
+    per_turn = fundamentals_per_turn(problem)
     spec = np.fft.rfft(delta) / delta.size
     coeffs = {int(k): complex(spec[k * per_turn] * (1.0 if k == 0 else 2.0))
               for k in problem.harmonics.indices if k * per_turn < spec.size}
@@ -214,13 +215,13 @@ def main(argv: list[str] | None = None) -> dict:
                        and r.get("sweep", False) == sweep)]
     y = None
     for rpm in args.rpm:
-        rec = {"scene": str(args.scene), "case": args.case, "rpm": rpm,
-               "sweep": sweep, "hbm_nearest": nearest_branch_point(args.run, rpm)}
+        near = nearest_branch_point(args.run, rpm)
+        rec = {"scene": str(args.scene), "case": args.case, "rpm": rpm, "sweep": sweep,
+               "hbm_nearest": {k: v for k, v in near.items() if k != "unknowns"}}
         if y is None or not args.sweep:
-            pt, stable, kind = start_point(problem, args.run, rpm)
-            samples = problem.mesh_step * SAMPLES_PER_MESH_PERIOD
-            rec.update(hbm_std=round(float(hbm_load(problem, pt, samples).std()), 4),
-                       hbm_stable=stable, hbm_kind=kind)
+            pt = start_point(problem, near, rpm)
+            rec.update(hbm_std=round(orbit_std(problem, pt), 4), hbm_stable=near["stable"],
+                       hbm_kind=near["kind"])
             y = initial_state(problem, pt, modal_model(problem, rpm))
         out, y, delta = integrate(problem, rpm, y, args.transient, args.window)
         rec.update(out)
@@ -230,12 +231,11 @@ def main(argv: list[str] | None = None) -> dict:
             except Exception as exc:             # noqa: BLE001 - recorded, not fatal
                 rec["attractor_orbit"] = f"no orbit of the harmonic set: {exc}"
             else:
-                hstd = float(hbm_load(problem, ap_pt, problem.mesh_step
-                                      * SAMPLES_PER_MESH_PERIOD).std())
+                hstd = orbit_std(problem, ap_pt)
+                off = hstd / rec["std_window"] - 1.0
                 rec["attractor_orbit"] = {"std": round(hstd, 4),
-                                          "vs_time_integration": round(
-                                              hstd / rec["std_window"] - 1.0, 6)}
-                if abs(hstd / rec["std_window"] - 1.0) < 1e-3:
+                                          "vs_time_integration": round(off, 6)}
+                if abs(off) < 1e-3:
                     rec["attractor_branch"] = trace_attractor(problem, scene, ap_pt,
                                                               tuple(args.trace))
         log.info("%s %.0f rpm: HBM std %.2f N near (stable %s); attractor std %.2f N, "

@@ -70,7 +70,7 @@ def _circle_tangent():
 def _context():
     """The algebraic problem, the range w = 1 -> 2 and the trace context."""
     stub = SimpleNamespace(harmonics=SimpleNamespace(indices=(0,)), condensation="algebraic",
-                           x_scale=np.ones(2), n_unknowns=2,
+                           nr=1, x_scale=np.ones(2), n_unknowns=2,
                            scaled=lambda x, omega, j=True: _residual(np.append(x, omega), j))
     bounds = cont._Range(1.0 / RPM_TO_RAD_S, 2.0 / RPM_TO_RAD_S, 0.25)
     ctx = TraceContext(stub, _residual, bounds.wscale, TOL, 12, 1e-9, _record, STEP, 1e-6,

@@ -225,3 +225,28 @@ def test_trace_from_a_given_start_follows_that_branch(softening_branch):
         hbm.trace(pb, s, 1.6 / RPM, start=full.unknowns[j][:-1])
     with pytest.raises(ValueError, match="start and resume"):
         hbm.trace(pb, s, 1.6 / RPM, start=full.unknowns[j], resume=plain)
+
+
+@pytest.mark.parametrize("guard", [True, False])
+def test_a_wide_backlash_does_not_hide_the_softening_jump(softening_branch, guard,
+                                                          monkeypatch):
+    """The same softening pair with a backlash 100 times wider: the back flank is never
+    reached, so the branch is the same, but the unknowns' scale (the backlash) is then
+    hundreds of times the vibration and a step past the upper fold moves the scaled unknowns
+    by little, whichever orbit it lands on. The orbit-change guard
+    (:data:`hbm.predictors.ORBIT_JUMP`) keeps the trace on its branch: both folds and the
+    resonant peak as with the narrow backlash. Without it (guard off) the trace steps
+    from the lower orbit over the hysteresis and reports a completed branch without it."""
+    import hbm.predictors as hp
+
+    pb, ref = softening_branch
+    if not guard:
+        monkeypatch.setattr(hp, "ORBIT_JUMP", np.inf)
+    wide = sdof_problem(harmonics=30, fa=0.05, b=100.0)
+    br = hbm.trace(wide, 0.3 / RPM, 1.6 / RPM, step=0.05, max_step=0.1, stability=False)
+    assert br.status == "completed"
+    if not guard:                                # the failure the guard is for
+        assert br.folds == [] and br.mesh_load_std.max() < 0.6 * ref.mesh_load_std.max()
+        return
+    assert sorted(br.folds) == pytest.approx(sorted(ref.folds), rel=2e-3)
+    assert br.mesh_load_std.max() == pytest.approx(ref.mesh_load_std.max(), rel=1e-3)

@@ -86,6 +86,30 @@ def ground_gears(M: np.ndarray, K: np.ndarray, G: np.ndarray, dI: float, Ir: flo
     return Me, Ke, np.concatenate([G, np.zeros(2)])
 
 
+def rim_on_web(M: np.ndarray, K: np.ndarray, G: np.ndarray, blanks: tuple, rim: np.ndarray,
+               web: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``M``, ``K``, ``G`` with each gear's teeth moved onto a rim on a web: the 6x6
+    ``blanks`` masses (gear 1, gear 2) are taken off the gear DOF (which become the gear
+    body), a rim node of 6x6 mass ``rim`` is appended per gear (12 new DOF, gear 1 then
+    gear 2), joined to the body by the 6x6 spring ``web``, and the mesh (``G``) acts on
+    the rims. All 6x6 matrices in the gear-pair frame (for the disk, ring and web of
+    ``fem.pump``, which are symmetric about the axis, the same as in the global frame)."""
+    n = M.shape[0]
+    Me, Ke = np.zeros((n + 12, n + 12)), np.zeros((n + 12, n + 12))
+    Me[:n, :n], Ke[:n, :n] = M, K
+    for g in range(2):
+        body, ring = slice(6 * g, 6 * g + 6), slice(n + 6 * g, n + 6 * g + 6)
+        Me[body, body] -= blanks[g]
+        Me[ring, ring] += rim
+        Ke[body, body] += web
+        Ke[ring, ring] += web
+        Ke[body, ring] -= web
+        Ke[ring, body] -= web
+    Ge = np.zeros(n + 12)
+    Ge[n:] = G[:12]
+    return Me, Ke, Ge
+
+
 #: Shaft orders of the external excitation (unbalance 1, aerodynamic 2 and 4, eq. 1–3).
 ORDERS = (1, 2, 4)
 #: A mode below this [Hz] is a flywheel (gear–rotor) mode, above it a mesh mode.

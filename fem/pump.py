@@ -5,7 +5,9 @@ Node names (the contract with ``reduction`` and ``study``), for s in ("in", "out
 ``{s}/bearing_a|b`` (linked to the journal seats), ``housing/bore_{s}_a|b``
 (linked to the bores, joined to the shaft bearing nodes by bearing springs),
 ``{s}/station_1..6`` and ``{s}/coupling``; with lumped rotors (:class:`RotorParams`)
-also ``{s}/rotor`` (rotation about the shaft axis only). ``housing/feet`` is clamped.
+also ``{s}/rotor`` (rotation about the shaft axis only), and with a rim on a web
+``{s}/body`` (linked to ``{s}/hub`` in place of ``{s}/gear``, which is then the rim).
+``housing/feet`` is clamped.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ log = logging.getLogger(__name__)
 
 SHAFTS = ("in", "out")
 N_STATIONS = 6
+#: The :class:`RotorParams` fields of a rim on a web (all set or none).
+WEB_FIELDS = ("rim_inertia", "rim_mass", "web_torsional_stiffness", "web_radial_stiffness")
 
 
 def _check(cls: str, name: str, value: float, lo: float, hi: float = math.inf,
@@ -192,7 +196,17 @@ class RotorParams:
     * ``gear_inertia`` (kg m^2) and ``gear_mass`` (kg): polar inertia and mass added
       rigidly on the gear node (hub and rotor end next to the gear);
     * ``lateral_stiffness`` (N/m): a radial spring from the gear node to ground (a
-      bearing beside the gear on a rigid seat).
+      bearing beside the gear on a rigid seat);
+    * ``rim_inertia`` (kg m^2), ``rim_mass`` (kg), ``web_torsional_stiffness`` (N m/rad),
+      ``web_radial_stiffness`` (N/m): the teeth on a rim joined to the gear body by a
+      web (all four > 0, or all 0: a solid gear). The rim is then the gear node
+      ``{s}/gear``, where the mesh acts (a thin ring: polar ``rim_inertia``, half of it
+      about a diameter); the web joins it to the body node ``{s}/body``, which the hub
+      surface is linked to and which carries ``gear_inertia``, ``gear_mass``, the rotor's
+      spring and ``lateral_stiffness``. The solid blank's disk mass is then left out: a
+      webbed gear is its rim, its web (massless) and the body parts given. The web's
+      axial and tilting stiffness equal its radial and torsional ones; a spur mesh does
+      not load them.
     """
 
     inertia: float = 0.0
@@ -200,28 +214,48 @@ class RotorParams:
     gear_inertia: float = 0.0
     gear_mass: float = 0.0
     lateral_stiffness: float = 0.0
+    rim_inertia: float = 0.0
+    rim_mass: float = 0.0
+    web_torsional_stiffness: float = 0.0
+    web_radial_stiffness: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("inertia", "torsional_stiffness", "gear_inertia", "gear_mass",
-                     "lateral_stiffness"):
-            _check("rotors", name, getattr(self, name), 0.0, lo_open=False)
+        for f in dataclasses.fields(self):
+            _check("rotors", f.name, getattr(self, f.name), 0.0, lo_open=False)
         if (self.inertia > 0) != (self.torsional_stiffness > 0):
             raise ValueError(f"rotors.inertia = {self.inertia} and rotors.torsional_stiffness"
                              f" = {self.torsional_stiffness}: both > 0 (a rotor on its "
                              "spring) or both 0 (no rotor)")
+        web = [getattr(self, n) > 0 for n in WEB_FIELDS]
+        if any(web) and not all(web):
+            given = ", ".join(f"rotors.{n} = {getattr(self, n)}" for n in WEB_FIELDS)
+            raise ValueError(f"{given}: all > 0 (a rim on a web) or all 0 (a solid gear)")
+
+    @property
+    def webbed(self) -> bool:
+        """True when the teeth sit on a rim joined to the gear body by a web."""
+        return self.web_torsional_stiffness > 0
 
     @property
     def active(self) -> bool:
         """True when any part is added."""
-        return any(v > 0 for v in (self.inertia, self.gear_inertia, self.gear_mass,
-                                   self.lateral_stiffness))
+        return any(getattr(self, f.name) > 0 for f in dataclasses.fields(self))
 
 
 def add_rotors(spec: ModelSpec, shaft: str, centre: np.ndarray, rotors: RotorParams) -> None:
     """Add the lumped rotor parts of :class:`RotorParams` (SI) to ``spec`` on node
-    ``{shaft}/gear``; the rotor node ``{shaft}/rotor`` is placed at ``centre`` (m, the gear
-    centre) and turns about the shaft axis z only."""
-    gear = f"{shaft}/gear"
+    ``{shaft}/gear``, or with a web (:attr:`RotorParams.webbed`) on the body node
+    ``{shaft}/body`` (added by :func:`pump_spec`) with the rim on ``{shaft}/gear``; the
+    rotor node ``{shaft}/rotor`` is placed at ``centre`` (m, the gear centre) and turns
+    about the shaft axis z only."""
+    gear = f"{shaft}/body" if rotors.webbed else f"{shaft}/gear"
+    if rotors.webbed:
+        j = rotors.rim_inertia
+        spec.add_mass(f"{shaft}/gear", rigid_body_mass(rotors.rim_mass, [j / 2, j / 2, j]))
+        web = axial_spring(rotors.web_radial_stiffness, rotors.web_radial_stiffness,
+                           tilting=rotors.web_torsional_stiffness,
+                           torsional=rotors.web_torsional_stiffness)
+        spec.add_spring(f"{shaft}/gear", web, other=gear)
     if rotors.gear_mass > 0 or rotors.gear_inertia > 0:
         spec.add_mass(gear, rigid_body_mass(rotors.gear_mass, [0.0, 0.0, rotors.gear_inertia]))
     if rotors.lateral_stiffness > 0:
@@ -255,11 +289,16 @@ def pump_spec(
             raise ValueError(f"centres: missing {name!r}")
         return np.asarray(centres[name], dtype=float)
 
+    webbed = rotors is not None and rotors.webbed
     for i, s in enumerate(SHAFTS, start=1):
         spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
-        spec.add_link(f"{s}/hub", f"{s}/gear", kind=gears.hub_link)
-        spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i), gears.bore_radius,
-                                             gears.face_width, gears.density))  # fmt: skip
+        if webbed:        # the hub carries the gear body; the rim (gear node) is on its web
+            spec.add_node(f"{s}/body", centre(f"{s}/gear"), frame=frame)
+        spec.add_link(f"{s}/hub", f"{s}/body" if webbed else f"{s}/gear", kind=gears.hub_link)
+        if not webbed:
+            spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i),
+                                                 gears.bore_radius, gears.face_width,
+                                                 gears.density))
         for end in ("a", "b"):
             shaft_node, bore_node = f"{s}/bearing_{end}", f"housing/bore_{s}_{end}"
             c_shaft, c_bore = centre(shaft_node), centre(bore_node)

@@ -109,3 +109,69 @@ def test_rotors_in_the_fe_model_match_the_same_parts_added_on_the_rom(fe_mesh, p
     # rest of the torsional mesh energy (ρ_low + ρ_high ≈ 1 for one spring per gear)
     k = int(np.argmax(np.where(f_fe < f_min, rho_fe, 0.0)))
     assert f_fe[k] < 0.5 * f_min and 0.9 < rho_fe[k] + rho_fe[j] <= 1.0
+
+
+#: A rim on a web (docs/theory.md §13.6): the lumped study's candidate, 0.3 J_g rim
+#: (5.1e-4 kg m², 0.225 kg), a 2.4 mm steel web (7e5 N m/rad, 1.7e9 N/m), a light hub
+#: ring and a 55 mm neck of the Ø32 shaft (1.5e5 N m/rad)
+WEBBED = dict(inertia=0.18632, torsional_stiffness=1.5e5, gear_inertia=1.0e-4,
+              gear_mass=0.18, lateral_stiffness=2.0e9, rim_inertia=5.1e-4, rim_mass=0.225,
+              web_torsional_stiffness=7.0e5, web_radial_stiffness=1.7e9)
+
+
+def test_rotor_params_refuse_a_rim_without_its_web() -> None:
+    with pytest.raises(ValueError, match=r"rotors.rim_inertia = 0.0005.*all > 0"):
+        fem.RotorParams(rim_inertia=5e-4, rim_mass=0.2)
+    assert fem.RotorParams(**WEBBED).webbed and not fem.RotorParams().webbed
+
+
+def test_a_rim_on_a_web_in_the_fe_model_matches_the_same_parts_added_on_the_rom(fe_mesh,
+                                                                                params):
+    """The webbed gear built into the FE model (rim on ``{s}/gear``, body node
+    ``{s}/body`` linked to the hub, inside the Craig–Bampton interior) against the plain
+    pump's ROM with the blank taken off its gear DOF, the rotor parts put on them and a
+    rim appended on a web (``benchmarks.grounded_gears.rim_on_web``): the same coupled
+    modes and mesh-energy shares to the Craig–Bampton accuracy. This checks where the hub
+    now links, that the blank is left out, the rim's mass and the web spring between
+    the two nodes. The body is now interior, and the plain ROM's basis (the gear node
+    held) and the webbed one (the rim held) converge differently: modes below 5 kHz
+    differ by up to 1.6e-3 with 100 fixed-interface modes in each, 2.4e-4 with 300."""
+    from benchmarks.grounded_gears import ground_gears, rim_on_web
+    from reduction import coupled_modes, mesh_energy, reduce_fe_model
+
+    scene, p = params
+    km = scene.mesh_stiffness.mean
+    rotors = fem.RotorParams(**WEBBED)
+    plain = fem.build_pump_model(None, p.materials, p.gears, p.bearings, p.drive,
+                                 fe_mesh=fe_mesh)
+    webbed = fem.build_pump_model(None, p.materials, p.gears, p.bearings, p.drive,
+                                  fe_mesh=fe_mesh, rotors=rotors)
+    assert set(webbed.node_dofs) - set(plain.node_dofs) == {
+        "in/rotor", "out/rotor", "in/body", "out/body"}
+    assert webbed.n_red == plain.n_red + 2 + 12     # a rotation per rotor, 6 DOF per body
+    r_plain = reduce_fe_model(plain, km, n_modes=3 * N_CM)
+    r_web = reduce_fe_model(webbed, km, n_modes=3 * N_CM)
+    g = p.gears
+    blanks = tuple(fem.disk_mass(g.blank_outer_radius(i), g.bore_radius, g.face_width,
+                                 g.density) for i in (1, 2))
+    M, K, G = ground_gears(r_plain.M, r_plain.K, r_plain.G, rotors.gear_inertia,
+                           rotors.inertia, rotors.torsional_stiffness, rotors.gear_mass,
+                           rotors.lateral_stiffness)
+    M[2, 2] += rotors.gear_mass
+    M[8, 8] += rotors.gear_mass
+    j = rotors.rim_inertia
+    rim = fem.rigid_body_mass(rotors.rim_mass, [j / 2, j / 2, j])
+    web = fem.axial_spring(rotors.web_radial_stiffness, rotors.web_radial_stiffness,
+                           tilting=rotors.web_torsional_stiffness,
+                           torsional=rotors.web_torsional_stiffness)
+    M, K, G = rim_on_web(M, K, G, blanks, rim, web)
+    f_ref = coupled_modes(M, K, G, km).frequencies_hz
+    f_fe = coupled_modes(r_web.M, r_web.K, r_web.G, km).frequencies_hz
+    below = f_ref < 5000.0
+    assert below.sum() > 20
+    np.testing.assert_allclose(f_fe[: below.sum()], f_ref[below], rtol=4e-4)
+    rho_ref, rho_fe = mesh_energy(M, K, G, km), mesh_energy(r_web.M, r_web.K, r_web.G, km)
+    np.testing.assert_allclose(rho_fe[: below.sum()], rho_ref[below], atol=2e-3)
+    # the rim on its web takes mesh energy the solid gear's low rotor mode held (0.61)
+    low = np.argmax(np.where(f_fe < 1000.0, rho_fe, 0.0))
+    assert rho_fe[low] < 0.2

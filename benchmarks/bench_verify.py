@@ -39,10 +39,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
 from benchmarks.common import RESULTS, median_time, peak_rss_mb, write_json
+from hbm.time_response import ModalModel, initial_state, mesh_load, modal_model, state_atol
+from hbm.time_response import equations as _rhs
 
 log = logging.getLogger("bench_verify")
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,116 +58,8 @@ CLASS_NAMES = {0: "permanent contact", 1: "single-sided impacts", 2: "double-sid
 
 
 # --------------------------------------------------------------------------- model
-
-@dataclass
-class ModalModel:
-    """The HBM problem's equations at one speed, in the coupled modes of eq. (17).
-
-    ``eta'' + D eta' + diag(w2) eta + gamma (f_LoA(Delta, t) - k_bar Delta) = p(t)``,
-    ``Delta = gamma . eta``, ``p(t) = Re sum_k P_k exp(i kw_k t)``.
-    """
-
-    phi: np.ndarray          # (n, m) mass-normalised modes
-    w2: np.ndarray           # (m,) rad²/s²
-    damp: np.ndarray         # (m,) modal damping 2 xi w (1/s), or (m, m) if not modal
-    gamma: np.ndarray        # (m,) Phi^T G
-    forcing: np.ndarray      # (nS, m) complex modal forcing P_k (N/kg^1/2)
-    kw: np.ndarray           # (nS,) angular frequencies k w0 (rad/s)
-    kbar: float              # mean mesh stiffness (N/m)
-    backlash: float          # half backlash b (m)
-    mesh: Any                # hbm.GearMesh: k_m(t), e(t)
-    mesh_rate: float         # mesh phase rate Z Omega (rad/s)
-    period: float            # fundamental period 2 pi / w0 (s)
-
-    @property
-    def n_modes(self) -> int:
-        return self.w2.size
-
-
-def modal_model(problem, rpm: float) -> ModalModel:
-    """The equations of ``problem`` (an :class:`hbm.HBMProblem`) at ``rpm`` in modal form.
-
-    Modes of ``(K + k_bar G G^T, M)`` (eq. 17), mass-normalised. If ``Phi^T C Phi``
-    is diagonal to 1e-9 (the modal damping of eq. 18-19) only its diagonal is kept.
-
-    Raises
-    ------
-    ValueError
-        If ``rpm`` is not > 0, or a rigid mode of ``K'`` is loaded.
-    """
-    if not np.isfinite(rpm) or rpm <= 0:
-        raise ValueError(f"rpm = {rpm!r}: must be > 0")
-    import hbm
-
-    s = problem.system
-    omega = rpm * hbm.RPM_TO_RAD_S
-    w0 = problem.harmonics.fundamental_rad_s(omega)
-    kbar = problem.mesh.mean_stiffness
-    g = np.asarray(problem.G, dtype=float)
-    w2, phi = sla.eigh(s.K + kbar * np.outer(g, g), s.M)
-    forcing = (problem.Fc + omega ** 2 * problem.Fu) @ phi          # (nS, m)
-    rigid = w2 < 1e-9 * np.max(np.abs(w2))
-    if np.any(rigid):
-        gam = phi[:, rigid].T @ g
-        if np.any(np.abs(forcing[:, rigid]) > 0) or np.any(np.abs(gam) > 0):
-            raise ValueError("problem: a rigid mode of K + k_bar G G^T is loaded "
-                             "(no periodic steady state)")
-        phi, w2, forcing = phi[:, ~rigid], w2[~rigid], forcing[:, ~rigid]
-    cm = phi.T @ s.C @ phi
-    off = cm - np.diag(np.diag(cm))
-    damp = np.diag(cm).copy() if np.max(np.abs(off)) <= 1e-9 * max(np.max(np.abs(cm)), 1e-300) \
-        else cm
-    return ModalModel(phi=phi, w2=w2, damp=damp, gamma=phi.T @ g, forcing=forcing,
-                      kw=problem.kS * w0, kbar=kbar, backlash=problem.mesh.backlash,
-                      mesh=problem.mesh, mesh_rate=problem.mesh.n_teeth * omega,
-                      period=2 * np.pi / w0)
-
-
-def mesh_load(mm: ModalModel, delta: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Dead-zone mesh force f_LoA (N) of eq. (13) at times ``t`` (s)."""
-    ph = mm.mesh_rate * t
-    p = delta - mm.mesh.error_at(ph)
-    b = mm.backlash
-    return mm.mesh.stiffness_at(ph) * (np.where(p > b, p - b, 0.0)
-                                       + np.where(p < -b, p + b, 0.0))   # eq. (13)
-
-
-def _rhs(mm: ModalModel) -> Callable[[float, np.ndarray], np.ndarray]:
-    m = mm.n_modes
-    gam, w2, damp, P, kw, b, kbar = (mm.gamma, mm.w2, mm.damp, mm.forcing, mm.kw,
-                                     mm.backlash, mm.kbar)
-    loaded_rows = np.any(P != 0, axis=1)     # only the forced harmonics: exact, and the
-    P, kw = P[loaded_rows], kw[loaded_rows]  # shaft-order sets hold hundreds of unforced ones
-    modal = damp.ndim == 1
-    mesh = mm.mesh
-    k_coef = list(mesh.stiffness.items())
-    te_coef = list(mesh.te.items())
-    loaded = mesh.te_kind == "loaded"
-    fs = mesh.static_load
-
-    def fun(t: float, y: np.ndarray) -> np.ndarray:
-        eta, vel = y[:m], y[m:]
-        ph = mm.mesh_rate * t
-        km = sum((c * np.exp(1j * mi * ph)).real for mi, c in k_coef)
-        e = sum((c * np.exp(1j * mi * ph)).real for mi, c in te_coef)
-        if loaded:
-            e -= fs / km                                                # eq. (12)
-        delta = gam @ eta
-        p = delta - e
-        f = km * (p - b) if p > b else km * (p + b) if p < -b else 0.0   # eq. (13)
-        ext = (np.exp(1j * kw * t) @ P).real
-        acc = ext - (damp * vel if modal else damp @ vel) - w2 * eta - gam * (f - kbar * delta)
-        return np.concatenate([vel, acc])
-    return fun
-
-
-def initial_state(problem, point, mm: ModalModel) -> np.ndarray:
-    """Modal state ``(eta, eta')`` at t = 0 of an HBM point (on its orbit)."""
-    q = problem.recover(point)                            # (n, nS) complex
-    x0 = q.real.sum(axis=1)
-    v0 = (1j * mm.kw * q).real.sum(axis=1)
-    proj = mm.phi.T @ problem.system.M
-    return np.concatenate([proj @ x0, proj @ v0])
+# ModalModel, modal_model, mesh_load, initial_state, state_atol and the right-hand side
+# (_rhs) are hbm.time_response's (imported above).
 
 
 @dataclass
@@ -189,15 +82,6 @@ class SteadyState:
 def _state_norm(mm: ModalModel, y: np.ndarray) -> np.ndarray:
     m = mm.n_modes
     return np.concatenate([y[:m], y[m:] * mm.period / (2 * np.pi)])
-
-
-def state_atol(mm: ModalModel, y0: np.ndarray, rtol: float) -> np.ndarray:
-    """Absolute tolerances of ``solve_ivp``: ``rtol`` times the largest modal amplitude
-    of ``y0`` per block (velocities at least that of the positions times w0)."""
-    m = mm.n_modes
-    scale_x = max(np.max(np.abs(y0[:m])), 1e-300)
-    scale_v = max(np.max(np.abs(y0[m:])), scale_x * 2 * np.pi / mm.period)
-    return np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
 
 
 def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,

@@ -4,7 +4,7 @@ For a scene, an excitation case (``all`` as the scene is; ``internal``: ``[exter
 removed, as ``geardyn excitations`` does) and a list of speeds, the HBM point at each
 speed is solved by Newton from the nearest point of a saved run (``--from
 OUT/<case>/results.h5``), then the ROM is integrated in time from it
-(:func:`benchmarks.bench_verify.modal_model`, DOP853, rtol 1e-9) over ``--transient``
+(:func:`hbm.time_response.integrate`, DOP853, rtol 1e-9) over ``--transient``
 shaft turns and ``--window`` more. Per speed the record keeps the HBM orbit's mesh-load
 std, its stability, the std of each integrated turn of the window, and the strongest
 lines of the mesh-load spectrum over the window (resolution 1/window shaft orders):
@@ -25,28 +25,19 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import time
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
-from benchmarks.bench_verify import (
-    _rhs,
-    hbm_load,
-    initial_state,
-    map_unknowns,
-    mesh_load,
-    modal_model,
-    state_atol,
-)
+from benchmarks.bench_verify import hbm_load, map_unknowns
 from benchmarks.common import RESULTS
 from geometry.files import atomic_write
+from hbm.time_response import SAMPLES_PER_MESH_PERIOD
+from hbm.time_response import integrate as time_integrate
 
 log = logging.getLogger("ti_attractor")
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = RESULTS / "ti_attractor_pump_paper.json"
-SAMPLES_PER_MESH_PERIOD = 64
 
 
 def case_scene(path: Path, case: str):
@@ -97,40 +88,18 @@ def orbit_std(problem, point) -> float:
     return float(hbm_load(problem, point, problem.mesh_step * SAMPLES_PER_MESH_PERIOD).std())
 
 
-def integrate(problem, rpm: float, y0: np.ndarray, turns: int, window: int
+def integrate(problem, rpm: float, y0, turns: int, window: int
               ) -> tuple[dict, np.ndarray, np.ndarray]:
-    """Integrate ``turns + window`` shaft turns from the modal state ``y0``; the window's
-    std per turn and spectrum, the state at the end and Delta (m) over the last turn
-    (``Z * SAMPLES_PER_MESH_PERIOD`` equally spaced samples from its start)."""
-    mm = modal_model(problem, rpm)
-    T = fundamentals_per_turn(problem) * mm.period
-    n = problem.mesh.n_teeth * SAMPLES_PER_MESH_PERIOD
-    te = T * np.arange(n) / n
-    y = np.array(y0, dtype=float)
-    fun, atol, m = _rhs(mm), state_atol(mm, y, 1e-9), mm.n_modes
-    stds, loads = [], []
-    t0 = time.perf_counter()
-    for k in range(turns + window):
-        sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=1e-9, atol=atol,
-                        t_eval=np.append(te, T))
-        if not sol.success:
-            raise RuntimeError(f"{rpm} rpm: solve_ivp failed after {k} turns: {sol.message}")
-        y = sol.y[:, -1]
-        delta = mm.gamma @ sol.y[:m, :-1]
-        load = mesh_load(mm, delta, te)
-        stds.append(float(load.std()))
-        if k >= turns:
-            loads.append(load)
-    sig = np.concatenate(loads)
-    spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
-    top = np.argsort(-spec)[:12]
-    rec = {"turns": turns, "window": window, "seconds": round(time.perf_counter() - t0, 1),
-           "std_per_turn": [round(s, 4) for s in stds],
-           "std_window": round(float(sig.std()), 4),
-           "max_load": round(float(sig.max()), 3),
-           "lines": [{"order": round(j / window, 4), "hz": round(j / window * rpm / 60, 1),
-                      "N": round(float(spec[j]), 3)} for j in top]}
-    return rec, y, delta
+    """:func:`hbm.time_response.integrate` from ``y0`` (a point or a modal state) as a
+    record: the window's std per turn and spectrum; with the state at the end and Delta
+    (m) over the last turn."""
+    tr = time_integrate(problem, rpm, y0, transient=turns, window=window)
+    rec = {"turns": turns, "window": window, "seconds": round(tr.seconds, 1),
+           "std_per_turn": [round(float(s), 4) for s in tr.std_per_turn],
+           "std_window": round(tr.std, 4), "max_load": round(tr.max_load, 3),
+           "lines": [{"order": round(o, 4), "hz": round(o * rpm / 60, 1), "N": round(a, 3)}
+                     for o, a in tr.lines]}
+    return rec, tr.state, tr.delta
 
 
 def attractor_point(problem, rpm: float, delta: np.ndarray):
@@ -222,7 +191,7 @@ def main(argv: list[str] | None = None) -> dict:
             pt = start_point(problem, near, rpm)
             rec.update(hbm_std=round(orbit_std(problem, pt), 4), hbm_stable=near["stable"],
                        hbm_kind=near["kind"])
-            y = initial_state(problem, pt, modal_model(problem, rpm))
+            y = pt
         out, y, delta = integrate(problem, rpm, y, args.transient, args.window)
         rec.update(out)
         if args.trace:

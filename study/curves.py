@@ -72,13 +72,15 @@ class UnstableSegment:
     ``"period_doubling"``: a response at half the fundamental frequency takes over;
     ``"neimark_sacker"``: a quasi-periodic or a coexisting response takes over).
     ``rpm`` is the (lowest, highest) speed of the segment's points, ``peak_std`` the
-    largest mesh-load std on it (N).
+    largest mesh-load std on it (N), ``index`` its first and last point in branch order
+    (None if not known).
     """
 
     kind: str
     rpm: tuple[float, float]
     points: int
     peak_std: float
+    index: tuple[int, int] | None = None
 
     @property
     def label(self) -> str:
@@ -284,7 +286,7 @@ def unstable_segments(rpm: np.ndarray, std: np.ndarray, stable: np.ndarray,
         seg = slice(i, j + 1)
         name = KINDS[kind[i]] if 1 <= kind[i] < len(KINDS) else "unclassified"
         out.append(UnstableSegment(name, (float(rpm[seg].min()), float(rpm[seg].max())),
-                                   j - i + 1, float(std[seg].max())))
+                                   j - i + 1, float(std[seg].max()), (i, j)))
         i = j + 1
     return out
 

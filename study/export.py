@@ -74,9 +74,11 @@ def _render(result, fields: list[Path]) -> None:
 
 def _figures(result) -> None:
     from study import plots, report
+    from study.attractors import attractors
 
     result.figures += plots.draw_all(result)
     if result.scene.outputs.report:
+        result.attractors = attractors(result)
         p = report.write_report(result)
         logger.info("wrote %s", p)
 

@@ -59,16 +59,25 @@ _MEANING = {
 }
 
 
-def unstable_lines(segments: list[UnstableSegment]) -> list[str]:
-    """Report lines for the unstable segments of a branch and what each kind means."""
+def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -> list[str]:
+    """Report lines for the unstable segments of a branch and what each kind means, with
+    the time response at each where computed (``found``: :class:`study.attractors.Attractor`
+    per segment)."""
+    from study.attractors import attractor_line
+
     if not segments:
         return []
+    how = ("below each, the time response from its most unstable orbit" if found else
+           "to see its response, integrate in time from the orbit: `[outputs] "
+           "attractor_transient_turns`")
     out = ["- unstable segments (branch order; the curve shows the periodic orbit, which the "
-           "machine leaves there; to see its response, integrate in time from the orbit: "
-           "`python -m benchmarks.ti_attractor`, docs/theory.md §11 and §13.5):"]
+           f"machine leaves there; {how}; docs/theory.md §11 and §13.5):"]
+    at = {a.segment: a for a in found or []}         # segments are frozen: equal by value
     for u in segments:
         out.append(f"  - {u.rpm[0]:.1f}–{u.rpm[1]:.1f} rpm, {u.points} points, std up to "
                    f"{u.peak_std:.4g} N: {u.label}, {_MEANING[u.kind]}")
+        if u in at:
+            out.append(attractor_line(at[u]))
     return out
 
 
@@ -122,7 +131,7 @@ def write_report(result) -> Path:
              + (" (" + ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in
                                  s["unstable_kinds"].items()) + ")" if s["unstable_kinds"] else "")
              + " — Floquet exponents of the variational equation, every mode",
-             *unstable_lines(s["unstable_segments"]),
+             *unstable_lines(s["unstable_segments"], result.attractors),
              *_unresolved(s["unresolved_rpm"]),
              "- folds (jumps) near: " + (", ".join(f"{f:.1f}" for f in s["folds"]) or "none")
              + " rpm", "", "### Grazing bifurcations", "",

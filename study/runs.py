@@ -77,6 +77,9 @@ class RunResult:
         PNG files written.
     seconds : float
         Wall time of the run.
+    attractors : list
+        :class:`study.attractors.Attractor` per unstable segment (``[outputs]
+        attractor_transient_turns`` > 0; computed with report.md).
     """
 
     out: Path
@@ -91,3 +94,4 @@ class RunResult:
     rom: Any = None
     mesh_dir: Path | None = None
     nvh: Any = None
+    attractors: list = field(default_factory=list)

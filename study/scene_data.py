@@ -232,7 +232,8 @@ class Accelerometer:
 @dataclass(frozen=True)
 class OutputsData:
     """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm), per-order
-    field orders, housing time-series sampling, virtual accelerometers."""
+    field orders, housing time-series sampling, virtual accelerometers, time integration
+    at unstable segments (turns left out, turns analysed)."""
 
     plots: tuple[str, ...]
     time_series: tuple[float, ...]
@@ -242,6 +243,8 @@ class OutputsData:
     housing_frames_per_mesh_period: int = 0
     housing_mesh_periods: int = 4
     accelerometers: tuple[Accelerometer, ...] = ()
+    attractor_transient_turns: int = 0
+    attractor_window_turns: int = 8
 
 
 @dataclass(frozen=True)

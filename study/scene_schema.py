@@ -193,6 +193,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "housing_field_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
                                 doc="speeds for the XDMF housing field (FE)"),
         "report": Spec("bool", True, doc="write report.md"),
+        "attractor_transient_turns": _f(
+            0, "", 0, 100_000, kind="int",
+            doc="shaft turns of time integration left out from the orbit at the most unstable "
+            "point of each unstable segment, before the analysed ones (0: none; report.md)"),
+        "attractor_window_turns": _f(8, "", 1, 10_000, kind="int",
+                                     doc="shaft turns analysed after them"),
         "field_orders": _f([], "", 1, 100_000, kind="ints",
                            doc="shaft orders of the per-order housing fields (FE; default: "
                            "the mesh orders kZ and the external orders of the set)"),

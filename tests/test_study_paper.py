@@ -103,6 +103,7 @@ def test_unstable_segments_split_by_kind_in_branch_order():
     assert [(u.kind, u.rpm, u.points, u.peak_std) for u in segs] == [
         ("neimark_sacker", (100.0, 200.0), 2, 2.0), ("period_doubling", (300.0, 300.0), 1, 3.0),
         ("fold", (500.0, 600.0), 2, 6.0), ("unclassified", (800.0, 800.0), 1, 8.0)]
+    assert [u.index for u in segs] == [(1, 2), (3, 3), (5, 6), (8, 8)]
     assert unstable_segments(r, y, np.ones(10, bool), np.zeros(10, int)) == []
     # a segment that folds back: its speed interval is that of its points
     (u,) = unstable_segments([1.0, 3.0, 2.0], [0, 0, 0], [False] * 3, [1] * 3)

@@ -1,0 +1,263 @@
+"""The problem's equations integrated in time: what the machine does where the periodic
+orbit is unstable (docs/hbm.md "Time integration").
+
+The equations are those the harmonic balance solves (eq. 4, 13-14),
+``M q'' + C q' + K q + G f_LoA(G^T q, t) = f_ex(t)``, in the coupled modes of eq. (17):
+with ``K' = K + k_bar G G^T`` and the modal damping of eq. (18-19) the linear part is
+diagonal and the right-hand side costs O(n) per evaluation; all modes are kept, so the
+change of basis is exact. ``solve_ivp`` (DOP853) integrates them over whole shaft turns
+from the state of an HBM point; :func:`integrate` leaves out a transient and analyses a
+window: the mesh-load std of every turn and the strongest lines of its spectrum.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.integrate import solve_ivp
+
+from .problem import RPM_TO_RAD_S, HBMProblem, Point
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["ModalModel", "TimeResponse", "initial_state", "integrate", "mesh_load",
+           "modal_model", "state_atol"]
+
+#: Samples per mesh period of the analysed turns.
+SAMPLES_PER_MESH_PERIOD = 64
+
+
+@dataclass
+class ModalModel:
+    """The HBM problem's equations at one speed, in the coupled modes of eq. (17).
+
+    ``eta'' + D eta' + diag(w2) eta + gamma (f_LoA(Delta, t) - k_bar Delta) = p(t)``,
+    ``Delta = gamma . eta``, ``p(t) = Re sum_k P_k exp(i kw_k t)``.
+    """
+
+    phi: np.ndarray          # (n, m) mass-normalised modes
+    w2: np.ndarray           # (m,) rad²/s²
+    damp: np.ndarray         # (m,) modal damping 2 xi w (1/s), or (m, m) if not modal
+    gamma: np.ndarray        # (m,) Phi^T G
+    forcing: np.ndarray      # (nS, m) complex modal forcing P_k (N/kg^1/2)
+    kw: np.ndarray           # (nS,) angular frequencies k w0 (rad/s)
+    kbar: float              # mean mesh stiffness (N/m)
+    backlash: float          # half backlash b (m)
+    mesh: Any                # hbm.GearMesh: k_m(t), e(t)
+    mesh_rate: float         # mesh phase rate Z Omega (rad/s)
+    period: float            # fundamental period 2 pi / w0 (s)
+
+    @property
+    def n_modes(self) -> int:
+        return self.w2.size
+
+
+def modal_model(problem: HBMProblem, rpm: float) -> ModalModel:
+    """The equations of ``problem`` at ``rpm`` in modal form.
+
+    Modes of ``(K + k_bar G G^T, M)`` (eq. 17), mass-normalised. If ``Phi^T C Phi``
+    is diagonal to 1e-9 (the modal damping of eq. 18-19) only its diagonal is kept.
+
+    Raises
+    ------
+    ValueError
+        If ``rpm`` is not > 0, or a rigid mode of ``K'`` is loaded.
+    """
+    if not np.isfinite(rpm) or rpm <= 0:
+        raise ValueError(f"rpm = {rpm!r}: must be > 0")
+    s = problem.system
+    omega = rpm * RPM_TO_RAD_S
+    w0 = problem.harmonics.fundamental_rad_s(omega)
+    kbar = problem.mesh.mean_stiffness
+    g = np.asarray(problem.G, dtype=float)
+    w2, phi = sla.eigh(s.K + kbar * np.outer(g, g), s.M)
+    forcing = (problem.Fc + omega ** 2 * problem.Fu) @ phi          # (nS, m)
+    rigid = w2 < 1e-9 * np.max(np.abs(w2))
+    if np.any(rigid):
+        gam = phi[:, rigid].T @ g
+        if np.any(np.abs(forcing[:, rigid]) > 0) or np.any(np.abs(gam) > 0):
+            raise ValueError("problem: a rigid mode of K + k_bar G G^T is loaded "
+                             "(no periodic steady state)")
+        phi, w2, forcing = phi[:, ~rigid], w2[~rigid], forcing[:, ~rigid]
+    cm = phi.T @ s.C @ phi
+    off = cm - np.diag(np.diag(cm))
+    damp = np.diag(cm).copy() if np.max(np.abs(off)) <= 1e-9 * max(np.max(np.abs(cm)), 1e-300) \
+        else cm
+    return ModalModel(phi=phi, w2=w2, damp=damp, gamma=phi.T @ g, forcing=forcing,
+                      kw=problem.kS * w0, kbar=kbar, backlash=problem.mesh.backlash,
+                      mesh=problem.mesh, mesh_rate=problem.mesh.n_teeth * omega,
+                      period=2 * np.pi / w0)
+
+
+def mesh_load(mm: ModalModel, delta: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Dead-zone mesh force f_LoA (N) of eq. (13) at times ``t`` (s)."""
+    ph = mm.mesh_rate * t
+    p = delta - mm.mesh.error_at(ph)
+    b = mm.backlash
+    return mm.mesh.stiffness_at(ph) * (np.where(p > b, p - b, 0.0)
+                                       + np.where(p < -b, p + b, 0.0))   # eq. (13)
+
+
+def equations(mm: ModalModel) -> Callable[[float, np.ndarray], np.ndarray]:
+    """Right-hand side ``y' = f(t, y)`` of the modal state ``y = (eta, eta')``."""
+    m = mm.n_modes
+    gam, w2, damp, P, kw, b, kbar = (mm.gamma, mm.w2, mm.damp, mm.forcing, mm.kw,
+                                     mm.backlash, mm.kbar)
+    loaded_rows = np.any(P != 0, axis=1)     # only the forced harmonics: exact, and the
+    P, kw = P[loaded_rows], kw[loaded_rows]  # shaft-order sets hold hundreds of unforced ones
+    modal = damp.ndim == 1
+    mesh = mm.mesh
+    k_coef = list(mesh.stiffness.items())
+    te_coef = list(mesh.te.items())
+    loaded = mesh.te_kind == "loaded"
+    fs = mesh.static_load
+
+    def fun(t: float, y: np.ndarray) -> np.ndarray:
+        eta, vel = y[:m], y[m:]
+        ph = mm.mesh_rate * t
+        km = sum((c * np.exp(1j * mi * ph)).real for mi, c in k_coef)
+        e = sum((c * np.exp(1j * mi * ph)).real for mi, c in te_coef)
+        if loaded:
+            e -= fs / km                                                # eq. (12)
+        delta = gam @ eta
+        p = delta - e
+        f = km * (p - b) if p > b else km * (p + b) if p < -b else 0.0   # eq. (13)
+        ext = (np.exp(1j * kw * t) @ P).real
+        acc = ext - (damp * vel if modal else damp @ vel) - w2 * eta - gam * (f - kbar * delta)
+        return np.concatenate([vel, acc])
+    return fun
+
+
+def initial_state(problem: HBMProblem, point: Point, mm: ModalModel) -> np.ndarray:
+    """Modal state ``(eta, eta')`` at t = 0 of an HBM point (on its orbit)."""
+    q = problem.recover(point)                            # (n, nS) complex
+    x0 = q.real.sum(axis=1)
+    v0 = (1j * mm.kw * q).real.sum(axis=1)
+    proj = mm.phi.T @ problem.system.M
+    return np.concatenate([proj @ x0, proj @ v0])
+
+
+def state_atol(mm: ModalModel, y0: np.ndarray, rtol: float) -> np.ndarray:
+    """Absolute tolerances of ``solve_ivp``: ``rtol`` times the largest modal amplitude
+    of ``y0`` per block (velocities at least that of the positions times w0)."""
+    m = mm.n_modes
+    scale_x = max(np.max(np.abs(y0[:m])), 1e-300)
+    scale_v = max(np.max(np.abs(y0[m:])), scale_x * 2 * np.pi / mm.period)
+    return np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
+
+
+@dataclass
+class TimeResponse:
+    """A time integration over ``transient + window`` shaft turns (:func:`integrate`).
+
+    ``lines`` are the strongest lines of the window's mesh-load spectrum as (shaft
+    order, amplitude N), resolution ``1 / window`` orders. The response repeats itself
+    every turn (``periodic``) when the std of the window's turns (two or more) agree to
+    1e-3 and its strongest line lies on an integer order; otherwise it is
+    quasi-periodic, or longer than a turn, or has not settled.
+    """
+
+    rpm: float
+    transient: int
+    window: int
+    std_per_turn: np.ndarray         # (transient + window,) mesh-load std of each turn (N)
+    std: float                       # mesh-load std over the window (N)
+    max_load: float                  # largest mesh load over the window (N)
+    lines: list[tuple[float, float]]
+    seconds: float
+    state: np.ndarray = field(repr=False)   # modal state at the end
+    delta: np.ndarray = field(repr=False)   # Delta (m) over the last turn, from its start
+
+    @property
+    def periodic(self) -> bool | None:
+        """Whether the response repeats itself every turn; None with one turn analysed."""
+        if self.window < 2:
+            return None
+        s = self.std_per_turn[self.transient:]
+        spread = (s.max() - s.min()) / max(s.max(), 1e-300)
+        order = self.lines[0][0] if self.lines else 0.0
+        return bool(spread < 1e-3 and abs(order - round(order)) < 0.5 / self.window)
+
+
+def _turn(problem: HBMProblem, mm: ModalModel) -> tuple[float, np.ndarray]:
+    """Duration of a shaft turn (s) and its sample times (Z x SAMPLES_PER_MESH_PERIOD)."""
+    per_turn = problem.mesh.n_teeth // problem.mesh_step      # fundamental periods per turn
+    T = per_turn * mm.period
+    n = problem.mesh.n_teeth * SAMPLES_PER_MESH_PERIOD
+    return T, T * np.arange(n) / n
+
+
+def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
+              transient: int = 30, window: int = 16, rtol: float = 1e-9,
+              n_lines: int = 12) -> TimeResponse:
+    """Integrate the equations at ``rpm`` over whole shaft turns.
+
+    Parameters
+    ----------
+    problem
+        The HBM problem.
+    rpm
+        Speed (> 0).
+    start
+        An HBM point (its orbit at t = 0 is the start) or a modal state ``(eta, eta')``
+        (:attr:`TimeResponse.state` of another speed: a run-up).
+    transient, window
+        Shaft turns left out (>= 0) and analysed (>= 1).
+    rtol
+        Relative tolerance of DOP853; the absolute one is ``rtol`` times the largest
+        modal amplitude of the start per block.
+    n_lines
+        Spectral lines kept.
+
+    Raises
+    ------
+    ValueError
+        On a negative ``transient``, ``window`` < 1, ``rtol`` outside (0, 1), ``rpm``
+        not > 0 or a modal state of the wrong shape.
+    RuntimeError
+        If ``solve_ivp`` fails.
+    """
+    if transient < 0 or window < 1:
+        raise ValueError(f"transient = {transient}, window = {window}: must be >= 0 and >= 1")
+    if not 0 < rtol < 1:
+        raise ValueError(f"rtol = {rtol!r}: must be in (0, 1)")
+    mm = modal_model(problem, rpm)
+    T, te = _turn(problem, mm)
+    y = initial_state(problem, start, mm) if isinstance(start, Point) else \
+        np.array(start, dtype=float)
+    if y.shape != (2 * mm.n_modes,):
+        raise ValueError(f"start: modal state of shape {y.shape}, the problem has "
+                         f"{2 * mm.n_modes} (positions and velocities of {mm.n_modes} modes)")
+    fun, atol, m = equations(mm), state_atol(mm, y, rtol), mm.n_modes
+    stds, loads, delta = [], [], np.zeros(te.size)
+    t0 = time.perf_counter()
+    for k in range(transient + window):
+        sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=rtol, atol=atol,
+                        t_eval=np.append(te, T))
+        if not sol.success:
+            raise RuntimeError(f"{rpm:.6g} rpm: solve_ivp failed after {k} turns: "
+                               f"{sol.message}")
+        y = sol.y[:, -1]
+        delta = mm.gamma @ sol.y[:m, :-1]
+        load = mesh_load(mm, delta, te)
+        stds.append(float(load.std()))
+        if k >= transient:
+            loads.append(load)
+    sig = np.concatenate(loads)
+    spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
+    top = np.argsort(-spec)[:n_lines]
+    out = TimeResponse(rpm=rpm, transient=transient, window=window,
+                       std_per_turn=np.array(stds), std=float(sig.std()),
+                       max_load=float(sig.max()),
+                       lines=[(float(j / window), float(spec[j])) for j in top],
+                       seconds=time.perf_counter() - t0, state=y, delta=delta)
+    logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
+                "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
+                out.periodic)
+    return out

@@ -1,0 +1,79 @@
+"""What the machine does where the periodic orbit is unstable: time integration from the
+orbit at the most unstable point of each unstable segment (``[outputs]
+attractor_transient_turns``, :func:`hbm.time_response.integrate`), for report.md.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from hbm.time_response import TimeResponse, integrate
+from study.curves import UnstableSegment, unstable_segments
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Attractor", "attractors", "attractor_line"]
+
+
+@dataclass
+class Attractor:
+    """The time response from the orbit at ``rpm``, the point of ``segment`` with the
+    largest Floquet growth rate (``orbit_std``: that orbit's mesh-load std, N)."""
+
+    segment: UnstableSegment
+    rpm: float
+    orbit_std: float
+    response: TimeResponse
+
+
+def _most_unstable(br, seg: UnstableSegment) -> int:
+    """Index of the segment's point with the largest Floquet growth rate on the branch
+    (the orbit the machine leaves fastest; at a fold's end it would barely move)."""
+    first, last = seg.index
+    rate = np.asarray(br.floquet_max_real[first:last + 1], dtype=float)
+    if not np.isfinite(rate).any():      # rates not recorded: the most loaded point
+        rate = np.asarray(br.mesh_load_std[first:last + 1], dtype=float)
+    return first + int(np.argmax(np.where(np.isfinite(rate), rate, -np.inf)))
+
+
+def attractors(result) -> list[Attractor]:
+    """One :class:`Attractor` per unstable segment of ``result.branch`` when the scene
+    asks for them (``attractor_transient_turns`` > 0), else none. A point whose orbit
+    Newton cannot refine, or whose integration fails, is logged and left out."""
+    o = result.scene.outputs
+    br = result.branch
+    if o.attractor_transient_turns == 0 or br is None or not len(br):
+        return []
+    problem = result.problem
+    out = []
+    for seg in unstable_segments(br.rpm, br.mesh_load_std, br.stable, br.floquet_kind):
+        i = _most_unstable(br, seg)
+        rpm = float(br.rpm[i])
+        try:
+            point = problem.solve(rpm, x0=br.unknowns[i], tol=1e-10)
+            tr = integrate(problem, rpm, point, transient=o.attractor_transient_turns,
+                           window=o.attractor_window_turns)
+        except Exception as exc:                # noqa: BLE001 - reported, the run goes on
+            logger.warning("time integration at %.1f rpm (%s segment) failed: %s", rpm,
+                           seg.label, exc)
+            continue
+        out.append(Attractor(seg, rpm, float(br.mesh_load_std[i]), tr))
+    return out
+
+
+def attractor_line(a: Attractor, lines: int = 3) -> str:
+    """One report.md line: the time response against the orbit it started from."""
+    r = a.response
+    s = r.std_per_turn[r.transient:]
+    kind = {True: "repeats itself every turn", None: "(one turn analysed: periodicity not "
+            "judged)", False: "does not repeat itself within a turn (quasi-periodic, "
+            "longer-period or not settled)"}[r.periodic]
+    top = ", ".join(f"order {o:g} ({o * a.rpm / 60.0:.0f} Hz) {amp:.3g} N"
+                    for o, amp in r.lines[:lines])
+    return (f"    - time integration from the orbit at {a.rpm:.1f} rpm ({r.transient} turns "
+            f"left out, {r.window} analysed): mesh-load std {r.std:.4g} N against the "
+            f"orbit's {a.orbit_std:.4g} N ({r.std / a.orbit_std - 1:+.1%}), {s.min():.4g}–"
+            f"{s.max():.4g} N per turn; {'it ' if r.periodic is not None else ''}{kind}; "
+            f"strongest lines: {top}")

@@ -1,0 +1,65 @@
+"""``[outputs] attractor_transient_turns``: time integration at the unstable segments of
+a run, in report.md (study.attractors), on the single-DOF scene whose curve has amplitude
+jumps (folds) and a period-doubling segment."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import study
+from study.scene_load import load_scene
+
+SDOF = Path(__file__).resolve().parents[1] / "scenes" / "gear-pair-sdof.toml"
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    scene = load_scene(SDOF, {"outputs.attractor_transient_turns": 2,
+                              "outputs.attractor_window_turns": 2, "outputs.plots": []})
+    out = tmp_path_factory.mktemp("attractors")
+    return study.run(scene, out / "run", cache_dir=out / "cache")
+
+
+def test_each_unstable_segment_has_its_time_response_in_the_report(run):
+    from study.report import summary
+
+    segs = summary(run)["unstable_segments"]
+    kinds = {u.kind for u in segs}
+    assert {"fold", "period_doubling"} <= kinds
+    assert [a.segment for a in run.attractors] == segs
+    text = (run.out / "report.md").read_text()
+    for a in run.attractors:
+        first, last = a.segment.index          # started from a point of the segment
+        assert a.rpm in run.branch.rpm[first:last + 1]
+        assert f"time integration from the orbit at {a.rpm:.1f} rpm (2 turns left out, 2 " \
+               f"analysed): mesh-load std {a.response.std:.4g} N" in text
+
+
+def test_period_doubling_leads_to_a_half_mesh_order_response(run):
+    """Floquet says period doubling; the time integration from that orbit (an independent
+    method) settles on a response whose strongest line is half the mesh order, Z/2,
+    which the mesh-fundamental harmonic set cannot hold."""
+    (a,) = [a for a in run.attractors if a.segment.kind == "period_doubling"]
+    z = run.scene.gear.teeth
+    assert a.response.lines[0][0] == pytest.approx(z / 2)
+    assert a.response.periodic and a.response.std > 1.2 * a.orbit_std
+
+
+def test_from_a_jump_the_response_lands_on_a_stable_orbit_of_the_curve(run):
+    """From the most unstable point of the middle of a jump the machine settles on a
+    stable orbit of the same curve at that speed (another branch piece), not on the one
+    it started from."""
+    br = run.branch
+    stable = br.stable.astype(bool)
+    landed = 0
+    for a in run.attractors:
+        if a.segment.kind != "fold" or not a.response.periodic:
+            continue
+        near = stable & (np.abs(br.rpm / a.rpm - 1) < 5e-3)
+        assert near.any()
+        off = np.min(np.abs(br.mesh_load_std[near] / a.response.std - 1))
+        assert off < 1e-2, (a.rpm, a.response.std, br.mesh_load_std[near])
+        assert abs(a.response.std / a.orbit_std - 1) > 0.1
+        landed += 1
+    assert landed >= 1

@@ -12,7 +12,9 @@ an attractor is the HBM orbit when its std and lines are those of the orbit; a
 periodic attractor has lines at integer orders only and the same std every turn; a
 quasi-periodic one has lines between them (docs/theory.md §13.5, "Stability along the
 curves"). With ``--sweep`` each speed after the first starts from the state the
-previous one ended in: a slow run-up (or run-down) as on a test rig.
+previous one ended in: a slow run-up (or run-down) as on a test rig. (One time response
+per unstable segment is in every run's report.md with ``[outputs]
+attractor_transient_turns``; this script is for chosen speeds, run-ups and ``--trace``.)
 
 Run (a few minutes per speed on the pump-paper ROM)::
 

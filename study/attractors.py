@@ -20,12 +20,14 @@ __all__ = ["Attractor", "attractors", "attractor_line"]
 @dataclass
 class Attractor:
     """The time response from the orbit at ``rpm``, the point of ``segment`` with the
-    largest Floquet growth rate (``orbit_std``: that orbit's mesh-load std, N)."""
+    largest Floquet growth rate (``orbit_std``: that orbit's mesh-load std, N); when the
+    refinement or the integration failed, ``response`` is None and ``error`` says why."""
 
     segment: UnstableSegment
     rpm: float
     orbit_std: float
-    response: TimeResponse
+    response: TimeResponse | None
+    error: str = ""
 
 
 def _most_unstable(br, seg: UnstableSegment) -> int:
@@ -41,7 +43,8 @@ def _most_unstable(br, seg: UnstableSegment) -> int:
 def attractors(result) -> list[Attractor]:
     """One :class:`Attractor` per unstable segment of ``result.branch`` when the scene
     asks for them (``attractor_transient_turns`` > 0), else none. A point whose orbit
-    Newton cannot refine, or whose integration fails, is logged and left out."""
+    Newton cannot refine, or whose integration fails, is logged and kept with the error
+    (the run goes on)."""
     o = result.scene.outputs
     br = result.branch
     if o.attractor_transient_turns == 0 or br is None or not len(br):
@@ -50,7 +53,7 @@ def attractors(result) -> list[Attractor]:
     out = []
     for seg in unstable_segments(br.rpm, br.mesh_load_std, br.stable, br.floquet_kind):
         i = _most_unstable(br, seg)
-        rpm = float(br.rpm[i])
+        rpm, std = float(br.rpm[i]), float(br.mesh_load_std[i])
         try:
             point = problem.solve(rpm, x0=br.unknowns[i], tol=1e-10)
             tr = integrate(problem, rpm, point, transient=o.attractor_transient_turns,
@@ -58,14 +61,17 @@ def attractors(result) -> list[Attractor]:
         except Exception as exc:                # noqa: BLE001 - reported, the run goes on
             logger.warning("time integration at %.1f rpm (%s segment) failed: %s", rpm,
                            seg.label, exc)
+            out.append(Attractor(seg, rpm, std, None, f"{type(exc).__name__}: {exc}"))
             continue
-        out.append(Attractor(seg, rpm, float(br.mesh_load_std[i]), tr))
+        out.append(Attractor(seg, rpm, std, tr))
     return out
 
 
 def attractor_line(a: Attractor, lines: int = 3) -> str:
     """One report.md line: the time response against the orbit it started from."""
     r = a.response
+    if r is None:
+        return f"    - time integration from the orbit at {a.rpm:.1f} rpm failed: {a.error}"
     s = r.std_per_turn[r.transient:]
     kind = {True: "repeats itself every turn", None: "(one turn analysed: periodicity not "
             "judged)", False: "does not repeat itself within a turn (quasi-periodic, "

@@ -8,6 +8,7 @@ import numpy as np
 
 from geometry.files import atomic_write
 from hbm.stability import KINDS
+from study.attractors import attractor_line
 from study.curves import UnstableSegment, unstable_segments
 from study.fields import velocity_level_db
 from study.plot_common import contact_intervals, order_label
@@ -63,8 +64,6 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
     """Report lines for the unstable segments of a branch and what each kind means, with
     the time response at each where computed (``found``: :class:`study.attractors.Attractor`
     per segment)."""
-    from study.attractors import attractor_line
-
     if not segments:
         return []
     how = ("below each, the time response from its most unstable orbit" if found else

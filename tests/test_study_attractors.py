@@ -63,3 +63,17 @@ def test_from_a_jump_the_response_lands_on_a_stable_orbit_of_the_curve(run):
         assert abs(a.response.std / a.orbit_std - 1) > 0.1
         landed += 1
     assert landed >= 1
+
+
+def test_a_failed_integration_is_said_in_the_report(run, monkeypatch):
+    import study.attractors as sa
+    from study.report import summary, unstable_lines
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("solve_ivp failed after 3 turns: step size too small")
+
+    monkeypatch.setattr(sa, "integrate", fail)
+    found = sa.attractors(run)
+    assert found and all(a.response is None for a in found)
+    text = "\n".join(unstable_lines(summary(run)["unstable_segments"], found))
+    assert text.count("failed: RuntimeError: solve_ivp failed after 3 turns") == len(found)

@@ -4,17 +4,21 @@ attractor_transient_turns``, :func:`hbm.time_response.integrate`), for report.md
 """
 from __future__ import annotations
 
+import csv
+import io
 import logging
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from geometry.files import atomic_write
 from hbm.time_response import TimeResponse, integrate
 from study.curves import UnstableSegment, unstable_segments
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Attractor", "attractors", "attractor_line"]
+__all__ = ["Attractor", "attractors", "attractor_line", "write_attractors_csv"]
 
 
 @dataclass
@@ -83,3 +87,34 @@ def attractor_line(a: Attractor, lines: int = 3) -> str:
             f"orbit's {a.orbit_std:.4g} N ({r.std / a.orbit_std - 1:+.1%}), {s.min():.4g}–"
             f"{s.max():.4g} N per turn; {'it ' if r.periodic is not None else ''}{kind}; "
             f"strongest lines: {top}")
+
+
+#: Columns of ``attractors.csv`` (docs/results-format.md).
+CSV_COLUMNS = ["kind", "segment_from_rpm", "segment_to_rpm", "speed_rpm", "orbit_std_N",
+               "response_std_N", "turn_std_min_N", "turn_std_max_N", "max_load_N",
+               "periodic", "top_order", "top_amplitude_N", "turns_left_out",
+               "turns_analysed", "error"]
+
+
+def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
+    """``attractors.csv``: one row per :class:`Attractor` (atomic write)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for a in found:
+        head = [a.segment.kind, f"{a.segment.rpm[0]:.6f}", f"{a.segment.rpm[1]:.6f}",
+                f"{a.rpm:.6f}", f"{a.orbit_std:.8g}"]
+        r = a.response
+        if r is None:
+            w.writerow(head + [""] * 10 + [a.error])
+            continue
+        s = r.std_per_turn[r.transient:]
+        order, amp = r.lines[0] if r.lines else (float("nan"), float("nan"))
+        w.writerow(head + [f"{r.std:.8g}", f"{s.min():.8g}", f"{s.max():.8g}",
+                           f"{r.max_load:.8g}", "" if r.periodic is None else int(r.periodic),
+                           f"{order:.6g}", f"{amp:.8g}", r.transient, r.window, ""])
+    path = Path(path)
+    with atomic_write(path, "w") as fh:
+        fh.write(buf.getvalue())
+    logger.info("wrote %s", path)
+    return path

@@ -74,11 +74,13 @@ def _render(result, fields: list[Path]) -> None:
 
 def _figures(result) -> None:
     from study import plots, report
-    from study.attractors import attractors
+    from study.attractors import attractors, write_attractors_csv
 
     result.figures += plots.draw_all(result)
     if result.scene.outputs.report:
         result.attractors = attractors(result)
+        if result.attractors:
+            write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
         p = report.write_report(result)
         logger.info("wrote %s", p)
 

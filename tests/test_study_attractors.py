@@ -34,6 +34,16 @@ def test_each_unstable_segment_has_its_time_response_in_the_report(run):
         assert a.rpm in run.branch.rpm[first:last + 1]
         assert f"time integration from the orbit at {a.rpm:.1f} rpm (2 turns left out, 2 " \
                f"analysed): mesh-load std {a.response.std:.4g} N" in text
+    import csv
+
+    with open(run.out / "attractors.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["kind"], float(r["speed_rpm"])) for r in rows] == [
+        (a.segment.kind, pytest.approx(a.rpm, abs=1e-6)) for a in run.attractors]
+    for r, a in zip(rows, run.attractors, strict=True):
+        assert float(r["response_std_N"]) == pytest.approx(a.response.std, rel=1e-7)
+        assert float(r["top_order"]) == pytest.approx(a.response.lines[0][0], rel=1e-5)
+        assert r["periodic"] == str(int(a.response.periodic)) and r["error"] == ""
 
 
 def test_period_doubling_leads_to_a_half_mesh_order_response(run):

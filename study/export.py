@@ -12,7 +12,8 @@ from study.points import nearest_point, point_at, time_series_speeds
 logger = logging.getLogger(__name__)
 
 # time_series_speeds, nearest_point and point_at live in study.points (re-exported)
-__all__ = ["write_partial", "export", "time_series_speeds", "nearest_point", "point_at"]
+__all__ = ["write_partial", "export", "write_report_files", "time_series_speeds",
+           "nearest_point", "point_at"]
 
 
 def _settings(result) -> dict:
@@ -73,16 +74,25 @@ def _render(result, fields: list[Path]) -> None:
 
 
 def _figures(result) -> None:
-    from study import plots, report
-    from study.attractors import attractors, write_attractors_csv
+    from study import plots
 
     result.figures += plots.draw_all(result)
     if result.scene.outputs.report:
-        result.attractors = attractors(result)
-        if result.attractors:
-            write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
-        p = report.write_report(result)
-        logger.info("wrote %s", p)
+        write_report_files(result)
+
+
+def write_report_files(result) -> Path:
+    """report.md, with the time responses at the unstable segments and attractors.csv
+    when the scene asks for them (``[outputs] attractor_transient_turns``)."""
+    from study import report
+    from study.attractors import attractors, write_attractors_csv
+
+    result.attractors = attractors(result)
+    if result.attractors:
+        write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
+    p = report.write_report(result)
+    logger.info("wrote %s", p)
+    return p
 
 
 def out_path(result, name: str) -> Path:

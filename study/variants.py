@@ -75,10 +75,11 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
 
     def draw() -> None:
-        from study import plots, report
+        from study import plots
+        from study.export import write_report_files
         from study.nvh import compute_nvh
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
         res.figures += plots.draw_all(res)
-        report.write_report(res)
+        write_report_files(res)
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

@@ -11,12 +11,13 @@ import study
 from study.scene_load import load_scene
 
 SDOF = Path(__file__).resolve().parents[1] / "scenes" / "gear-pair-sdof.toml"
+OVERRIDES = {"outputs.attractor_transient_turns": 2, "outputs.attractor_window_turns": 2,
+             "outputs.plots": []}
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    scene = load_scene(SDOF, {"outputs.attractor_transient_turns": 2,
-                              "outputs.attractor_window_turns": 2, "outputs.plots": []})
+    scene = load_scene(SDOF, OVERRIDES)
     out = tmp_path_factory.mktemp("attractors")
     return study.run(scene, out / "run", cache_dir=out / "cache")
 
@@ -87,3 +88,14 @@ def test_a_failed_integration_is_said_in_the_report(run, monkeypatch):
     assert found and all(a.response is None for a in found)
     text = "\n".join(unstable_lines(summary(run)["unstable_segments"], found))
     assert text.count("failed: RuntimeError: solve_ivp failed after 3 turns") == len(found)
+
+
+def test_report_from_results_gives_the_same_time_responses(run):
+    """``geardyn report`` (report_from_results) integrates again from the saved branch:
+    the same attractors.csv, bitwise."""
+    from study.variants import report_from_results
+
+    before = (run.out / "attractors.csv").read_text()
+    (run.out / "attractors.csv").unlink()
+    report_from_results(SDOF, run.out, OVERRIDES, cache=str(run.out.parent / "cache"))
+    assert (run.out / "attractors.csv").read_text() == before

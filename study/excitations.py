@@ -175,6 +175,10 @@ def comparison_inputs(scene: Scene, results: dict):
     for case, s in inp.cases.items():
         inp.primary[case] = pi if case == "internal" else \
             (primary_peak(s, near=pi.rpm) if pi is not None else None)
+        peak = inp.primary[case]
+        for a in getattr(results[case], "attractors", []):
+            if peak is not None and a.response is not None and a.segment.contains(peak.rpm):
+                inp.machine[case] = (a.rpm, a.response.std)
     r = results.get("all")
     if r is None:
         return inp

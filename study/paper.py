@@ -129,6 +129,9 @@ class PaperInputs:
     reached_from: float = 0.0
     #: dynamic-factor peak [Hz] and its shift ratio under k̄/2 (T.33)
     softening: tuple[float, float] | None = None
+    #: per case, (start speed [rpm], mesh-load std [N]) of the time response on the
+    #: unstable segment at the primary peak (``[outputs] attractor_transient_turns``)
+    machine: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 def _pct(a: float, b: float) -> str:
@@ -242,6 +245,11 @@ def _effect_rows(inp: PaperInputs) -> list[str]:
             f"{c}: {v}" for c, v in unstable.items() if v) + "): the machine leaves it " \
             "there, so this row compares orbits the paper's method computes, not the " \
             "machine's response (each case's report.md, docs/theory.md §13.5)"
+        mi, ma = inp.machine.get("internal"), inp.machine.get("all")
+        if mi is not None and ma is not None:
+            run_pk += f"; time integration from the most unstable orbit there: {mi[1]:.1f} " \
+                      f"→ {ma[1]:.1f} N ({_pct(ma[1], mi[1])}; from {mi[0]:.0f} → " \
+                      f"{ma[0]:.0f} rpm)"
     if si is not None and sa is not None and not (si.complete and sa.complete):
         run_sp = f"{si.span:.0f} → {sa.span:.0f} rpm (incomplete curve: not comparable)"
         run_pk += " (incomplete curve: not comparable)"

@@ -222,6 +222,11 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert f"**the periodic orbit at the peak is unstable** (internal: Neimark–Sacker " \
            f"{ns[0].rpm[0]:.0f}–{ns[0].rpm[1]:.0f} rpm): the machine leaves it" \
         in _row(paper_markdown(shaky), "| primary peak")
+    assert "time integration" not in _row(paper_markdown(shaky), "| primary peak")
+    timed = replace(shaky, machine={"internal": (3022.8, 145.9), "all": (3019.0, 145.8)})
+    assert _row(paper_markdown(timed), "| primary peak").endswith(
+        "; time integration from the most unstable orbit there: 145.9 → 145.8 N (-0.1 %; "
+        "from 3023 → 3019 rpm) | Sect. 4.2, Fig. 12 (internal only → all excitations) |")
     span = _row(md, "| vibro-impact span")
     assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
     ipp = _row(md, "| IPP sequence at 1700")

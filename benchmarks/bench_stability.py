@@ -27,16 +27,9 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from benchmarks.bench_verify import (
-    PUMP_SCENE,
-    _rhs,
-    _state_norm,
-    initial_state,
-    modal_model,
-    state_atol,
-    steady_state,
-)
+from benchmarks.bench_verify import PUMP_SCENE, _state_norm, steady_state
 from benchmarks.common import machine, write_json
+from hbm.time_response import equations, initial_state, modal_model, state_atol
 
 logger = logging.getLogger("bench_stability")
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,7 +39,7 @@ def measured_rate(problem, point, periods: int, rtol: float = 1e-10) -> dict:
     """Largest real part (1/s) seen by time integration from the HBM state."""
     mm = modal_model(problem, point.rpm)
     y = initial_state(problem, point, mm)
-    fun = _rhs(mm)
+    fun = equations(mm)
     T = mm.period
     atol = state_atol(mm, y, rtol)
     norm0 = np.linalg.norm(_state_norm(mm, y))

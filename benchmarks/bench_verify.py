@@ -42,8 +42,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from benchmarks.common import RESULTS, median_time, peak_rss_mb, write_json
-from hbm.time_response import ModalModel, initial_state, mesh_load, modal_model, state_atol
-from hbm.time_response import equations as _rhs
+from hbm.time_response import (
+    ModalModel,
+    equations,
+    initial_state,
+    mesh_load,
+    modal_model,
+    state_atol,
+)
 
 log = logging.getLogger("bench_verify")
 ROOT = Path(__file__).resolve().parents[1]
@@ -59,7 +65,7 @@ CLASS_NAMES = {0: "permanent contact", 1: "single-sided impacts", 2: "double-sid
 
 # --------------------------------------------------------------------------- model
 # ModalModel, modal_model, mesh_load, initial_state, state_atol and the right-hand side
-# (_rhs) are hbm.time_response's (imported above).
+# (equations) are hbm.time_response's (imported above).
 
 
 @dataclass
@@ -122,7 +128,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
     if max_seconds is not None and not max_seconds > 0:
         raise ValueError(f"max_seconds = {max_seconds!r}: must be > 0")
     tol_state = 1000 * tol_periodic if tol_state is None else tol_state
-    fun = _rhs(mm)
+    fun = equations(mm)
     m = mm.n_modes
     T = mm.period
     atol = state_atol(mm, y0, rtol)

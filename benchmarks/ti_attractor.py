@@ -34,7 +34,7 @@ import numpy as np
 from benchmarks.bench_verify import hbm_load, map_unknowns
 from benchmarks.common import RESULTS
 from geometry.files import atomic_write
-from hbm.time_response import SAMPLES_PER_MESH_PERIOD
+from hbm.time_response import SAMPLES_PER_MESH_PERIOD, fundamentals_per_turn
 from hbm.time_response import integrate as time_integrate
 
 log = logging.getLogger("ti_attractor")
@@ -78,11 +78,6 @@ def start_point(problem, near: dict, rpm: float):
         raise ValueError(f"--from: {x0.size} unknowns per point, the case's problem has "
                          f"{problem.n_unknowns} (another case or harmonic set?)")
     return problem.solve(rpm, x0=x0, tol=1e-10)
-
-
-def fundamentals_per_turn(problem) -> int:
-    """HBM fundamental periods in one shaft turn: 1 (shaft fundamental) or Z (mesh)."""
-    return problem.mesh.n_teeth // problem.mesh_step
 
 
 def orbit_std(problem, point) -> float:

@@ -236,6 +236,23 @@ class RotorParams:
         """True when the teeth sit on a rim joined to the gear body by a web."""
         return self.web_torsional_stiffness > 0
 
+    def rim_mass_matrix(self) -> np.ndarray:
+        """6x6 mass of the rim (kg, kg m^2): a thin ring, half its polar inertia about a
+        diameter."""
+        j = self.rim_inertia
+        return rigid_body_mass(self.rim_mass, [j / 2, j / 2, j])
+
+    def web_stiffness_matrix(self) -> np.ndarray:
+        """6x6 stiffness of the web (N/m, N m/rad): axial as radial, tilting as torsional."""
+        return axial_spring(self.web_radial_stiffness, self.web_radial_stiffness,
+                            tilting=self.web_torsional_stiffness,
+                            torsional=self.web_torsional_stiffness)
+
+    def body_node(self, shaft: str) -> str:
+        """The node the hub is linked to and the gear parts sit on: ``{shaft}/body``
+        with a web, else the gear node ``{shaft}/gear``."""
+        return f"{shaft}/body" if self.webbed else f"{shaft}/gear"
+
     @property
     def active(self) -> bool:
         """True when any part is added."""
@@ -248,14 +265,10 @@ def add_rotors(spec: ModelSpec, shaft: str, centre: np.ndarray, rotors: RotorPar
     ``{shaft}/body`` (added by :func:`pump_spec`) with the rim on ``{shaft}/gear``; the
     rotor node ``{shaft}/rotor`` is placed at ``centre`` (m, the gear centre) and turns
     about the shaft axis z only."""
-    gear = f"{shaft}/body" if rotors.webbed else f"{shaft}/gear"
+    gear = rotors.body_node(shaft)
     if rotors.webbed:
-        j = rotors.rim_inertia
-        spec.add_mass(f"{shaft}/gear", rigid_body_mass(rotors.rim_mass, [j / 2, j / 2, j]))
-        web = axial_spring(rotors.web_radial_stiffness, rotors.web_radial_stiffness,
-                           tilting=rotors.web_torsional_stiffness,
-                           torsional=rotors.web_torsional_stiffness)
-        spec.add_spring(f"{shaft}/gear", web, other=gear)
+        spec.add_mass(f"{shaft}/gear", rotors.rim_mass_matrix())
+        spec.add_spring(f"{shaft}/gear", rotors.web_stiffness_matrix(), other=gear)
     if rotors.gear_mass > 0 or rotors.gear_inertia > 0:
         spec.add_mass(gear, rigid_body_mass(rotors.gear_mass, [0.0, 0.0, rotors.gear_inertia]))
     if rotors.lateral_stiffness > 0:
@@ -289,13 +302,14 @@ def pump_spec(
             raise ValueError(f"centres: missing {name!r}")
         return np.asarray(centres[name], dtype=float)
 
-    webbed = rotors is not None and rotors.webbed
+    rotors = RotorParams() if rotors is None else rotors
     for i, s in enumerate(SHAFTS, start=1):
         spec.add_node(f"{s}/gear", centre(f"{s}/gear"), frame=frame)
-        if webbed:        # the hub carries the gear body; the rim (gear node) is on its web
-            spec.add_node(f"{s}/body", centre(f"{s}/gear"), frame=frame)
-        spec.add_link(f"{s}/hub", f"{s}/body" if webbed else f"{s}/gear", kind=gears.hub_link)
-        if not webbed:
+        body = rotors.body_node(s)
+        if rotors.webbed:  # the hub carries the gear body; the rim (gear node) is on its web
+            spec.add_node(body, centre(f"{s}/gear"), frame=frame)
+        spec.add_link(f"{s}/hub", body, kind=gears.hub_link)
+        if not rotors.webbed:
             spec.add_mass(f"{s}/gear", disk_mass(gears.blank_outer_radius(i),
                                                  gears.bore_radius, gears.face_width,
                                                  gears.density))
@@ -316,7 +330,7 @@ def pump_spec(
             spec.add_link(name, name)
         spec.add_node(f"{s}/coupling", centre(f"{s}/coupling"))
         spec.add_link(f"{s}/coupling", f"{s}/coupling")
-        if rotors is not None and rotors.active:
+        if rotors.active:
             add_rotors(spec, s, centre(f"{s}/gear"), rotors)
     spec.add_clamp("housing/feet")
     spec.add_torsion_to_ground("in/coupling", drive.motor_torsional_stiffness, [0, 0, 1.0])

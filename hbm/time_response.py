@@ -26,8 +26,8 @@ from .problem import RPM_TO_RAD_S, HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["ModalModel", "TimeResponse", "initial_state", "integrate", "mesh_load",
-           "modal_model", "state_atol"]
+__all__ = ["ModalModel", "TimeResponse", "equations", "fundamentals_per_turn",
+           "initial_state", "integrate", "mesh_load", "modal_model", "state_atol"]
 
 #: Samples per mesh period of the analysed turns.
 SAMPLES_PER_MESH_PERIOD = 64
@@ -175,20 +175,30 @@ class TimeResponse:
     delta: np.ndarray = field(repr=False)   # Delta (m) over the last turn, from its start
 
     @property
+    def window_std_per_turn(self) -> np.ndarray:
+        """Mesh-load std of each analysed turn (N)."""
+        return self.std_per_turn[self.transient:]
+
+    @property
     def periodic(self) -> bool | None:
         """Whether the response repeats itself every turn; None with one turn analysed."""
         if self.window < 2:
             return None
-        s = self.std_per_turn[self.transient:]
+        s = self.window_std_per_turn
         spread = (s.max() - s.min()) / max(s.max(), 1e-300)
         order = self.lines[0][0] if self.lines else 0.0
         return bool(spread < 1e-3 and abs(order - round(order)) < 0.5 / self.window)
 
 
+def fundamentals_per_turn(problem: HBMProblem) -> int:
+    """Fundamental periods of the harmonic set in one shaft turn: 1 (shaft fundamental)
+    or Z (mesh fundamental)."""
+    return problem.mesh.n_teeth // problem.mesh_step
+
+
 def _turn(problem: HBMProblem, mm: ModalModel) -> tuple[float, np.ndarray]:
     """Duration of a shaft turn (s) and its sample times (Z x SAMPLES_PER_MESH_PERIOD)."""
-    per_turn = problem.mesh.n_teeth // problem.mesh_step      # fundamental periods per turn
-    T = per_turn * mm.period
+    T = fundamentals_per_turn(problem) * mm.period
     n = problem.mesh.n_teeth * SAMPLES_PER_MESH_PERIOD
     return T, T * np.arange(n) / n
 

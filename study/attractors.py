@@ -76,7 +76,7 @@ def attractor_line(a: Attractor, lines: int = 3) -> str:
     r = a.response
     if r is None:
         return f"    - time integration from the orbit at {a.rpm:.1f} rpm failed: {a.error}"
-    s = r.std_per_turn[r.transient:]
+    s = r.window_std_per_turn
     kind = {True: "repeats itself every turn", None: "(one turn analysed: periodicity not "
             "judged)", False: "does not repeat itself within a turn (quasi-periodic, "
             "longer-period or not settled)"}[r.periodic]
@@ -108,7 +108,7 @@ def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
         if r is None:
             w.writerow(head + [""] * 10 + [a.error])
             continue
-        s = r.std_per_turn[r.transient:]
+        s = r.window_std_per_turn
         order, amp = r.lines[0] if r.lines else (float("nan"), float("nan"))
         w.writerow(head + [f"{r.std:.8g}", f"{s.min():.8g}", f"{s.max():.8g}",
                            f"{r.max_load:.8g}", "" if r.periodic is None else int(r.periodic),

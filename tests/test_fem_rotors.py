@@ -132,10 +132,11 @@ def test_a_rim_on_a_web_in_the_fe_model_matches_the_same_parts_added_on_the_rom(
     pump's ROM with the blank taken off its gear DOF, the rotor parts put on them and a
     rim appended on a web (``benchmarks.grounded_gears.rim_on_web``): the same coupled
     modes and mesh-energy shares to the Craig–Bampton accuracy. This checks where the hub
-    now links, that the blank is left out, the rim's mass and the web spring between
-    the two nodes. The body is now interior, and the plain ROM's basis (the gear node
-    held) and the webbed one (the rim held) converge differently: modes below 5 kHz
-    differ by up to 1.6e-3 with 100 fixed-interface modes in each, 2.4e-4 with 300."""
+    now links, that the blank is left out, and which nodes the rim's mass and the web
+    spring (``RotorParams.rim_mass_matrix``, ``web_stiffness_matrix``) act on. The body
+    is now interior, and the plain ROM's basis (the gear node held) and the webbed one
+    (the rim held) converge differently: modes below 5 kHz differ by up to 1.6e-3 with
+    100 fixed-interface modes in each, 2.4e-4 with 300."""
     from benchmarks.grounded_gears import ground_gears, rim_on_web
     from reduction import coupled_modes, mesh_energy, reduce_fe_model
 
@@ -159,12 +160,8 @@ def test_a_rim_on_a_web_in_the_fe_model_matches_the_same_parts_added_on_the_rom(
                            rotors.lateral_stiffness)
     M[2, 2] += rotors.gear_mass
     M[8, 8] += rotors.gear_mass
-    j = rotors.rim_inertia
-    rim = fem.rigid_body_mass(rotors.rim_mass, [j / 2, j / 2, j])
-    web = fem.axial_spring(rotors.web_radial_stiffness, rotors.web_radial_stiffness,
-                           tilting=rotors.web_torsional_stiffness,
-                           torsional=rotors.web_torsional_stiffness)
-    M, K, G = rim_on_web(M, K, G, blanks, rim, web)
+    M, K, G = rim_on_web(M, K, G, blanks, rotors.rim_mass_matrix(),
+                         rotors.web_stiffness_matrix())
     f_ref = coupled_modes(M, K, G, km).frequencies_hz
     f_fe = coupled_modes(r_web.M, r_web.K, r_web.G, km).frequencies_hz
     below = f_ref < 5000.0

@@ -40,7 +40,7 @@ def test_modal_form_equals_physical_equations(sdof):
         v = rng.normal(scale=1e-2, size=s.n_dof)
         proj = mm.phi.T @ s.M
         y = np.concatenate([proj @ x, proj @ v])
-        acc_modal = bv._rhs(mm)(t, y)[mm.n_modes:]
+        acc_modal = bv.equations(mm)(t, y)[mm.n_modes:]
         delta = pb.G @ x
         f = bv.mesh_load(mm, np.array([delta]), np.array([t]))[0]
         w = pb.kS * pb.harmonics.fundamental_rad_s(rpm * 0.10471975511965977)

@@ -92,7 +92,8 @@ def rim_on_web(M: np.ndarray, K: np.ndarray, G: np.ndarray, blanks: tuple, rim: 
     ``blanks`` masses (gear 1, gear 2) are taken off the gear DOF (which become the gear
     body), a rim node of 6x6 mass ``rim`` is appended per gear (12 new DOF, gear 1 then
     gear 2), joined to the body by the 6x6 spring ``web``, and the mesh (``G``) acts on
-    the rims. All 6x6 matrices in the gear-pair frame (for the disk, ring and web of
+    the rims. Masses in kg and kg·m², stiffness in N/m and N·m/rad (SI, as the ROM); all
+    6x6 matrices in the gear-pair frame (for the disk, ring and web of
     ``fem.pump``, which are symmetric about the axis, the same as in the global frame)."""
     n = M.shape[0]
     Me, Ke = np.zeros((n + 12, n + 12)), np.zeros((n + 12, n + 12))

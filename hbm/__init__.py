@@ -10,10 +10,12 @@ from .continuation import Branch, GrazingPoint, trace
 from .harmonics import HarmonicSet
 from .model import Excitation, GearMesh, LinearSystem
 from .postprocess import (
+    MeshPeriodEnvelope,
     PointStats,
     TimeSeries,
     impacts_per_mesh_period,
     ipp_sequence,
+    mesh_period_envelope,
     point_stats,
     spectrum,
     time_series,
@@ -24,10 +26,10 @@ from .verify import ShootingCheck, full_residual, quasi_static_delta, shooting_e
 
 __all__ = [
     "Branch", "ConvergenceError", "Excitation", "GearMesh", "GrazingPoint", "HBMProblem",
-    "HarmonicSet", "LinearSystem", "Point", "PointStats", "RPM_TO_RAD_S", "ShootingCheck",
-    "TimeSeries",
+    "HarmonicSet", "LinearSystem", "MeshPeriodEnvelope", "Point", "PointStats", "RPM_TO_RAD_S",
+    "ShootingCheck", "TimeSeries",
     "floquet_exponents", "full_residual", "impacts_per_mesh_period", "ipp_sequence",
-    "point_stats", "quasi_static_delta",
+    "mesh_period_envelope", "point_stats", "quasi_static_delta",
     "shooting_error",
     "spectrum", "time_series", "trace",
 ]

@@ -9,8 +9,8 @@ import numpy as np
 from .contact import dead_zone
 from .problem import HBMProblem, Point
 
-__all__ = ["PointStats", "TimeSeries", "point_stats", "time_series", "spectrum", "ipp_sequence",
-           "impacts_per_mesh_period"]
+__all__ = ["PointStats", "TimeSeries", "MeshPeriodEnvelope", "point_stats", "time_series",
+           "spectrum", "ipp_sequence", "impacts_per_mesh_period", "mesh_period_envelope"]
 
 
 @dataclass
@@ -56,6 +56,36 @@ class TimeSeries:
     gap_active: np.ndarray
     gap_reverse: np.ndarray
     stiffness: np.ndarray
+
+
+@dataclass(frozen=True)
+class MeshPeriodEnvelope:
+    """The slow modulation of a solution, mesh period by mesh period along one
+    fundamental period (Sect. 4.3, Fig. 15b, d): ``peak_load`` the largest mesh load in
+    each (N; with impacts, the impact load), ``mean_dte`` the mean of Delta (eq. 10) in
+    each (m)."""
+
+    peak_load: np.ndarray
+    mean_dte: np.ndarray
+
+    @property
+    def load_variation(self) -> float:
+        """Largest over smallest peak load, minus one (the paper's "44 %"); inf when a
+        mesh period carries no load."""
+        lo = float(np.min(self.peak_load))
+        return float(np.max(self.peak_load)) / lo - 1.0 if lo > 0 else float("inf")
+
+    @property
+    def dte_swing(self) -> float:
+        """Peak-to-peak of ``mean_dte`` (m): the low-frequency modulation of the DTE."""
+        return float(np.ptp(self.mean_dte))
+
+    @property
+    def load_cycles(self) -> int:
+        """Cycles of ``peak_load`` per fundamental period: its largest Fourier line
+        above the mean (0 with a single mesh period)."""
+        c = np.abs(np.fft.rfft(self.peak_load))
+        return int(np.argmax(c[1:]) + 1) if c.size > 1 else 0
 
 
 def _n_fine(problem: HBMProblem, n_time: int | None) -> int:
@@ -109,6 +139,17 @@ def point_stats(problem: HBMProblem, point: Point | np.ndarray,
         impacts_per_mesh_period=float(np.mean(ipp)),
         margin_active=_refined_min(p - b), margin_reverse=-_refined_min(p + b) ,
         ipp=ipp.astype(int))
+
+
+def mesh_period_envelope(problem: HBMProblem, point: Point | np.ndarray,
+                         n_time: int | None = None) -> MeshPeriodEnvelope:
+    """Largest mesh load and mean DTE in each mesh period of one fundamental period."""
+    n = _n_fine(problem, n_time)
+    _, delta, k, e = _signals(problem, problem.delta_real(_unknowns(point)), n)
+    f = dead_zone(delta - e, k, problem.b)
+    step = problem.mesh_step
+    return MeshPeriodEnvelope(peak_load=f.reshape(step, -1).max(axis=1),
+                              mean_dte=delta.reshape(step, -1).mean(axis=1))
 
 
 def impacts_per_mesh_period(loss: np.ndarray, mesh_step: int) -> np.ndarray:

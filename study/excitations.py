@@ -164,7 +164,7 @@ def _range_text(result) -> str:
 def comparison_inputs(scene: Scene, results: dict):
     """:class:`study.paper.PaperInputs` of the case results (IPP, spectrum and mesh mode
     from the ``all`` case)."""
-    from hbm import point_stats, spectrum
+    from hbm import mesh_period_envelope, point_stats, spectrum
     from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load)
@@ -196,7 +196,7 @@ def comparison_inputs(scene: Scene, results: dict):
         sp = spectrum(r.problem, p)
         inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
                                          scene.gear.teeth, sp["dte_amplitude"],
-                                         sp["peak_to_peak"])
+                                         sp["peak_to_peak"], mesh_period_envelope(r.problem, p))
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
         f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed

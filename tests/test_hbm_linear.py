@@ -133,3 +133,35 @@ def test_multiplication_matrix_equals_dense_aft():
     s = np.random.default_rng(0).standard_normal(pb.harmonics.n_time)
     dense = pb.A @ (s[:, None] * pb.E)
     assert np.max(np.abs(pb.multiplication_matrix(s) - dense)) < 1e-13
+
+
+def test_mesh_period_envelope_of_a_linear_contact_response():
+    """In permanent contact with constant k̄ the mesh load is k̄ (Delta - e - b) (eq. 13):
+    the envelope's peak load and mean DTE per mesh period follow from the recovered
+    harmonics (Delta_k = g^T q_k) evaluated on the same time grid."""
+    m, c, k, g = random_modal_system(seed=3)
+    n = m.shape[0]
+    rng = np.random.default_rng(2)
+    kbar, b, z = 2e3, 5e-3, 3
+    te = {1: 1e-4 + 2e-4j}
+    mesh = hbm.GearMesh(n_teeth=z, stiffness={0: kbar}, te=te, backlash=b)
+    exc = hbm.Excitation(n, constant={0: 20 * g, 1: 0.3 * (rng.standard_normal(n)
+                                                            + 1j * rng.standard_normal(n))})
+    hs = hbm.HarmonicSet.build(z, 4, external_orders=(1,))
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g), mesh, exc, hs, "loa")
+    pt = pb.solve(90.0)
+    assert hbm.point_stats(pb, pt).contact == 0
+    n_time = 400 * z
+    env = hbm.mesh_period_envelope(pb, pt, n_time=n_time)
+    tau = 2 * np.pi * np.arange(n_time) / n_time
+    dk = g @ pb.recover(pt)
+    delta = sum((dk[i] * np.exp(1j * idx * tau)).real for i, idx in enumerate(hs.indices))
+    e = sum((a * np.exp(1j * z * h * tau)).real for h, a in te.items())
+    load = kbar * (delta - e - b)
+    assert env.peak_load == pytest.approx(load.reshape(z, -1).max(axis=1), rel=1e-10)
+    assert env.mean_dte == pytest.approx(delta.reshape(z, -1).mean(axis=1), rel=1e-10)
+    peaks = load.reshape(z, -1).max(axis=1)
+    assert env.load_variation == pytest.approx(peaks.max() / peaks.min() - 1, rel=1e-10)
+    assert env.load_variation > 0.01                # the order-1 forcing modulates the peaks
+    assert env.load_cycles == 1
+    assert env.dte_swing == pytest.approx(np.ptp(delta.reshape(z, -1).mean(axis=1)), rel=1e-10)

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from hbm.postprocess import MeshPeriodEnvelope
 from study.curves import (
     FoldPair,
     contact_windows,
@@ -150,6 +151,12 @@ def test_ipp_runs_cyclic():
     assert ipp_runs(np.full(76, 3)) == [(3, 1.0)]
 
 
+#: Twice per turn: impact loads 200 ± 40 N, the DTE's mean 3.1 ± 0.05 µm.
+_TURN = 2 * np.pi * np.arange(76) / 76
+_ENVELOPE = MeshPeriodEnvelope(200.0 + 40.0 * np.cos(2 * _TURN),
+                               3.1e-6 + 5e-8 * np.cos(2 * _TURN))
+
+
 def _inputs():
     s_all = summarize_curve(RPM, _std(RPM), _contact(REGIONS), [990, 1250, 1310, 2190, 2390],
                             (600.0, 4000.0))
@@ -167,7 +174,7 @@ def _inputs():
         6875.0: SpectrumAt(6875.0, orders, np.array([300.0, 40.0, 10.0, 20.0, 5.0]), 76,
                            np.array([9e-6, 5e-8, 4e-9, 3e-8, 4e-9]), 150.0),
         2970.0: SpectrumAt(2971.5, orders, np.array([300.0, 5.0, 2.0, 100.0, 50.0]), 76,
-                           np.array([9e-6, 3e-8, 4e-8, 7e-7, 4e-8]), 300.0)}
+                           np.array([9e-6, 3e-8, 4e-8, 7e-7, 4e-8]), 300.0, _ENVELOPE)}
     inp.softening = (4070.0, 0.70)
     return inp
 
@@ -240,7 +247,11 @@ def test_paper_table_rows_from_the_curves(tmp_path):
             ("| mesh-load harmonics at 6875", "largest H_2; H_2 = 40 N, H_Z = 20 N (H_2/H_Z = "
              "2.00; at 2972 rpm 0.05)"),
             ("| mesh-load peak-to-peak", "| 275 → 160 N (×0.58) | 300 → 150 N (×0.50; at 2972 "
-             "→ 6875 rpm) |")):
+             "→ 6875 rpm) |"),
+            ("| impact loads at 2970", "| 180 → 260 N (+44 %), 2 cycles per turn | 160 → 240 N "
+             "(+50 %), 2 cycles per turn (at 2972 rpm) | Sect. 4.3, Fig. 15b"),
+            ("| low-frequency DTE modulation at 2970", "| 4 µm (H_2) | 0.1 µm (H_2 amplitude "
+             "0.03 µm; at 2972 rpm) | Sect. 4.3, Fig. 15d")):
         assert want in _row(md, start), start
     assert "53.2 N at T = 2.5 N·m" in md
     p = write_paper(tmp_path, inp)
@@ -248,6 +259,7 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     # a range that reaches 6875 rpm but not 2970 rpm, and one that reaches neither
     inp.spectra[2970.0] = "outside the computed range 3000–7000 rpm"
     md = paper_markdown(inp)
+    assert "| outside the computed range 3000–7000 rpm |" in _row(md, "| impact loads at 2970")
     assert "(H_2/H_Z = 2.00)" in _row(md, "| mesh-load harmonics at 6875")
     assert "| outside the computed range 3000–7000 rpm (at 2970 rpm); 150 N at 6875 rpm |" \
         in _row(md, "| mesh-load peak-to-peak")

@@ -286,7 +286,12 @@ def exponents_along(problem: HBMProblem, gap: np.ndarray, period: float,
 
 
 def _exponents(mu: np.ndarray, period: float) -> np.ndarray:
-    lam = np.log(mu.astype(complex)) / period
+    """Floquet exponents log(mu) / T by decreasing real part; a multiplier 0 (a direction
+    the period annihilates, e.g. a rank-deficient Ritz basis) gives -inf, not a warning."""
+    mu = np.asarray(mu, dtype=complex)
+    lam = np.full(mu.shape, complex(-np.inf, 0.0))
+    nz = mu != 0
+    lam[nz] = np.log(mu[nz]) / period
     return lam[np.argsort(-lam.real, kind="stable")]
 
 

@@ -178,3 +178,21 @@ def test_a_fold_parity_without_a_positive_real_root_gives_a_fold_not_nan():
     st = stability(pb, pt, parity=True)
     assert st.max_real == 0.0 and st.exponents[0] == 0.0
     assert st.kind == "fold" and st.fold_parity and not st.consistent
+
+
+def test_exponents_of_zero_multipliers_are_minus_infinity_without_warnings():
+    """log(mu) / T by decreasing real part; mu = 0 (a direction the period annihilates)
+    gives -inf quietly, and the others are exact."""
+    import warnings
+
+    from hbm.monodromy import _exponents
+
+    period = 0.01
+    mu = np.array([0.0, 0.4, -2.0, 0.3 + 0.4j])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lam = _exponents(mu, period)
+    assert lam[0] == pytest.approx(np.log(complex(-2.0)) / period, rel=1e-14)
+    assert lam[1] == pytest.approx(np.log(0.3 + 0.4j) / period, rel=1e-14)
+    assert lam[2] == pytest.approx(np.log(0.4) / period, rel=1e-14)
+    assert lam[3].real == -np.inf and lam[3].imag == 0.0

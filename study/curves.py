@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
-           "fold_pairs", "unstable_segments",
+           "fold_pairs", "unstable_segments", "kind_label",
            "impact_intervals", "merge_intervals", "impact_span", "contact_windows",
            "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
@@ -62,6 +62,12 @@ class FoldPair:
         return 0.5 * (self.rpm[0] + self.rpm[1])
 
 
+def kind_label(kind: str) -> str:
+    """A stability kind of :data:`hbm.stability.KINDS` as words ("Neimark–Sacker",
+    "period doubling", "fold", "stable")."""
+    return {"neimark_sacker": "Neimark–Sacker"}.get(kind, kind.replace("_", " "))
+
+
 @dataclass(frozen=True)
 class UnstableSegment:
     """Consecutive unstable points of a branch (in branch order) with one leading kind.
@@ -85,7 +91,7 @@ class UnstableSegment:
     @property
     def label(self) -> str:
         """The kind as words ("Neimark–Sacker", "period doubling", "fold")."""
-        return {"neimark_sacker": "Neimark–Sacker"}.get(self.kind, self.kind.replace("_", " "))
+        return kind_label(self.kind)
 
     def contains(self, rpm: float) -> bool:
         """Whether ``rpm`` lies within the segment's speed interval."""

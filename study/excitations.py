@@ -151,6 +151,17 @@ def solution_at(result, rpm: float):
     return p, f"solved from the branch point at {pt.rpm:.1f} rpm"
 
 
+def _stability_kind(result, point) -> str:
+    """Kind of :data:`hbm.stability.KINDS` of a solution off the branch ("" when the
+    Floquet analysis fails: logged, and the rows then say nothing of stability)."""
+    from hbm.stability import stability
+    try:
+        return stability(result.problem, point).kind
+    except Exception as exc:                    # noqa: BLE001 - reported, the table goes on
+        logger.warning("stability at %.1f rpm not computed: %s", point.rpm, exc)
+        return ""
+
+
 def _in_range(result, rpm: float) -> bool:
     br = result.branch
     return float(np.min(br.rpm)) <= rpm <= float(np.max(br.rpm))
@@ -161,9 +172,10 @@ def _range_text(result) -> str:
     return f"outside the computed range {np.min(br.rpm):.0f}–{np.max(br.rpm):.0f} rpm"
 
 
-def comparison_inputs(scene: Scene, results: dict):
+def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
     """:class:`study.paper.PaperInputs` of the case results (IPP, spectrum and mesh mode
-    from the ``all`` case)."""
+    from the ``all`` case). ``solved``, if given, receives the ``all`` case's solutions
+    at the paper's speeds: ``{rpm: (Point, how, stability kind)}``."""
     from hbm import mesh_period_envelope, point_stats, spectrum
     from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
@@ -182,21 +194,27 @@ def comparison_inputs(scene: Scene, results: dict):
     r = results.get("all")
     if r is None:
         return inp
+    solved = {} if solved is None else solved
+    for target in (*IPP_KEYS, *SPECTRUM_SPEEDS):
+        if target not in solved and _in_range(r, target):
+            p, how = solution_at(r, target)
+            solved[target] = (p, how, _stability_kind(r, p) if scene.hbm.stability else "")
     for target in IPP_KEYS:
-        if not _in_range(r, target):
+        if target not in solved:
             inp.ipp[target] = _range_text(r)
             continue
-        p, how = solution_at(r, target)
-        inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p).ipp, how)
+        p, how, kind = solved[target]
+        inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p).ipp, how, kind)
     for target in SPECTRUM_SPEEDS:
-        if not _in_range(r, target):
+        if target not in solved:
             inp.spectra[target] = _range_text(r)
             continue
-        p, _ = solution_at(r, target)
+        p, _, kind = solved[target]
         sp = spectrum(r.problem, p)
         inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
                                          scene.gear.teeth, sp["dte_amplitude"],
-                                         sp["peak_to_peak"], mesh_period_envelope(r.problem, p))
+                                         sp["peak_to_peak"], mesh_period_envelope(r.problem, p),
+                                         kind)
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
         f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed
@@ -283,15 +301,39 @@ def _atomic_text(path: Path, write) -> Path:
     return path
 
 
+def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
+    """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
+    the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
+    from study.curves import kind_label
+    from study.paper import FIGURES
+    from study.plots_point import time_series_plot
+
+    names = {}
+    for rpm, fig in FIGURES.items():
+        if rpm not in solved:
+            continue
+        p, _, kind = solved[rpm]
+        note = f" — unstable orbit ({kind_label(kind)})" if kind not in ("", "stable") else ""
+        name = f"paper_{rpm:.0f}rpm.png"
+        time_series_plot(result.problem, p, out / name,
+                         title=f"{scene.name}, all excitations: {p.rpm:.0f} rpm (cf. the "
+                               f"paper's {fig}){note}")
+        names[rpm] = name
+    return names
+
+
 def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, Path]:
-    """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md`` and
-    ``paper.md`` in ``out`` (rank 0 under mpirun)."""
+    """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md``,
+    ``paper.md`` and the time series at the paper's speeds (``paper_<rpm>rpm.png``) in
+    ``out`` (rank 0 under mpirun)."""
     from study.paper import write_paper
     from study.plots_speed import forced_response_overlay
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    inp = comparison_inputs(scene, results)
+    solved: dict[float, tuple] = {}
+    inp = comparison_inputs(scene, results, solved)
+    inp.figures = _time_series_figures(out, scene, results.get("all"), solved)
     cases = [c for c in CASES if c in results]
     png = forced_response_overlay([results[c].branch for c in cases],
                                   [CASES[c] for c in cases],

@@ -10,135 +10,27 @@ three excitation cases the Sect. 4.2 comparison needs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from geometry.files import atomic_write
-from hbm.postprocess import MeshPeriodEnvelope
-from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs
+from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs, kind_label
+from study.paper_data import (
+    FIGURES,
+    IPP_KEYS,
+    PAPER,
+    SPECTRUM_SPEEDS,
+    TOLERANCE,
+    IppAt,
+    PaperInputs,
+    Reference,
+    SpectrumAt,
+)
 
-__all__ = ["Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "IppAt", "SpectrumAt",
-           "PaperInputs", "paper_markdown", "write_paper", "format_ipp", "runs_fractions",
-           "TOLERANCE"]
-
-#: Relative agreement asked for by issue 14 (speeds within 3 %).
-TOLERANCE = 0.03
-
-
-@dataclass(frozen=True)
-class Reference:
-    """A figure of the paper and where it is stated."""
-
-    value: object
-    source: str
-
-
-#: The paper's Sect. 4 findings (all for T = 2.5 N·m, 20 harmonics, all excitations
-#: unless said otherwise).
-PAPER: dict[str, Reference] = {
-    "static_load": Reference((2.5, 70.0), "Sect. 4.2 (T = 2.5 N·m 'corresponding to a static "
-                             "mesh load F_s = 70 N')"),
-    "mesh_mode": Reference((4000.0, 0.32), "Sect. 4.1, Fig. 8 (mode with most mesh energy, "
-                           "ρ = 32 %)"),
-    "resonances": Reference((1070.0, 1570.0, 3000.0), "Sect. 4.3, Fig. 14 (that mode excited "
-                            "by H_3Z, H_2Z, H_Z)"),
-    "grazing": Reference((994.0, 1255.0, 1295.0, 2202.0, 2378.0), "Sect. 4.3, Fig. 14"),
-    "windows": Reference(((1255.0, 1295.0), (2202.0, 2378.0)),
-                         "Sect. 4.3 (permanent contact between grazings 2–3 and 4–5)"),
-    "primary_peak": Reference((93.0, 88.0), "Sect. 4.2, Fig. 12 (internal only → all "
-                              "excitations)"),
-    "primary_jumps": Reference("amplitude jumps with internal excitation only; smaller "
-                               "with all excitations",
-                               "Sect. 4.2, Fig. 12 ('smaller amplitude-jump instabilities')"),
-    "span_change": Reference(0.14, "Sect. 4.2, Fig. 13 (vibro-impact span, internal only → "
-                             "all excitations)"),
-    "ipp_1700": Reference(((2, 0.40), (1, 0.10), (2, 0.40), (1, 0.10)),
-                          "Sect. 4.3, Fig. 17"),
-    "ipp_1070": Reference(((0, 0.145), (1, 0.04), (2, 0.0525), (3, 0.17), (2, 0.0525),
-                           (1, 0.04)) * 2, "Sect. 4.3, Fig. 18"),
-    "ipp_6875": Reference(((0, 0.22), (1, 0.28), (0, 0.22), (1, 0.28)),
-                          "Sect. 4.3, Fig. 16a, e (permanent contact ≈ 22 % of the turn "
-                          "alternating with 1-IPP ≈ 28 %, twice per turn)"),
-    "h2_speed": Reference(6875.0, "Sect. 4.3, Fig. 16 (mesh modes not excited; the response "
-                          "is led by H_2 of the shaft, of the same order as the mesh "
-                          "harmonics)"),
-    "hz_speed": Reference(2970.0, "Sect. 4.3, Fig. 15 (the mode with most mesh energy "
-                          "excited by H_Z)"),
-    "peak_to_peak": Reference((275.0, 160.0), "Sect. 4.3 (mesh-load peak-to-peak at 2970 "
-                              "and 6875 rpm, Figs. 15a, 16a)"),
-    "impact_loads": Reference((180.0, 260.0, 2), "Sect. 4.3, Fig. 15b (smallest and largest "
-                              "impact loads at 2970 rpm: a 44 % variation twice per turn)"),
-    "dte_modulation": Reference(4e-6, "Sect. 4.3, Fig. 15d (low-frequency modulation of the "
-                                "DTE by H_2 at 2970 rpm, peak-to-peak)"),
-}
-
-#: Speeds (rpm) at which the paper describes the IPP sequence, and their :data:`PAPER` key.
-IPP_KEYS = {1070.0: "ipp_1070", 1700.0: "ipp_1700", 6875.0: "ipp_6875"}
-
-#: Speeds (rpm) at which the paper describes the spectra (Figs. 15 and 16).
-SPECTRUM_SPEEDS = (PAPER["hz_speed"].value, PAPER["h2_speed"].value)
-
-
-@dataclass(frozen=True)
-class IppAt:
-    """IPP sequence of one solution: target and actual speed (rpm), how it was obtained."""
-
-    target: float
-    rpm: float
-    ipp: np.ndarray
-    how: str
-
-
-@dataclass(frozen=True)
-class SpectrumAt:
-    """Harmonics at one speed per shaft order: mesh load ``amplitude`` (N) and dynamic
-    transmission error ``dte`` (m); ``peak_to_peak`` of the mesh load in time (N);
-    ``envelope`` its mesh-period envelope over one turn (the slow modulation)."""
-
-    rpm: float
-    orders: np.ndarray
-    amplitude: np.ndarray
-    teeth: int
-    dte: np.ndarray
-    peak_to_peak: float
-    envelope: MeshPeriodEnvelope | None = None
-
-    def at(self, order: int, dte: bool = False) -> float:
-        """Amplitude of one shaft order (0 if the set lacks it)."""
-        a = self.dte if dte else self.amplitude
-        sel = self.orders == order
-        return float(a[sel][0]) if np.any(sel) else 0.0
-
-    def largest(self, dte: bool = False) -> int:
-        """Shaft order of the largest harmonic above the mean."""
-        a = self.dte if dte else self.amplitude
-        sel = self.orders > 0
-        return int(self.orders[sel][int(np.argmax(a[sel]))])
-
-
-@dataclass
-class PaperInputs:
-    """What :func:`paper_markdown` compares; every run quantity optional."""
-
-    scene: str
-    torque: float
-    static_load: float
-    cases: dict[str, CurveSummary] = field(default_factory=dict)
-    primary: dict[str, Peak | None] = field(default_factory=dict)
-    ipp: dict[float, IppAt | str] = field(default_factory=dict)
-    #: at the speeds of :data:`SPECTRUM_SPEEDS`, or why not
-    spectra: dict[float, SpectrumAt | str] = field(default_factory=dict)
-    mesh_mode: tuple[float, float] | None = None
-    #: the same among the modes the mesh harmonics reach (f >= ``reached_from`` Hz)
-    reached_mode: tuple[float, float] | None = None
-    reached_from: float = 0.0
-    #: dynamic-factor peak [Hz] and its shift ratio under k̄/2 (T.33)
-    softening: tuple[float, float] | None = None
-    #: per case, (start speed [rpm], mesh-load std [N]) of the time response on the
-    #: unstable segment at the primary peak (``[outputs] attractor_transient_turns``)
-    machine: dict[str, tuple[float, float]] = field(default_factory=dict)
+__all__ = ["Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES", "IppAt",
+           "SpectrumAt", "PaperInputs", "paper_markdown", "write_paper", "format_ipp",
+           "runs_fractions", "TOLERANCE"]
 
 
 def _pct(a: float, b: float) -> str:
@@ -167,6 +59,18 @@ def _rpms(xs) -> str:
 
 def _windows(ws) -> str:
     return ", ".join(f"{a:.0f}–{b:.0f}" for a, b in ws) or "none"
+
+
+def _orbit_note(*solved) -> str:
+    """``; **unstable orbit** …`` for the solutions among ``solved`` (IppAt, SpectrumAt or
+    why-not strings) whose Floquet exponents say unstable, else ""."""
+    bad = [p for p in solved if isinstance(p, IppAt | SpectrumAt)
+           and p.stability not in ("", "stable")]
+    if not bad:
+        return ""
+    kinds = ", ".join(f"{p.rpm:.0f} rpm ({kind_label(p.stability)})" for p in bad)
+    return f"; **unstable orbit** at {kinds}: the machine leaves it, so this compares " \
+           "orbits as the paper computes them (docs/theory.md §13.5)"
 
 
 def _resonance_rows(inp: PaperInputs) -> list[str]:
@@ -288,7 +192,7 @@ def _ipp_rows(inp: PaperInputs) -> list[str]:
         else:
             run = f"{format_ipp(ipp_runs(got.ipp))} (per count: " \
                   f"{_fractions_text(ipp_fractions(got.ipp))}; {got.how} at {got.rpm:.1f} rpm, " \
-                  f"{got.ipp.size} mesh periods)"
+                  f"{got.ipp.size} mesh periods){_orbit_note(got)}"
         rows.append(f"| IPP sequence at {target:.0f} rpm, one turn | {paper} | {run} | "
                     f"{ref.source} |")
     return rows
@@ -332,6 +236,8 @@ def _spectrum_rows(inp: PaperInputs) -> list[str]:
         why = lo if isinstance(lo, str) else "not computed"
         run_ptp = f"{why} (at {ref_z.value:.0f} rpm); {hi.peak_to_peak:.0f} N " \
                   f"at {hi.rpm:.0f} rpm"
+    dte, load = dte + _orbit_note(hi), load + _orbit_note(hi, lo)
+    run_ptp += _orbit_note(lo, hi)
     return [f"| gear response (DTE, eq. 10) at {ref.value:.0f} rpm, largest harmonic | H_2 "
             f"(aero): 'the gear response is governed by the second harmonic' | {dte} | "
             f"{ref.source} |",
@@ -360,6 +266,7 @@ def _modulation_rows(inp: PaperInputs) -> list[str]:
                  f"{env.load_cycles} cycles per {per} (at {lo.rpm:.0f} rpm)"
         run_dm = f"{1e6 * env.dte_swing:.3g} µm (H_2 amplitude {1e6 * lo.at(2, True):.3g} µm; " \
                  f"at {lo.rpm:.0f} rpm)"
+        run_il, run_dm = run_il + _orbit_note(lo), run_dm + _orbit_note(lo)
     return [f"| impact loads at {ref_z.value:.0f} rpm (largest mesh load in each mesh period, "
             f"over a turn) | {paper_il} | {run_il} | {il.source} |",
             f"| low-frequency DTE modulation at {ref_z.value:.0f} rpm (peak-to-peak of the "
@@ -399,8 +306,21 @@ def paper_markdown(inp: PaperInputs) -> str:
              "the mesh-load std, all excitations; grazings and impact intervals as located by "
              "the continuation; IPP: impacts in each mesh period over one turn; `contact`: "
              "no impact in that mesh period).", "", *rows, ""]
-    lines += _details(inp)
+    lines += _details(inp) + _figures(inp)
     return "\n".join(lines) + "\n"
+
+
+def _figures(inp: PaperInputs) -> list[str]:
+    """Links to the run's time series at the paper's speeds, each beside its figure."""
+    if not inp.figures:
+        return []
+    out = ["## Time series at the paper's speeds (all excitations)", "",
+           "Each shows the DTE with the gap limit, the mesh load over one turn and a close-up, "
+           "as the paper's figure named in its caption; a title saying *unstable orbit* is "
+           "an orbit the machine leaves (the rows above).", ""]
+    for rpm, name in sorted(inp.figures.items()):
+        out.append(f"![{rpm:.0f} rpm, cf. the paper's {FIGURES.get(rpm, '')}]({name})")
+    return out + [""]
 
 
 def _details(inp: PaperInputs) -> list[str]:

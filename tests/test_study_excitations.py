@@ -84,6 +84,11 @@ def test_outputs(run):
         assert (out / c / "results.h5").exists() and (out / c / "report.md").exists()
         assert rows[c]["complete"] == "True"
     assert "excitation case 'all'" in p.stderr
+    # time series at the paper's speeds within the range (1200-1900 rpm: 1700 only)
+    assert sorted(f.name for f in out.glob("paper_*rpm.png")) == ["paper_1700rpm.png"]
+    assert (out / "paper_1700rpm.png").stat().st_size > 0
+    md = (out / "paper.md").read_text()
+    assert "![1700 rpm, cf. the paper's Fig. 17](paper_1700rpm.png)" in md
 
 
 def _linear_std(f, omega):

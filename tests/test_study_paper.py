@@ -254,6 +254,23 @@ def test_paper_table_rows_from_the_curves(tmp_path):
              "0.03 µm; at 2972 rpm) | Sect. 4.3, Fig. 15d")):
         assert want in _row(md, start), start
     assert "53.2 N at T = 2.5 N·m" in md
+    assert "unstable orbit" not in md                  # no stability computed: no note
+    # Floquet verdicts of the solved points: a note on every row that uses an unstable one
+    shaky = replace(inp, ipp={**inp.ipp, 1700.0: replace(inp.ipp[1700.0], stability="stable"),
+                              6875.0: replace(inp.ipp[6875.0], stability="period_doubling")},
+                    spectra={**inp.spectra, 2970.0: replace(inp.spectra[2970.0],
+                                                            stability="neimark_sacker"),
+                             6875.0: replace(inp.spectra[6875.0], stability="stable")})
+    md2 = paper_markdown(shaky)
+    note = "; **unstable orbit** at 2972 rpm (Neimark–Sacker): the machine leaves it, so " \
+           "this compares orbits as the paper computes them (docs/theory.md §13.5) |"
+    for start in ("| impact loads at 2970", "| low-frequency DTE modulation",
+                  "| mesh-load peak-to-peak", "| mesh-load harmonics at 6875"):
+        assert note in _row(md2, start), start
+    assert "unstable" not in _row(md2, "| gear response (DTE")      # 6875 rpm only: stable
+    assert "unstable" not in _row(md2, "| IPP sequence at 1700")
+    assert "mesh periods); **unstable orbit** at 6875 rpm (period doubling)" \
+        in _row(md2, "| IPP sequence at 6875")
     p = write_paper(tmp_path, inp)
     assert p.read_text() == md
     # a range that reaches 6875 rpm but not 2970 rpm, and one that reaches neither

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
+from .postprocess import MeshPeriodEnvelope
 from .problem import RPM_TO_RAD_S, HBMProblem, Point
 
 logger = logging.getLogger(__name__)
@@ -173,6 +174,8 @@ class TimeResponse:
     seconds: float
     state: np.ndarray = field(repr=False)   # modal state at the end
     delta: np.ndarray = field(repr=False)   # Delta (m) over the last turn, from its start
+    #: largest mesh load and mean Delta in each mesh period of the window (Z x window)
+    envelope: MeshPeriodEnvelope | None = field(default=None, repr=False)
 
     @property
     def window_std_per_turn(self) -> np.ndarray:
@@ -245,7 +248,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         raise ValueError(f"start: modal state of shape {y.shape}, the problem has "
                          f"{2 * mm.n_modes} (positions and velocities of {mm.n_modes} modes)")
     fun, atol, m = equations(mm), state_atol(mm, y, rtol), mm.n_modes
-    stds, loads, delta = [], [], np.zeros(te.size)
+    stds, loads, means, delta = [], [], [], np.zeros(te.size)
+    z = problem.mesh.n_teeth
     t0 = time.perf_counter()
     for k in range(transient + window):
         sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=rtol, atol=atol,
@@ -259,6 +263,7 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         stds.append(float(load.std()))
         if k >= transient:
             loads.append(load)
+            means.append(delta.reshape(z, -1).mean(axis=1))
     sig = np.concatenate(loads)
     spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
     top = np.argsort(-spec)[:n_lines]
@@ -266,7 +271,9 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
                        std_per_turn=np.array(stds), std=float(sig.std()),
                        max_load=float(sig.max()),
                        lines=[(float(j / window), float(spec[j])) for j in top],
-                       seconds=time.perf_counter() - t0, state=y, delta=delta)
+                       seconds=time.perf_counter() - t0, state=y, delta=delta,
+                       envelope=MeshPeriodEnvelope(sig.reshape(z * window, -1).max(axis=1),
+                                                   np.concatenate(means)))
     logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
                 "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
                 out.periodic)

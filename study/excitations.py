@@ -162,6 +162,24 @@ def _stability_kind(result, point) -> str:
         return ""
 
 
+def _machine(result, point):
+    """(turns left out, turns analysed, envelope) of the time response from ``point``
+    when the scene asks for time responses (``[outputs] attractor_transient_turns`` > 0),
+    else None; a failed integration is logged and gives None."""
+    from hbm.time_response import integrate
+
+    o = result.scene.outputs
+    if o.attractor_transient_turns == 0:
+        return None
+    try:
+        tr = integrate(result.problem, point.rpm, point, transient=o.attractor_transient_turns,
+                       window=o.attractor_window_turns)
+    except (RuntimeError, ValueError) as exc:
+        logger.warning("time integration at %.1f rpm failed: %s", point.rpm, exc)
+        return None
+    return tr.transient, tr.window, tr.envelope
+
+
 def _in_range(result, rpm: float) -> bool:
     br = result.branch
     return float(np.min(br.rpm)) <= rpm <= float(np.max(br.rpm))
@@ -211,10 +229,11 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
             continue
         p, _, kind = solved[target]
         sp = spectrum(r.problem, p)
+        unstable = kind not in ("", "stable")
         inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
                                          scene.gear.teeth, sp["dte_amplitude"],
                                          sp["peak_to_peak"], mesh_period_envelope(r.problem, p),
-                                         kind)
+                                         kind, _machine(r, p) if unstable else None)
     rom = r.rom
     if rom is not None and getattr(rom, "mesh_energy", None) is not None:
         f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed

@@ -267,6 +267,13 @@ def _modulation_rows(inp: PaperInputs) -> list[str]:
         run_dm = f"{1e6 * env.dte_swing:.3g} µm (H_2 amplitude {1e6 * lo.at(2, True):.3g} µm; " \
                  f"at {lo.rpm:.0f} rpm)"
         run_il, run_dm = run_il + _orbit_note(lo), run_dm + _orbit_note(lo)
+        if lo.machine is not None:
+            n0, n1, me = lo.machine
+            how = f"; the machine (time integration from that orbit, {n0} turns left out, " \
+                  f"{n1} analysed):"
+            run_il += f"{how} {me.peak_load.min():.0f} → {me.peak_load.max():.0f} N, " \
+                      f"{me.load_cycles / n1:.4g} cycles per turn"
+            run_dm += f"{how} {1e6 * me.dte_swing:.3g} µm"
     return [f"| impact loads at {ref_z.value:.0f} rpm (largest mesh load in each mesh period, "
             f"over a turn) | {paper_il} | {run_il} | {il.source} |",
             f"| low-frequency DTE modulation at {ref_z.value:.0f} rpm (peak-to-peak of the "

@@ -90,7 +90,7 @@ class SpectrumAt:
     """Harmonics at one speed per shaft order: mesh load ``amplitude`` (N) and dynamic
     transmission error ``dte`` (m); ``peak_to_peak`` of the mesh load in time (N);
     ``envelope`` its mesh-period envelope over one turn (the slow modulation);
-    ``stability`` as :attr:`IppAt.stability`."""
+    ``stability`` as :attr:`IppAt.stability`; ``machine`` see below."""
 
     rpm: float
     orders: np.ndarray
@@ -100,6 +100,10 @@ class SpectrumAt:
     peak_to_peak: float
     envelope: MeshPeriodEnvelope | None = None
     stability: str = ""
+    #: when the orbit is unstable and time responses are asked for (``[outputs]
+    #: attractor_transient_turns``): (turns left out, turns analysed, the envelope of
+    #: the time response from the orbit), the machine's modulation
+    machine: tuple[int, int, MeshPeriodEnvelope] | None = None
 
     def at(self, order: int, dte: bool = False) -> float:
         """Amplitude of one shaft order (0 if the set lacks it)."""

@@ -34,6 +34,15 @@ def test_a_stable_orbit_is_its_own_time_response(softening):
     assert tr.periodic and tr.lines[0][0] == pytest.approx(1.0)
     assert tr.std == pytest.approx(float(br.mesh_load_std[i]), rel=1e-5)
     assert np.ptp(tr.std_per_turn) < 1e-6 * tr.std
+    # its envelope, mesh period by mesh period (64 samples each, as the harmonic balance's
+    # on the same instants), is the orbit's in every analysed turn
+    z = pb.mesh.n_teeth
+    ref = hbm.mesh_period_envelope(pb, point, n_time=64 * pb.mesh_step)
+    assert tr.envelope.peak_load.shape == (z * 20,)
+    reps = 20 * z // ref.peak_load.size
+    assert tr.envelope.peak_load == pytest.approx(np.tile(ref.peak_load, reps), rel=1e-5)
+    scale = np.abs(ref.mean_dte).max()
+    assert np.abs(tr.envelope.mean_dte - np.tile(ref.mean_dte, reps)).max() < 1e-5 * scale
 
 
 def test_from_the_unstable_middle_orbit_it_lands_on_a_stable_one(softening):

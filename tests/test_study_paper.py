@@ -256,17 +256,24 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert "53.2 N at T = 2.5 N·m" in md
     assert "unstable orbit" not in md                  # no stability computed: no note
     # Floquet verdicts of the solved points: a note on every row that uses an unstable one
+    # 8 turns of 76 mesh periods whose impact loads swing 27 times: 3.375 cycles per turn
+    k = np.arange(8 * 76)
+    swing = MeshPeriodEnvelope(303.5 - 303.5 * np.cos(2 * np.pi * 27 * k / k.size),
+                               np.where(k == 5, 3.5e-6, 0.0))
+    lo = replace(inp.spectra[2970.0], stability="neimark_sacker", machine=(30, 8, swing))
+    hi = replace(inp.spectra[6875.0], stability="stable")
     shaky = replace(inp, ipp={**inp.ipp, 1700.0: replace(inp.ipp[1700.0], stability="stable"),
                               6875.0: replace(inp.ipp[6875.0], stability="period_doubling")},
-                    spectra={**inp.spectra, 2970.0: replace(inp.spectra[2970.0],
-                                                            stability="neimark_sacker"),
-                             6875.0: replace(inp.spectra[6875.0], stability="stable")})
+                    spectra={2970.0: lo, 6875.0: hi})
     md2 = paper_markdown(shaky)
     note = "; **unstable orbit** at 2972 rpm (Neimark–Sacker): the machine leaves it, so " \
            "this compares orbits as the paper computes them (docs/theory.md §13.5) |"
-    for start in ("| impact loads at 2970", "| low-frequency DTE modulation",
-                  "| mesh-load peak-to-peak", "| mesh-load harmonics at 6875"):
+    for start in ("| mesh-load peak-to-peak", "| mesh-load harmonics at 6875"):
         assert note in _row(md2, start), start
+    machine = "; the machine (time integration from that orbit, 30 turns left out, 8 analysed):"
+    assert f"{note[:-2]}{machine} 0 → 607 N, 3.375 cycles per turn |" \
+        in _row(md2, "| impact loads at 2970")
+    assert f"{note[:-2]}{machine} 3.5 µm |" in _row(md2, "| low-frequency DTE modulation")
     assert "unstable" not in _row(md2, "| gear response (DTE")      # 6875 rpm only: stable
     assert "unstable" not in _row(md2, "| IPP sequence at 1700")
     assert "mesh periods); **unstable orbit** at 6875 rpm (period doubling)" \

@@ -7,9 +7,11 @@ from __future__ import annotations
 import csv
 import io
 import logging
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from geometry.files import atomic_write
@@ -18,7 +20,8 @@ from study.curves import UnstableSegment, unstable_segments
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Attractor", "attractors", "attractor_line", "write_attractors_csv"]
+__all__ = ["Attractor", "attractors", "attractor_line", "write_attractors_csv",
+           "write_attractors_group"]
 
 
 @dataclass
@@ -118,3 +121,37 @@ def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
         fh.write(buf.getvalue())
     logger.info("wrote %s", path)
     return path
+
+
+def write_attractors_group(path: Path, found: list[Attractor]) -> Path:
+    """Replace ``/attractors`` of an existing ``results.h5`` by ``found`` (one subgroup
+    per :class:`Attractor`, docs/results-format.md). Atomic: a copy of the file is
+    updated, then renamed over it, so everything else in it is kept as it was."""
+    path = Path(path)
+    with atomic_write(path) as tmp:
+        shutil.copyfile(path, tmp)
+        with h5py.File(tmp, "a") as f:
+            if "attractors" in f:
+                del f["attractors"]
+            g = f.create_group("attractors")
+            g.attrs["count"] = len(found)
+            for i, a in enumerate(found):
+                _write_one(g.create_group(str(i)), a)
+    logger.info("wrote /attractors of %s", path)
+    return path
+
+
+def _write_one(g: h5py.Group, a: Attractor) -> None:
+    g.attrs.update(kind=a.segment.kind, segment_rpm=np.array(a.segment.rpm), rpm=a.rpm,
+                   orbit_std=a.orbit_std, error=a.error)
+    r = a.response
+    if r is None:
+        return
+    g.attrs.update(turns_left_out=r.transient, turns_analysed=r.window, std=r.std,
+                   max_load=r.max_load, periodic=-1 if r.periodic is None else int(r.periodic))
+    g["std_per_turn"] = r.std_per_turn
+    g["lines"] = np.array(r.lines, dtype=float).reshape(-1, 2)
+    g["delta_last_turn"] = r.delta
+    if r.envelope is not None:
+        g["peak_load"] = r.envelope.peak_load
+        g["mean_dte"] = r.envelope.mean_dte

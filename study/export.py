@@ -82,14 +82,16 @@ def _figures(result) -> None:
 
 
 def write_report_files(result) -> Path:
-    """report.md, with the time responses at the unstable segments and attractors.csv
-    when the scene asks for them (``[outputs] attractor_transient_turns``)."""
+    """report.md, with the time responses at the unstable segments, attractors.csv and
+    ``/attractors`` of results.h5 when the scene asks for them (``[outputs]
+    attractor_transient_turns``)."""
     from study import report
-    from study.attractors import attractors, write_attractors_csv
+    from study.attractors import attractors, write_attractors_csv, write_attractors_group
 
     result.attractors = attractors(result)
     if result.attractors:
         write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
+        write_attractors_group(result.results, result.attractors)
     p = report.write_report(result)
     logger.info("wrote %s", p)
     return p

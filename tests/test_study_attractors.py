@@ -4,6 +4,7 @@ jumps (folds) and a period-doubling segment."""
 
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
@@ -45,6 +46,20 @@ def test_each_unstable_segment_has_its_time_response_in_the_report(run):
         assert float(r["response_std_N"]) == pytest.approx(a.response.std, rel=1e-7)
         assert float(r["top_order"]) == pytest.approx(a.response.lines[0][0], rel=1e-5)
         assert r["periodic"] == str(int(a.response.periodic)) and r["error"] == ""
+    with h5py.File(run.out / "results.h5", "r") as f:   # the same in results.h5
+        g = f["attractors"]
+        assert g.attrs["count"] == len(run.attractors)
+        for i, a in enumerate(run.attractors):
+            h, r = g[str(i)], a.response
+            assert h.attrs["kind"] == a.segment.kind and h.attrs["rpm"] == a.rpm
+            assert h.attrs["std"] == r.std and h.attrs["turns_analysed"] == 2
+            assert np.array_equal(h["std_per_turn"][()], r.std_per_turn)
+            assert np.array_equal(h["lines"][()], np.array(r.lines))
+            assert np.array_equal(h["peak_load"][()], r.envelope.peak_load)
+            # the envelope is the analysed turns': its largest peak is their largest load
+            assert h["peak_load"][()].max() == pytest.approx(r.max_load, rel=1e-12)
+            assert h["peak_load"].shape == (2 * run.scene.gear.teeth,)
+        assert f["continuation/rpm"].shape == run.branch.rpm.shape  # the rest is kept
 
 
 def test_period_doubling_leads_to_a_half_mesh_order_response(run):
@@ -92,10 +107,17 @@ def test_a_failed_integration_is_said_in_the_report(run, monkeypatch):
 
 def test_report_from_results_gives_the_same_time_responses(run):
     """``geardyn report`` (report_from_results) integrates again from the saved branch:
-    the same attractors.csv, bitwise."""
+    the same attractors.csv, bitwise, and the same ``/attractors`` in results.h5, whose
+    branch it leaves as it was."""
     from study.variants import report_from_results
 
-    before = (run.out / "attractors.csv").read_text()
+    def stored():
+        with h5py.File(run.out / "results.h5", "r") as f:
+            return ({k: f["attractors"][k]["std_per_turn"][()].tolist() for k in f["attractors"]},
+                    f["continuation/unknowns"][()].tobytes())
+
+    before, h5_before = (run.out / "attractors.csv").read_text(), stored()
     (run.out / "attractors.csv").unlink()
     report_from_results(SDOF, run.out, OVERRIDES, cache=str(run.out.parent / "cache"))
     assert (run.out / "attractors.csv").read_text() == before
+    assert stored() == h5_before        # /attractors rewritten the same, the branch kept

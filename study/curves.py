@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
-           "fold_pairs", "unstable_segments", "kind_label",
+           "fold_pairs", "unstable_segments", "kind_label", "is_unstable",
            "impact_intervals", "merge_intervals", "impact_span", "contact_windows",
            "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
@@ -60,6 +60,12 @@ class FoldPair:
     def centre(self) -> float:
         """Mid speed of the pair (rpm)."""
         return 0.5 * (self.rpm[0] + self.rpm[1])
+
+
+def is_unstable(kind: str) -> bool:
+    """Whether a stability kind (:data:`hbm.stability.KINDS`, "" when not computed) says
+    the orbit is unstable."""
+    return kind not in ("", "stable")
 
 
 def kind_label(kind: str) -> str:

@@ -195,6 +195,7 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
     from the ``all`` case). ``solved``, if given, receives the ``all`` case's solutions
     at the paper's speeds: ``{rpm: (Point, how, stability kind)}``."""
     from hbm import mesh_period_envelope, point_stats, spectrum
+    from study.curves import is_unstable
     from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load)
@@ -229,7 +230,7 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
             continue
         p, _, kind = solved[target]
         sp = spectrum(r.problem, p)
-        unstable = kind not in ("", "stable")
+        unstable = is_unstable(kind)
         inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
                                          scene.gear.teeth, sp["dte_amplitude"],
                                          sp["peak_to_peak"], mesh_period_envelope(r.problem, p),
@@ -323,7 +324,7 @@ def _atomic_text(path: Path, write) -> Path:
 def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
     """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
     the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
-    from study.curves import kind_label
+    from study.curves import is_unstable, kind_label
     from study.paper import FIGURES
     from study.plots_point import time_series_plot
 
@@ -332,7 +333,7 @@ def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[
         if rpm not in solved:
             continue
         p, _, kind = solved[rpm]
-        note = f" — unstable orbit ({kind_label(kind)})" if kind not in ("", "stable") else ""
+        note = f" — unstable orbit ({kind_label(kind)})" if is_unstable(kind) else ""
         name = f"paper_{rpm:.0f}rpm.png"
         time_series_plot(result.problem, p, out / name,
                          title=f"{scene.name}, all excitations: {p.rpm:.0f} rpm (cf. the "

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.files import atomic_write
-from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs, kind_label
+from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs, is_unstable, kind_label
 from study.paper_data import (
     FIGURES,
     IPP_KEYS,
@@ -64,8 +64,7 @@ def _windows(ws) -> str:
 def _orbit_note(*solved) -> str:
     """``; **unstable orbit** …`` for the solutions among ``solved`` (IppAt, SpectrumAt or
     why-not strings) whose Floquet exponents say unstable, else ""."""
-    bad = [p for p in solved if isinstance(p, IppAt | SpectrumAt)
-           and p.stability not in ("", "stable")]
+    bad = [p for p in solved if isinstance(p, IppAt | SpectrumAt) and is_unstable(p.stability)]
     if not bad:
         return ""
     kinds = ", ".join(f"{p.rpm:.0f} rpm ({kind_label(p.stability)})" for p in bad)

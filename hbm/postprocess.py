@@ -143,7 +143,24 @@ def point_stats(problem: HBMProblem, point: Point | np.ndarray,
 
 def mesh_period_envelope(problem: HBMProblem, point: Point | np.ndarray,
                          n_time: int | None = None) -> MeshPeriodEnvelope:
-    """Largest mesh load and mean DTE in each mesh period of one fundamental period."""
+    """Largest mesh load and mean DTE in each mesh period of one fundamental period.
+
+    Parameters
+    ----------
+    problem
+        The HBM problem.
+    point
+        A solution (:class:`Point` or its unknowns).
+    n_time
+        Time samples over the fundamental period (rounded up to a multiple of the mesh
+        periods in it); default four times the AFT's.
+
+    Returns
+    -------
+    MeshPeriodEnvelope
+        ``problem.mesh_step`` values each: Z over a shaft turn when the fundamental is
+        the shaft frequency, one when it is the mesh frequency.
+    """
     n = _n_fine(problem, n_time)
     _, delta, k, e = _signals(problem, problem.delta_real(_unknowns(point)), n)
     f = dead_zone(delta - e, k, problem.b)

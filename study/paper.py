@@ -262,7 +262,8 @@ def _modulation_rows(inp: PaperInputs) -> list[str]:
         var = "(no load in some mesh period)" if not np.isfinite(env.load_variation) \
             else f"({100 * env.load_variation:+.0f} %)"
         run_il = f"{env.peak_load.min():.0f} → {env.peak_load.max():.0f} N {var}, " \
-                 f"{env.load_cycles} cycles per {per} (at {lo.rpm:.0f} rpm)"
+                 f"{env.load_cycles} cycle{'' if env.load_cycles == 1 else 's'} per {per} " \
+                 f"(at {lo.rpm:.0f} rpm)"
         run_dm = f"{1e6 * env.dte_swing:.3g} µm (H_2 amplitude {1e6 * lo.at(2, True):.3g} µm; " \
                  f"at {lo.rpm:.0f} rpm)"
         run_il, run_dm = run_il + _orbit_note(lo), run_dm + _orbit_note(lo)

@@ -274,6 +274,12 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     assert f"{note[:-2]}{machine} 0 → 607 N, 3.375 cycles per turn |" \
         in _row(md2, "| impact loads at 2970")
     assert f"{note[:-2]}{machine} 3.5 µm |" in _row(md2, "| low-frequency DTE modulation")
+    idle = replace(lo, envelope=MeshPeriodEnvelope(np.array([0.0, 300.0]), np.zeros(2)),
+                   stability="stable", machine=None)       # a mesh period without load
+    assert "| 0 → 300 N (no load in some mesh period), 1 cycle per fundamental period (at " \
+           "2972 rpm) |" in _row(paper_markdown(replace(shaky, spectra={2970.0: idle,
+                                                                          6875.0: hi})),
+                                 "| impact loads at 2970")
     assert "unstable" not in _row(md2, "| gear response (DTE")      # 6875 rpm only: stable
     assert "unstable" not in _row(md2, "| IPP sequence at 1700")
     assert "mesh periods); **unstable orbit** at 6875 rpm (period doubling)" \

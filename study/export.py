@@ -12,8 +12,8 @@ from study.points import nearest_point, point_at, time_series_speeds
 logger = logging.getLogger(__name__)
 
 # time_series_speeds, nearest_point and point_at live in study.points (re-exported)
-__all__ = ["write_partial", "export", "write_report_files", "time_series_speeds",
-           "nearest_point", "point_at"]
+__all__ = ["write_partial", "export", "write_report_files", "write_attractor_files",
+           "time_series_speeds", "nearest_point", "point_at"]
 
 
 def _settings(result) -> dict:
@@ -79,19 +79,28 @@ def _figures(result) -> None:
     result.figures += plots.draw_all(result)
     if result.scene.outputs.report:
         write_report_files(result)
+    else:                       # time responses asked for are kept without report.md too
+        write_attractor_files(result)
 
 
-def write_report_files(result) -> Path:
-    """report.md, with the time responses at the unstable segments, attractors.csv and
-    ``/attractors`` of results.h5 when the scene asks for them (``[outputs]
-    attractor_transient_turns``)."""
-    from study import report
+def write_attractor_files(result) -> None:
+    """The time responses at the unstable segments when the scene asks for them
+    (``[outputs] attractor_transient_turns``): ``result.attractors``, attractors.csv and
+    ``/attractors`` of results.h5."""
     from study.attractors import attractors, write_attractors_csv, write_attractors_group
 
     result.attractors = attractors(result)
     if result.attractors:
         write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
         write_attractors_group(result.results, result.attractors)
+
+
+def write_report_files(result) -> Path:
+    """report.md, with the time responses at the unstable segments and their files
+    (:func:`write_attractor_files`)."""
+    from study import report
+
+    write_attractor_files(result)
     p = report.write_report(result)
     logger.info("wrote %s", p)
     return p

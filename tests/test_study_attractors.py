@@ -121,3 +121,26 @@ def test_report_from_results_gives_the_same_time_responses(run):
     report_from_results(SDOF, run.out, OVERRIDES, cache=str(run.out.parent / "cache"))
     assert (run.out / "attractors.csv").read_text() == before
     assert stored() == h5_before        # /attractors rewritten the same, the branch kept
+
+
+def test_time_responses_are_kept_without_report(run, tmp_path):
+    """``[outputs] report = false``: no report.md, but attractors.csv and ``/attractors``
+    are still written (the time responses were asked for)."""
+    import dataclasses
+    import shutil
+
+    from study.export import _figures
+
+    out = tmp_path / "run"
+    shutil.copytree(run.out, out)
+    for name in ("report.md", "attractors.csv"):
+        (out / name).unlink()
+    quiet = dataclasses.replace(run.scene, outputs=dataclasses.replace(run.scene.outputs,
+                                                                       report=False))
+    res = dataclasses.replace(run, out=out, results=out / "results.h5", scene=quiet,
+                              attractors=[], figures=[])
+    _figures(res)
+    assert not (out / "report.md").exists()
+    assert (out / "attractors.csv").read_text() == (run.out / "attractors.csv").read_text()
+    with h5py.File(out / "results.h5", "r") as f:
+        assert f["attractors"].attrs["count"] == len(run.attractors)

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
+from .contact import dead_zone
 from .postprocess import MeshPeriodEnvelope
 from .problem import RPM_TO_RAD_S, HBMProblem, Point
 
@@ -99,10 +100,7 @@ def modal_model(problem: HBMProblem, rpm: float) -> ModalModel:
 def mesh_load(mm: ModalModel, delta: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Dead-zone mesh force f_LoA (N) of eq. (13) at times ``t`` (s)."""
     ph = mm.mesh_rate * t
-    p = delta - mm.mesh.error_at(ph)
-    b = mm.backlash
-    return mm.mesh.stiffness_at(ph) * (np.where(p > b, p - b, 0.0)
-                                       + np.where(p < -b, p + b, 0.0))   # eq. (13)
+    return dead_zone(delta - mm.mesh.error_at(ph), mm.mesh.stiffness_at(ph), mm.backlash)
 
 
 def equations(mm: ModalModel) -> Callable[[float, np.ndarray], np.ndarray]:

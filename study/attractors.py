@@ -20,8 +20,8 @@ from study.curves import UnstableSegment, unstable_segments
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Attractor", "attractors", "attractor_line", "write_attractors_csv",
-           "write_attractors_group"]
+__all__ = ["Attractor", "attractors", "attractor_line", "scene_time_response",
+           "write_attractors_csv", "write_attractors_group"]
 
 
 @dataclass
@@ -47,14 +47,24 @@ def _most_unstable(br, seg: UnstableSegment) -> int:
     return first + int(np.argmax(np.where(np.isfinite(rate), rate, -np.inf)))
 
 
+def scene_time_response(result, point) -> TimeResponse | None:
+    """:func:`hbm.time_response.integrate` from ``point`` with the scene's turns
+    (``[outputs] attractor_transient_turns``, ``attractor_window_turns``), or None when
+    the scene asks for no time responses (0 turns left out)."""
+    o = result.scene.outputs
+    if o.attractor_transient_turns == 0:
+        return None
+    return integrate(result.problem, point.rpm, point, transient=o.attractor_transient_turns,
+                     window=o.attractor_window_turns)
+
+
 def attractors(result) -> list[Attractor]:
     """One :class:`Attractor` per unstable segment of ``result.branch`` when the scene
     asks for them (``attractor_transient_turns`` > 0), else none. A point whose orbit
     Newton cannot refine, or whose integration fails, is logged and kept with the error
     (the run goes on)."""
-    o = result.scene.outputs
     br = result.branch
-    if o.attractor_transient_turns == 0 or br is None or not len(br):
+    if result.scene.outputs.attractor_transient_turns == 0 or br is None or not len(br):
         return []
     problem = result.problem
     out = []
@@ -62,9 +72,8 @@ def attractors(result) -> list[Attractor]:
         i = _most_unstable(br, seg)
         rpm, std = float(br.rpm[i]), float(br.mesh_load_std[i])
         try:
-            point = problem.solve(rpm, x0=br.unknowns[i], tol=1e-10)
-            tr = integrate(problem, rpm, point, transient=o.attractor_transient_turns,
-                           window=o.attractor_window_turns)
+            tr = scene_time_response(result, problem.solve(rpm, x0=br.unknowns[i],
+                                                           tol=1e-10))
         except Exception as exc:                # noqa: BLE001 - reported, the run goes on
             logger.warning("time integration at %.1f rpm (%s segment) failed: %s", rpm,
                            seg.label, exc)

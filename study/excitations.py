@@ -166,18 +166,14 @@ def _machine(result, point):
     """(turns left out, turns analysed, envelope) of the time response from ``point``
     when the scene asks for time responses (``[outputs] attractor_transient_turns`` > 0),
     else None; a failed integration is logged and gives None."""
-    from hbm.time_response import integrate
+    from study.attractors import scene_time_response
 
-    o = result.scene.outputs
-    if o.attractor_transient_turns == 0:
-        return None
     try:
-        tr = integrate(result.problem, point.rpm, point, transient=o.attractor_transient_turns,
-                       window=o.attractor_window_turns)
+        tr = scene_time_response(result, point)
     except (RuntimeError, ValueError) as exc:
         logger.warning("time integration at %.1f rpm failed: %s", point.rpm, exc)
         return None
-    return tr.transient, tr.window, tr.envelope
+    return None if tr is None else (tr.transient, tr.window, tr.envelope)
 
 
 def _in_range(result, rpm: float) -> bool:

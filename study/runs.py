@@ -79,7 +79,8 @@ class RunResult:
         Wall time of the run.
     attractors : list
         :class:`study.attractors.Attractor` per unstable segment (``[outputs]
-        attractor_transient_turns`` > 0; computed with report.md).
+        attractor_transient_turns`` > 0; computed by the export, with or without
+        report.md).
     """
 
     out: Path

@@ -196,7 +196,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "attractor_transient_turns": _f(
             0, "", 0, 100_000, kind="int",
             doc="shaft turns of time integration left out from the orbit at the most unstable "
-            "point of each unstable segment, before the analysed ones (0: none; report.md)"),
+            "point of each unstable segment, before the analysed ones (0: none; report.md, "
+            "attractors.csv, results.h5)"),
         "attractor_window_turns": _f(8, "", 1, 10_000, kind="int",
                                      doc="shaft turns analysed after them"),
         "field_orders": _f([], "", 1, 100_000, kind="ints",

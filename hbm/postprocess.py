@@ -68,6 +68,13 @@ class MeshPeriodEnvelope:
     peak_load: np.ndarray
     mean_dte: np.ndarray
 
+    @classmethod
+    def of(cls, load: np.ndarray, delta: np.ndarray, periods: int) -> MeshPeriodEnvelope:
+        """From a mesh load (N) and Delta (m) sampled evenly over ``periods`` mesh
+        periods (a multiple of ``periods`` samples each)."""
+        return cls(peak_load=load.reshape(periods, -1).max(axis=1),
+                   mean_dte=delta.reshape(periods, -1).mean(axis=1))
+
     @property
     def load_variation(self) -> float:
         """Largest over smallest peak load, minus one (the paper's "44 %"); inf when a
@@ -163,10 +170,7 @@ def mesh_period_envelope(problem: HBMProblem, point: Point | np.ndarray,
     """
     n = _n_fine(problem, n_time)
     _, delta, k, e = _signals(problem, problem.delta_real(_unknowns(point)), n)
-    f = dead_zone(delta - e, k, problem.b)
-    step = problem.mesh_step
-    return MeshPeriodEnvelope(peak_load=f.reshape(step, -1).max(axis=1),
-                              mean_dte=delta.reshape(step, -1).mean(axis=1))
+    return MeshPeriodEnvelope.of(dead_zone(delta - e, k, problem.b), delta, problem.mesh_step)
 
 
 def impacts_per_mesh_period(loss: np.ndarray, mesh_step: int) -> np.ndarray:

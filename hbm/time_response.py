@@ -246,8 +246,7 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         raise ValueError(f"start: modal state of shape {y.shape}, the problem has "
                          f"{2 * mm.n_modes} (positions and velocities of {mm.n_modes} modes)")
     fun, atol, m = equations(mm), state_atol(mm, y, rtol), mm.n_modes
-    stds, loads, means, delta = [], [], [], np.zeros(te.size)
-    z = problem.mesh.n_teeth
+    stds, loads, deltas, delta = [], [], [], np.zeros(te.size)
     t0 = time.perf_counter()
     for k in range(transient + window):
         sol = solve_ivp(fun, (0.0, T), y, method="DOP853", rtol=rtol, atol=atol,
@@ -261,7 +260,7 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         stds.append(float(load.std()))
         if k >= transient:
             loads.append(load)
-            means.append(delta.reshape(z, -1).mean(axis=1))
+            deltas.append(delta)
     sig = np.concatenate(loads)
     spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
     top = np.argsort(-spec)[:n_lines]
@@ -270,8 +269,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
                        max_load=float(sig.max()),
                        lines=[(float(j / window), float(spec[j])) for j in top],
                        seconds=time.perf_counter() - t0, state=y, delta=delta,
-                       envelope=MeshPeriodEnvelope(sig.reshape(z * window, -1).max(axis=1),
-                                                   np.concatenate(means)))
+                       envelope=MeshPeriodEnvelope.of(sig, np.concatenate(deltas),
+                                                      problem.mesh.n_teeth * window))
     logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
                 "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
                 out.periodic)

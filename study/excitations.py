@@ -194,7 +194,8 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
     from study.curves import is_unstable
     from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
-    inp = PaperInputs(scene.name, scene.load.torque, scene.static_load)
+    inp = PaperInputs(scene.name, scene.load.torque, scene.static_load,
+                      calibration=dict(scene.calibration))
     for case in CASES:
         if case in results:
             inp.cases[case] = summarize_branch(results[case].branch)

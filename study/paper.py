@@ -11,6 +11,7 @@ three excitation cases the Sect. 4.2 comparison needs.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,8 +30,20 @@ from study.paper_data import (
 )
 
 __all__ = ["Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES", "IppAt",
-           "SpectrumAt", "PaperInputs", "paper_markdown", "write_paper", "format_ipp",
+           "SpectrumAt", "PaperInputs", "Row", "paper_markdown", "write_paper", "format_ipp",
            "runs_fractions", "TOLERANCE"]
+
+
+class Row(NamedTuple):
+    """One line of the Sect. 4 table: what, the paper's value, the run's, and the
+    :data:`PAPER` key it compares (its source, and the scene's ``[calibration]`` entry);
+    ``source`` replaces the key's source when the row's yardstick is derived."""
+
+    quantity: str
+    paper: str
+    run: str
+    key: str
+    source: str = ""
 
 
 def _pct(a: float, b: float) -> str:
@@ -72,41 +85,41 @@ def _orbit_note(*solved) -> str:
            "orbits as the paper computes them (docs/theory.md §13.5)"
 
 
-def _resonance_rows(inp: PaperInputs) -> list[str]:
+def _resonance_rows(inp: PaperInputs) -> list[Row]:
     ref = PAPER["resonances"]
     paper = ref.value
     s = inp.cases.get("all")
     if s is None:
-        return [f"| resonance speeds (rpm) | {_rpms(paper)} | not computed | {ref.source} |"]
+        return [Row("resonance speeds (rpm)", _rpms(paper), "not computed", "resonances")]
     found = s.strongest(len(paper))
     rpm = [p.rpm for p in found]
     ratio_p = " : ".join(f"{x / paper[0]:.2f}" for x in paper)
     if len(rpm) < len(paper):
         txt = f"{_rpms(rpm)} (only {len(rpm)} peaks)"
-        return [f"| resonance speeds (rpm) | {_rpms(paper)} | {txt} | {ref.source} |",
-                f"| resonance ratios | {ratio_p} | – | {ref.source} |"]
+        return [Row("resonance speeds (rpm)", _rpms(paper), txt, "resonances"),
+                Row("resonance ratios", ratio_p, "–", "resonances")]
     errs = [(a - b) / b for a, b in zip(rpm, paper, strict=True)]
     dev = ", ".join(f"{100 * e:+.1f} %" for e in errs)
     ratio_r = " : ".join(f"{x / rpm[0]:.2f}" for x in rpm)
-    return [f"| resonance speeds (rpm), {len(paper)} most prominent std peaks | {_rpms(paper)} "
-            f"| {_rpms(rpm)} ({dev}; within 3 %: {_ok(errs)}) | {ref.source} |",
-            f"| resonance ratios | {ratio_p} | {ratio_r} | {ref.source} |"]
+    return [Row(f"resonance speeds (rpm), {len(paper)} most prominent std peaks", _rpms(paper),
+                f"{_rpms(rpm)} ({dev}; within 3 %: {_ok(errs)})", "resonances"),
+            Row("resonance ratios", ratio_p, ratio_r, "resonances")]
 
 
-def _grazing_rows(inp: PaperInputs) -> list[str]:
+def _grazing_rows(inp: PaperInputs) -> list[Row]:
     g, w = PAPER["grazing"], PAPER["windows"]
     s = inp.cases.get("all")
     if s is None:
-        return [f"| grazing speeds (rpm) | {_rpms(g.value)} | not computed | {g.source} |"]
+        return [Row("grazing speeds (rpm)", _rpms(g.value), "not computed", "grazing")]
     run = s.grazing
     txt = f"{len(run)}: {_rpms(run)}"
     if len(run) == len(g.value):
         errs = [(a - b) / b for a, b in zip(run, g.value, strict=True)]
         txt += f" (within 3 %: {_ok(errs)})"
-    return [f"| grazing speeds (rpm), all excitations | {len(g.value)}: {_rpms(g.value)} | "
-            f"{txt} | {g.source} |",
-            f"| permanent-contact windows (rpm) | {_windows(w.value)} | {_windows(s.windows)} "
-            f"| {w.source} |"]
+    return [Row("grazing speeds (rpm), all excitations", f"{len(g.value)}: {_rpms(g.value)}",
+                txt, "grazing"),
+            Row("permanent-contact windows (rpm)", _windows(w.value), _windows(s.windows),
+                "windows")]
 
 
 def _jumps_text(s: CurveSummary | None, peak: Peak | None, rel: float = 0.15) -> str:
@@ -132,7 +145,7 @@ def _peak_stability(s: CurveSummary | None, peak: Peak | None) -> str | None:
                      for u in segs)
 
 
-def _effect_rows(inp: PaperInputs) -> list[str]:
+def _effect_rows(inp: PaperInputs) -> list[Row]:
     pk, sp = PAPER["primary_peak"], PAPER["span_change"]
     a, b = pk.value
     paper_pk = f"{a:g} → {b:g} N ({_pct(b, a)})"
@@ -171,13 +184,13 @@ def _effect_rows(inp: PaperInputs) -> list[str]:
         run_sp = "not computed"
     jp = PAPER["primary_jumps"]
     run_jp = f"internal only: {_jumps_text(si, pi)}; all: {_jumps_text(sa, pa)}"
-    return [f"| primary peak, internal only → all | {paper_pk} | {run_pk} | {pk.source} |",
-            f"| amplitude jumps (fold pairs) at the primary peak | {jp.value} | {run_jp} | "
-            f"{jp.source} |",
-            f"| vibro-impact span, internal only → all | {paper_sp} | {run_sp} | {sp.source} |"]
+    return [Row("primary peak, internal only → all", paper_pk, run_pk, "primary_peak"),
+            Row("amplitude jumps (fold pairs) at the primary peak", jp.value, run_jp,
+                "primary_jumps"),
+            Row("vibro-impact span, internal only → all", paper_sp, run_sp, "span_change")]
 
 
-def _ipp_rows(inp: PaperInputs) -> list[str]:
+def _ipp_rows(inp: PaperInputs) -> list[Row]:
     rows = []
     for target, key in IPP_KEYS.items():
         ref = PAPER[key]
@@ -192,8 +205,7 @@ def _ipp_rows(inp: PaperInputs) -> list[str]:
             run = f"{format_ipp(ipp_runs(got.ipp))} (per count: " \
                   f"{_fractions_text(ipp_fractions(got.ipp))}; {got.how} at {got.rpm:.1f} rpm, " \
                   f"{got.ipp.size} mesh periods){_orbit_note(got)}"
-        rows.append(f"| IPP sequence at {target:.0f} rpm, one turn | {paper} | {run} | "
-                    f"{ref.source} |")
+        rows.append(Row(f"IPP sequence at {target:.0f} rpm, one turn", paper, run, key))
     return rows
 
 
@@ -206,15 +218,15 @@ def runs_fractions(runs) -> dict[int, float]:
     return out
 
 
-def _spectrum_rows(inp: PaperInputs) -> list[str]:
+def _spectrum_rows(inp: PaperInputs) -> list[Row]:
     """Figs. 15–16: what leads the gear response and the mesh load at 6875 rpm, and the
     mesh-load peak-to-peak against 2970 rpm."""
     ref, ref_z, ptp = PAPER["h2_speed"], PAPER["hz_speed"], PAPER["peak_to_peak"]
     hi, lo = inp.spectra.get(ref.value), inp.spectra.get(ref_z.value)
     if not isinstance(hi, SpectrumAt):
         why = hi or "not computed"
-        return [f"| response at {ref.value:.0f} rpm | led by H_2 (aero), H_2 ~ mesh harmonics "
-                f"| {why} | {ref.source} |"]
+        return [Row(f"response at {ref.value:.0f} rpm", "led by H_2 (aero), H_2 ~ mesh "
+                    "harmonics", why, "h2_speed")]
     z = hi.teeth
     top_d = hi.largest(dte=True)
     dte = f"at {hi.rpm:.0f} rpm: largest H_{top_d}, {1e6 * hi.at(top_d, True):.3g} µm; " \
@@ -237,17 +249,17 @@ def _spectrum_rows(inp: PaperInputs) -> list[str]:
                   f"at {hi.rpm:.0f} rpm"
     dte, load = dte + _orbit_note(hi), load + _orbit_note(hi, lo)
     run_ptp += _orbit_note(lo, hi)
-    return [f"| gear response (DTE, eq. 10) at {ref.value:.0f} rpm, largest harmonic | H_2 "
-            f"(aero): 'the gear response is governed by the second harmonic' | {dte} | "
-            f"{ref.source} |",
-            f"| mesh-load harmonics at {ref.value:.0f} rpm | H_2 of the same order as the mesh "
-            f"harmonics; H_2 much more prominent than at {ref_z.value:.0f} rpm | {load} | "
-            f"{ref.source} |",
-            f"| mesh-load peak-to-peak, {ref_z.value:.0f} → {ref.value:.0f} rpm | {paper_ptp} | "
-            f"{run_ptp} | {ptp.source} |"]
+    return [Row(f"gear response (DTE, eq. 10) at {ref.value:.0f} rpm, largest harmonic",
+                "H_2 (aero): 'the gear response is governed by the second harmonic'", dte,
+                "h2_speed"),
+            Row(f"mesh-load harmonics at {ref.value:.0f} rpm", "H_2 of the same order as the "
+                f"mesh harmonics; H_2 much more prominent than at {ref_z.value:.0f} rpm", load,
+                "h2_speed"),
+            Row(f"mesh-load peak-to-peak, {ref_z.value:.0f} → {ref.value:.0f} rpm", paper_ptp,
+                run_ptp, "peak_to_peak")]
 
 
-def _modulation_rows(inp: PaperInputs) -> list[str]:
+def _modulation_rows(inp: PaperInputs) -> list[Row]:
     """Fig. 15b, d: how strongly the external excitation modulates the response at the
     primary resonance, mesh period by mesh period over a turn."""
     ref_z, il, dm = PAPER["hz_speed"], PAPER["impact_loads"], PAPER["dte_modulation"]
@@ -274,45 +286,76 @@ def _modulation_rows(inp: PaperInputs) -> list[str]:
             run_il += f"{how} {me.peak_load.min():.0f} → {me.peak_load.max():.0f} N, " \
                       f"{me.load_cycles / n1:.4g} cycles per turn"
             run_dm += f"{how} {1e6 * me.dte_swing:.3g} µm"
-    return [f"| impact loads at {ref_z.value:.0f} rpm (largest mesh load in each mesh period, "
-            f"over a turn) | {paper_il} | {run_il} | {il.source} |",
-            f"| low-frequency DTE modulation at {ref_z.value:.0f} rpm (peak-to-peak of the "
-            f"DTE's mean in each mesh period) | {1e6 * dm.value:g} µm (H_2) | {run_dm} | "
-            f"{dm.source} |"]
+    return [Row(f"impact loads at {ref_z.value:.0f} rpm (largest mesh load in each mesh "
+                "period, over a turn)", paper_il, run_il, "impact_loads"),
+            Row(f"low-frequency DTE modulation at {ref_z.value:.0f} rpm (peak-to-peak of the "
+                "DTE's mean in each mesh period)", f"{1e6 * dm.value:g} µm (H_2)", run_dm,
+                "dte_modulation")]
 
 
-def paper_markdown(inp: PaperInputs) -> str:
-    """The Sect. 4 table of a run, paper beside result, with sources."""
-    t, fs = PAPER["static_load"].value
+def _mode_rows(inp: PaperInputs) -> list[Row]:
+    """Fig. 8: the mode with most mesh energy, and how much the mesh stiffens it (T.33)."""
     mm = PAPER["mesh_mode"]
-    rows = ["| quantity | paper | this run | paper source |", "|---|---|---|---|",
-            f"| static mesh load F_s | {fs:g} N at T = {t:g} N·m | {inp.static_load:.1f} N at "
-            f"T = {inp.torque:g} N·m (F_s = T/r_b) | {PAPER['static_load'].source} |"]
+    paper = f"{mm.value[0]:.0f} Hz, ρ = {mm.value[1]:.2f}"
+    rows = []
     if inp.mesh_mode is not None:
         f, rho = inp.mesh_mode
-        rows.append(f"| mode with most mesh energy | {mm.value[0]:.0f} Hz, ρ = "
-                    f"{mm.value[1]:.2f} | {f:.0f} Hz, ρ = {rho:.2f} | {mm.source} |")
+        rows.append(Row("mode with most mesh energy", paper, f"{f:.0f} Hz, ρ = {rho:.2f}",
+                        "mesh_mode"))
     if inp.reached_mode is not None and inp.reached_mode != inp.mesh_mode:
         f, rho = inp.reached_mode
-        rows.append(f"| mode with most mesh energy that the mesh harmonics reach (f ≥ H_Z at "
-                    f"the lowest speed, {inp.reached_from:.0f} Hz) | {mm.value[0]:.0f} Hz, ρ = "
-                    f"{mm.value[1]:.2f} | {f:.0f} Hz, ρ = {rho:.2f} | {mm.source} |")
+        rows.append(Row("mode with most mesh energy that the mesh harmonics reach (f ≥ H_Z at "
+                        f"the lowest speed, {inp.reached_from:.0f} Hz)", paper,
+                        f"{f:.0f} Hz, ρ = {rho:.2f}", "mesh_mode"))
     if inp.softening is not None:
         f, r = inp.softening
         paper_r = (1.0 - mm.value[1] / 2.0) ** 0.5
-        rows.append(f"| resonance shift when k̄ is halved, f½/f (T.33: how much of the "
-                    f"stiffness seen at the mesh the mesh supplies) | {paper_r:.2f} if its "
-                    f"ρ = {mm.value[1]:.2f} mode were alone (derived, not stated) | "
-                    f"{r:.2f} (dynamic-factor peak {f:.0f} Hz) | docs/theory.md §13.4 |")
-    rows += _resonance_rows(inp) + _grazing_rows(inp) + _effect_rows(inp) + _ipp_rows(inp)
-    rows += _spectrum_rows(inp) + _modulation_rows(inp)
+        rows.append(Row("resonance shift when k̄ is halved, f½/f (T.33: how much of the "
+                        "stiffness seen at the mesh the mesh supplies)",
+                        f"{paper_r:.2f} if its ρ = {mm.value[1]:.2f} mode were alone (derived, "
+                        "not stated)", f"{r:.2f} (dynamic-factor peak {f:.0f} Hz)", "mesh_mode",
+                        "docs/theory.md §13.4"))
+    return rows
+
+
+def _table(rows: list[Row], calibration: dict[str, str]) -> list[str]:
+    """The Markdown table; with a last column, the scene's ``[calibration]`` per row."""
+    head, rule = "| quantity | paper | this run | paper source |", "|---|---|---|---|"
+    if calibration:
+        head, rule = head + " in this scene |", rule + "---|"
+    out = [head, rule]
+    for r in rows:
+        line = f"| {r.quantity} | {r.paper} | {r.run} | {r.source or PAPER[r.key].source} |"
+        if calibration:
+            fit = calibration.get(r.key)
+            line += f" **calibrated**: {fit} |" if fit else " not fitted |"
+        out.append(line)
+    return out
+
+
+def paper_markdown(inp: PaperInputs) -> str:
+    """The Sect. 4 table of a run, paper beside result, with sources and, when the scene
+    says which findings it was fitted to (``[calibration]``), which rows are not
+    predictions."""
+    t, fs = PAPER["static_load"].value
+    rows = [Row("static mesh load F_s", f"{fs:g} N at T = {t:g} N·m",
+                f"{inp.static_load:.1f} N at T = {inp.torque:g} N·m (F_s = T/r_b)",
+                "static_load")]
+    rows += _mode_rows(inp) + _resonance_rows(inp) + _grazing_rows(inp) + _effect_rows(inp)
+    rows += _ipp_rows(inp) + _spectrum_rows(inp) + _modulation_rows(inp)
+    fitted = ("The last column is the scene's `[calibration]`: what its parameters were "
+              "fitted to, so a **calibrated** row is not a prediction (`not fitted`: the "
+              "scene declares no fit to that finding)." if inp.calibration else
+              "The scene does not say which findings its parameters were fitted to "
+              "(`[calibration]`, docs/scenes.md): agreement here may be by calibration.")
     lines = [f"# {inp.scene}: the paper's Sect. 4 beside this run", "",
              "Paper values are those of the paper's pump (Sect. 4, T = 2.5 N·m, 20 harmonics); "
              "for another scene they are a yardstick only. Run values are measured from the "
              "curves of `geardyn excitations` (resonances: the most prominent local maxima of "
              "the mesh-load std, all excitations; grazings and impact intervals as located by "
              "the continuation; IPP: impacts in each mesh period over one turn; `contact`: "
-             "no impact in that mesh period).", "", *rows, ""]
+             f"no impact in that mesh period). {fitted}", "",
+             *_table(rows, inp.calibration), ""]
     lines += _details(inp) + _figures(inp)
     return "\n".join(lines) + "\n"
 

@@ -141,3 +141,5 @@ class PaperInputs:
     machine: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: per speed of :data:`FIGURES`, the file name of the run's time-series plot there
     figures: dict[float, str] = field(default_factory=dict)
+    #: the scene's ``[calibration]``: :data:`PAPER` key -> what the scene was fitted to
+    calibration: dict[str, str] = field(default_factory=dict)

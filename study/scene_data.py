@@ -267,6 +267,9 @@ class Scene:
     raw: dict = field(default_factory=dict, compare=False, repr=False)
     text: str = field(default="", compare=False, repr=False)
     acoustics: AcousticsData = field(default_factory=AcousticsData)
+    #: ``[calibration]``: paper.md row key -> what the scene fitted to that finding (only
+    #: the rows it declares)
+    calibration: dict[str, str] = field(default_factory=dict, compare=False)
 
     @property
     def static_load(self) -> float:

@@ -329,7 +329,8 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
     fe = _fe_sections(raw, info.kind, gear)
     return Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
                  DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs, fe,
-                 copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]))
+                 copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
+                 {k: v.strip() for k, v in sec["calibration"].items() if v.strip()})
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

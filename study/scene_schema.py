@@ -13,8 +13,8 @@ from typing import Any
 
 from study.units import TO_SI
 
-__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "attr_name",
-           "schema_markdown"]
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
+           "attr_name", "schema_markdown"]
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,27 @@ def _c(default, choices, doc=""):
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
+
+#: The findings of the paper that ``paper.md`` compares, by the key of
+#: :data:`study.paper_data.PAPER` (a test checks the two agree): the keys of a scene's
+#: ``[calibration]``, which says which of them the scene's parameters were fitted to.
+CALIBRATION_ROWS = {
+    "static_load": "static mesh load F_s",
+    "mesh_mode": "mode with most mesh energy (Fig. 8)",
+    "resonances": "resonance speeds (Fig. 14)",
+    "grazing": "grazing speeds (Fig. 14)",
+    "windows": "permanent-contact windows",
+    "primary_peak": "primary-peak change, internal only → all (Fig. 12)",
+    "primary_jumps": "amplitude jumps at the primary peak (Fig. 12)",
+    "span_change": "vibro-impact span change (Fig. 13)",
+    "ipp_1700": "IPP sequence at 1700 rpm (Fig. 17)",
+    "ipp_1070": "IPP sequence at 1070 rpm (Fig. 18)",
+    "ipp_6875": "IPP sequence at 6875 rpm (Fig. 16)",
+    "h2_speed": "response at 6875 rpm: DTE and mesh-load harmonics (Fig. 16)",
+    "peak_to_peak": "mesh-load peak-to-peak, 2970 → 6875 rpm",
+    "impact_loads": "impact loads over a turn at 2970 rpm (Fig. 15b)",
+    "dte_modulation": "slow DTE modulation at 2970 rpm (Fig. 15d)",
+}
 
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
 #: sections (``external.aero``, ``external.unbalance``) have their own entries.
@@ -210,6 +231,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "housing_mesh_periods": _f(4, "", 1, 1000, kind="int",
                                    doc="length of the housing time series in mesh periods"),
     },
+    "calibration": {key: Spec("str", "", doc=f"{what}: what the scene fitted to it (empty: "
+                              "nothing)") for key, what in CALIBRATION_ROWS.items()},
     "outputs.accelerometer": {
         "name": Spec("str", None, doc="name of the virtual accelerometer", required=True),
         "position_mm": _f(None, "mm", -1e5, 1e5, kind="vec3", required=True,
@@ -225,7 +248,7 @@ for _s in FE_SECTIONS:
 #: Top-level sections of a scene file, in the order they are checked.
 TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
-             *FE_SECTIONS)
+             "calibration", *FE_SECTIONS)
 
 
 def attr_name(key: str) -> str:

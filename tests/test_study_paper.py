@@ -296,3 +296,34 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     inp.spectra = {6875.0: "outside the computed range 500–4000 rpm"}
     assert "| outside the computed range 500–4000 rpm |" in _row(paper_markdown(inp),
                                                                "| response at 6875")
+
+
+def test_calibrated_rows_are_marked_and_every_row_has_a_calibration_key():
+    """The scene's ``[calibration]`` adds a last column: the rows it names say what was
+    fitted, every other row says ``not fitted``; without it the table keeps four columns
+    and a sentence says the scene declares no fits. Every row compares one finding whose
+    key a scene may name (``CALIBRATION_ROWS``, each a key of ``PAPER``)."""
+    from study.paper import PAPER, _ipp_rows, _mode_rows, _spectrum_rows
+    from study.scene_schema import CALIBRATION_ROWS
+
+    assert set(CALIBRATION_ROWS) <= set(PAPER)
+    inp = _inputs()
+    inp.mesh_mode, inp.reached_mode, inp.reached_from = (288.0, 0.61), (4028.0, 0.35), 633.0
+    plain = paper_markdown(inp)
+    table = plain.split("\n\n")[2].splitlines()       # title, preamble, table
+    assert table[0] == "| quantity | paper | this run | paper source |"
+    assert "not fitted" not in plain and "calibrated**" not in plain
+    assert "does not say which findings its parameters were fitted to" in plain
+    fits = {"grazing": "TE against these speeds", "ipp_1700": "TE refined"}
+    md = paper_markdown(replace(inp, calibration=fits))
+    rows = md.split("\n\n")[2].splitlines()
+    assert rows[0].endswith("| paper source | in this scene |") and rows[1] == "|---" * 5 + "|"
+    assert len(rows) == len(table)
+    assert _row(md, "| grazing speeds").endswith(
+        "| Sect. 4.3, Fig. 14 | **calibrated**: TE against these speeds |")
+    assert _row(md, "| IPP sequence at 1700").endswith("| **calibrated**: TE refined |")
+    marked = [ln for ln in rows[2:] if "**calibrated**" in ln]
+    assert len(marked) == 2
+    assert all(ln.endswith("| not fitted |") for ln in rows[2:] if ln not in marked)
+    used = {r.key for f in (_mode_rows, _ipp_rows, _spectrum_rows) for r in f(inp)}
+    assert used <= set(CALIBRATION_ROWS) and "h2_speed" in used and "mesh_mode" in used

@@ -172,6 +172,9 @@ BROKEN = [
     ({"rom": {"factorization": "ldlt"}},
      "rom.factorization = 'ldlt': must be one of 'lu', 'cholesky'"),
     ({"rom": {"out_of_core": "yes"}}, "rom.out_of_core = 'yes': must be true or false"),
+    ({"calibration": {"grazings": "TE"}}, "calibration.grazings: unknown key (did you mean "
+     "'grazing'?)"),
+    ({"calibration": {"grazing": 5}}, "calibration.grazing = 5: must be a string"),
 ]
 
 
@@ -322,17 +325,23 @@ def test_a_scene_extends_another_key_by_key(tmp_path):
         '[scene]\nname = "base"\nkind = "lumped"\n[gear]\nteeth = 40\nbacklash_um = 40.0\n'
         "[load]\ntorque_Nm = 10.0\n[mesh_stiffness]\nmean_N_per_um = 200.0\n"
         "[continuation]\nspeed_rpm = [500.0, 900.0]\n"
+        '[calibration]\nmesh_mode = "k"\nresonances = "J"\n'
         '[[external.aero]]\nshaft = "in"\norder = 2\ntorque_Nm = [0.0, 0.0, 0.5]\n'
         '[[external.aero]]\nshaft = "out"\norder = 2\ntorque_Nm = [0.0, 0.0, 0.5]\n')
     sub = tmp_path / "sub" / "derived.toml"
     sub.parent.mkdir()
     sub.write_text('[scene]\nextends = "../base.toml"\nname = "derived"\n[gear]\n'
                    'backlash_um = 20.0\n[[external.aero]]\nshaft = "in"\norder = 4\n'
-                   "torque_Nm = [0.0, 0.0, 0.1]\n")
+                   'torque_Nm = [0.0, 0.0, 0.1]\n[calibration]\ngrazing = "TE"\n'
+                   'mesh_mode = " "\n')
     s = load_scene(sub)
     assert s.name == "derived" and s.gear.teeth == 40          # table merged key by key
     assert s.gear.backlash == pytest.approx(20e-6) and s.load.torque == 10.0
     assert [(a.shaft, a.order) for a in s.external.aero] == [("in", 4)]  # replaced whole
+    # the base's fits are inherited, a blank one is taken back, and none enters a result
+    assert s.calibration == {"resonances": "J", "grazing": "TE"}
+    taken = load_scene(sub, {"calibration.resonances": ""})
+    assert taken.calibration == {"grazing": "TE"} and taken == s
     assert 'extends = "../base.toml"' in s.text and "teeth = 40" in s.text
     assert load_scene(sub, {"gear.teeth": 50}).gear.teeth == 50
     base.write_text(base.read_text().replace('name = "base"',

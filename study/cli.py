@@ -252,6 +252,9 @@ def _dispatch(args) -> int:
     cmd = args.command
     from study.parallel import world
 
+    if cmd != "convergence" and (args.knob or args.only or args.tol != 1e-2):
+        raise SceneError(f"{cmd}: --knob, --only and --tol are options of `geardyn "
+                         "convergence` only (vary a scene value with --set)")
     if cmd == "report":
         if len(variants) != 1:
             raise SceneError("report: --set takes a single value per key")

@@ -8,14 +8,14 @@ synthetic curves. Used by :mod:`study.excitations` and :mod:`study.paper`.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 __all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
            "fold_pairs", "unstable_segments", "kind_label", "is_unstable",
-           "impact_intervals", "merge_intervals", "impact_span", "contact_windows",
-           "summarize_curve", "summarize_branch",
+           "class_intervals", "impact_intervals", "merge_intervals", "impact_span",
+           "contact_windows", "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
 
 #: Local maxima less prominent than this fraction of the curve's largest std are
@@ -28,11 +28,16 @@ SAME_PEAK = 5e-3
 
 @dataclass(frozen=True)
 class Peak:
-    """A local maximum of the mesh-load std along the branch."""
+    """A local maximum of the mesh-load std along the branch: refined speed and std,
+    prominence, the branch point it was found at (``index``) and the leading Floquet
+    kind of that point's orbit (``kind``, a :data:`hbm.stability.KINDS` name; "" when
+    stable or not computed)."""
 
     rpm: float
     std: float
     prominence: float
+    index: int = -1
+    kind: str = ""
 
 
 @dataclass(frozen=True)
@@ -127,6 +132,8 @@ class CurveSummary:
         Total length of the impact intervals (rpm).
     max_std, max_std_rpm
         Largest std of the dynamic mesh load (N) and its speed (rpm).
+    max_std_kind
+        Leading Floquet kind of that point's orbit ("" when stable or not computed).
     complete
         The continuation reached the end of its range.
     folds
@@ -148,6 +155,7 @@ class CurveSummary:
     complete: bool = True
     folds: tuple[FoldPair, ...] = ()
     unstable: tuple[UnstableSegment, ...] = ()
+    max_std_kind: str = ""
 
     def unstable_at(self, rpm: float) -> list[UnstableSegment]:
         """The unstable segments whose speed interval holds ``rpm``."""
@@ -181,7 +189,7 @@ def resonance_peaks(rpm: np.ndarray, std: np.ndarray,
     out = []
     for i, prom in zip(idx, props["prominences"], strict=True):
         r, s = _refine(rpm[i - 1:i + 2], std[i - 1:i + 2])
-        out.append(Peak(r, s, float(prom)))
+        out.append(Peak(r, s, float(prom), int(i)))
     return _merge_close(sorted(out, key=lambda p: p.rpm))
 
 
@@ -194,7 +202,7 @@ def _merge_close(peaks: list[Peak]) -> list[Peak]:
         if out and abs(p.rpm - out[-1].rpm) <= SAME_PEAK * p.rpm:
             q = out[-1]
             top = p if p.std > q.std else q
-            out[-1] = Peak(top.rpm, top.std, max(p.prominence, q.prominence))
+            out[-1] = replace(top, prominence=max(p.prominence, q.prominence))
         else:
             out.append(p)
     return out
@@ -216,13 +224,41 @@ def _refine(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(xv), float(max(np.polyval(a, xv), y1))
 
 
-def impact_intervals(rpm: np.ndarray, contact: np.ndarray) -> list[tuple[float, float]]:
-    """Merged speed intervals (rpm) covered by branch segments with impacts on either
-    flank (a segment counts when one of its ends has impacts)."""
+def class_intervals(rpm: np.ndarray, contact: np.ndarray,
+                    grazing: Iterable[float] = ()) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) of the branch with single-sided (1) and double-sided
+    (2) impacts.
+
+    A segment between two points of one class is that class's. A segment whose ends
+    differ is split at the grazing speed located on it (the continuation's bisection
+    of the contact margin), each part to the class of its end; without exactly one
+    grazing on it, the whole segment goes to the larger class (the impacts may start
+    anywhere on it).
+    """
     rpm = np.asarray(rpm, dtype=float)
-    contact = np.asarray(contact)
-    return merge_intervals((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1])))
-                           for i in range(len(rpm) - 1) if max(contact[i], contact[i + 1]) > 0)
+    contact = np.asarray(contact, dtype=int)
+    g = np.sort(np.asarray(list(grazing), dtype=float))
+    out: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
+    for i in range(len(rpm) - 1):
+        a, b, ca, cb = rpm[i], rpm[i + 1], int(contact[i]), int(contact[i + 1])
+        lo, hi = min(a, b), max(a, b)
+        on = g[(g >= lo) & (g <= hi)]
+        if ca != cb and on.size == 1:
+            cut = float(on[0])
+            for end, c in ((a, ca), (b, cb)):
+                if c in out and end != cut:
+                    out[c].append((min(end, cut), max(end, cut)))
+        elif max(ca, cb) in out:
+            out[max(ca, cb)].append((float(lo), float(hi)))
+    return {c: merge_intervals(iv) for c, iv in out.items()}
+
+
+def impact_intervals(rpm: np.ndarray, contact: np.ndarray,
+                     grazing: Iterable[float] = ()) -> list[tuple[float, float]]:
+    """Merged speed intervals (rpm) with impacts on either flank
+    (:func:`class_intervals`, both classes)."""
+    iv = class_intervals(rpm, contact, grazing)
+    return merge_intervals(iv[1] + iv[2])
 
 
 def merge_intervals(segments: Iterable[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -310,17 +346,33 @@ def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = Tr
     kind per point (:func:`unstable_segments`)."""
     rpm = np.asarray(rpm, dtype=float)
     std = np.asarray(std, dtype=float)
-    iv = impact_intervals(rpm, contact)
+    grazing = sorted(float(g) for g in grazing)
+    iv = impact_intervals(rpm, contact, grazing)
     i = int(np.argmax(std)) if std.size else 0
+    at = _point_kinds(stable, kind, rpm.size)
     return CurveSummary(
         speed_range=(float(speed_range[0]), float(speed_range[1])),
         reached=float(np.max(rpm)) if rpm.size else float(speed_range[0]),
-        peaks=resonance_peaks(rpm, std), grazing=sorted(float(g) for g in grazing),
-        impacts=iv, windows=contact_windows(iv), span=impact_span(iv),
+        peaks=[replace(p, kind=at[p.index]) for p in resonance_peaks(rpm, std)],
+        grazing=grazing, impacts=iv, windows=contact_windows(iv), span=impact_span(iv),
         max_std=float(std[i]) if std.size else float("nan"),
         max_std_rpm=float(rpm[i]) if rpm.size else float("nan"), complete=complete,
         folds=tuple(fold_pairs(rpm, std, fold_index)),
-        unstable=() if stable is None else tuple(unstable_segments(rpm, std, stable, kind)))
+        unstable=() if stable is None else tuple(unstable_segments(rpm, std, stable, kind)),
+        max_std_kind=at[i] if rpm.size else "")
+
+
+def _point_kinds(stable, kind, n: int) -> list[str]:
+    """Per point, the leading Floquet kind of an unstable orbit ("" when stable or when
+    no verdicts are given)."""
+    from hbm.stability import KINDS
+
+    if stable is None:
+        return [""] * n
+    bad = ~np.asarray(stable, dtype=bool)
+    code = np.asarray(kind, dtype=int)
+    return [("" if not b else KINDS[c] if 1 <= c < len(KINDS) else "unclassified")
+            for b, c in zip(bad, code, strict=True)]
 
 
 def summarize_branch(branch) -> CurveSummary:

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.files import atomic_write
-from study.curves import Peak, primary_peak, summarize_branch
+from study.curves import Peak, kind_label, primary_peak, summarize_branch
 from study.errors import SceneError
 from study.scene_data import Scene
 from study.scene_load import scene_from_dict
@@ -265,6 +265,10 @@ def _fmt_change(x: float | None) -> str:
     return "–" if x is None else f"{100 * x:+.1f} %"
 
 
+def _flag(kind: str) -> str:
+    return f" (**unstable**: {kind_label(kind)})" if kind else ""
+
+
 def _rows(inp) -> list[dict]:
     si = inp.cases.get("internal")
     pi: Peak | None = inp.primary.get("internal")
@@ -281,8 +285,10 @@ def _rows(inp) -> list[dict]:
             "primary_peak_N": None if pk is None else pk.std,
             "primary_peak_change": _change(None if pk is None else pk.std,
                                            None if pi is None else pi.std),
+            "primary_peak_unstable": "" if pk is None else pk.kind,
             "max_std_rpm": s.max_std_rpm, "max_std_N": s.max_std,
             "max_std_change": _change(s.max_std, None if si is None else si.max_std),
+            "max_std_unstable": s.max_std_kind,
             "grazing_rpm": ";".join(f"{g:.1f}" for g in s.grazing),
             "impacts_rpm": ";".join(f"{a:.1f}-{b:.1f}" for a, b in s.impacts),
             "span_rpm": s.span,
@@ -298,13 +304,15 @@ def comparison_table(inp) -> str:
              "|---|---|---:|---|---:|---|---|---:|---:|"]
     for row in _rows(inp):
         pk = "–" if row["primary_peak_N"] is None else \
-            f"{row['primary_peak_N']:.1f} at {row['primary_peak_rpm']:.0f}"
+            f"{row['primary_peak_N']:.1f} at {row['primary_peak_rpm']:.0f}" \
+            f"{_flag(row['primary_peak_unstable'])}"
         stop = "" if row["complete"] else f" (stopped at {row['reached_rpm']:.0f} rpm)"
         ok = row["comparable"]
         lines.append(
             f"| {row['case']}: {row['label']}{stop} | {pk} | "
             f"{_fmt_change(row['primary_peak_change']) if ok else 'incomplete curve'} | "
-            f"{row['max_std_N']:.1f} at {row['max_std_rpm']:.0f} | "
+            f"{row['max_std_N']:.1f} at {row['max_std_rpm']:.0f}"
+            f"{_flag(row['max_std_unstable'])} | "
             f"{_fmt_change(row['max_std_change']) if ok else 'incomplete curve'} | "
             f"{row['grazing_rpm'].replace(';', ', ') or 'none'} | "
             f"{row['impacts_rpm'].replace(';', ', ') or 'none'} | {row['span_rpm']:.0f} | "
@@ -321,7 +329,7 @@ def _atomic_text(path: Path, write) -> Path:
 def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
     """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
     the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
-    from study.curves import is_unstable, kind_label
+    from study.curves import is_unstable
     from study.paper import FIGURES
     from study.plots_point import time_series_plot
 
@@ -370,7 +378,9 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
             "Primary peak: the largest local maximum of the mesh-load std with internal "
             "excitation only, and on the other curves the largest peak within ±15 % of its "
             "speed (the same resonance); the largest std of each curve is shown beside it, "
-            "since an external-excitation resonance may top the curve elsewhere. Span: total "
+            "since an external-excitation resonance may top the curve elsewhere; "
+            "**unstable**: the periodic orbit there is unstable (the leading Floquet kind; "
+            "each case's report.md), so the machine does not stay on it. Span: total "
             "length of the speed intervals with impacts; changes are against the "
             "internal-only case. Each case's run is in its folder "
             f"({', '.join(f'`{c}/`' for c in cases)}).\n\n"

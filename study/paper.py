@@ -135,10 +135,11 @@ def _jumps_text(s: CurveSummary | None, peak: Peak | None, rel: float = 0.15) ->
 
 def _peak_stability(s: CurveSummary | None, peak: Peak | None) -> str | None:
     """Why the periodic orbit at ``peak`` is not what the machine does, or None if it
-    is stable (or the run computed no stability)."""
-    if s is None or peak is None:
+    is stable (or the run computed no stability): the unstable segments there."""
+    if s is None or peak is None or not peak.kind:
         return None
-    segs = s.unstable_at(peak.rpm)
+    segs = [u for u in s.unstable_at(peak.rpm) if u.kind == peak.kind] or \
+        s.unstable_at(peak.rpm)
     if not segs:
         return None
     return ", ".join(f"{u.label} {u.rpm[0]:.0f}–{u.rpm[1]:.0f} rpm"

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from geometry.files import atomic_write  # noqa: E402
-from study.curves import merge_intervals  # noqa: E402
+from study.curves import class_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
@@ -38,25 +38,18 @@ def save_figure(fig, path: Path) -> Path:
     return path
 
 
-def contact_intervals(rpm: np.ndarray, contact: np.ndarray) -> dict[int, list[tuple[float, float]]]:
-    """Merged speed intervals (rpm) covered by branch segments with impacts, per class.
-
-    A segment between consecutive points counts for the larger class of its ends.
-    """
-    out: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
-    for i in range(len(rpm) - 1):
-        c = int(max(contact[i], contact[i + 1]))
-        if c in out:
-            out[c].append((float(min(rpm[i], rpm[i + 1])), float(max(rpm[i], rpm[i + 1]))))
-    return {c: merge_intervals(iv) for c, iv in out.items()}
-
+def contact_intervals(rpm: np.ndarray, contact: np.ndarray,
+                      grazing=()) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) with impacts, per class, bounded by the grazing
+    speeds (:func:`study.curves.class_intervals`)."""
+    return class_intervals(rpm, contact, grazing)
 
 
 def shade_impacts(ax, rpm: np.ndarray, contact: np.ndarray,
-                  alpha: tuple[float, float] = (0.18, 0.25)) -> None:
+                  alpha: tuple[float, float] = (0.18, 0.25), grazing=()) -> None:
     """Shade the speed ranges with single- and double-sided impacts (``alpha`` of each
-    class), each class labelled once."""
-    for c, iv in contact_intervals(rpm, contact).items():
+    class; bounded by the ``grazing`` speeds), each class labelled once."""
+    for c, iv in contact_intervals(rpm, contact, grazing).items():
         col, name = CLASS_COLOURS[c]
         for j, (a, b) in enumerate(iv):
             ax.axvspan(a, b, color=col, alpha=alpha[c - 1], lw=0,

@@ -9,7 +9,7 @@ import numpy as np
 from geometry.files import atomic_write
 from hbm.stability import KINDS
 from study.attractors import attractor_line
-from study.curves import UnstableSegment, unstable_segments
+from study.curves import UnstableSegment, kind_label, unstable_segments
 from study.fields import velocity_level_db
 from study.plot_common import contact_intervals, order_label
 
@@ -34,15 +34,55 @@ def summary(result) -> dict:
         "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
         "unstable_segments": unstable_segments(br.rpm, br.mesh_load_std, br.stable,
                                                br.floquet_kind),
-        "intervals": contact_intervals(br.rpm, br.contact),
+        "intervals": contact_intervals(br.rpm, br.contact, [g.rpm for g in br.grazing]),
+        "max_std_kind": "" if br.stable[i] else _kind_name(int(br.floquet_kind[i])),
+        "max_stable": _largest_stable(br),
     }
+
+
+def _kind_name(code: int) -> str:
+    return kind_label(KINDS[code]) if 1 <= code < len(KINDS) else "unclassified"
+
+
+def _largest_stable(br) -> tuple[float, float] | None:
+    """(std N, rpm) of the branch's largest stable orbit, None if none is stable."""
+    ok = np.flatnonzero(br.stable.astype(bool))
+    if not ok.size:
+        return None
+    j = ok[int(np.argmax(br.mesh_load_std[ok]))]
+    return float(br.mesh_load_std[j]), float(br.rpm[j])
+
+
+def _largest_line(s: dict, stability: bool) -> str:
+    """The curve's largest std, and when that orbit is unstable, the largest stable one."""
+    line = f"- largest std of the dynamic mesh load {s['max_mesh_load_std']:.4g} N at " \
+           f"{s['at_rpm']:.1f} rpm"
+    if not stability or not s["max_std_kind"]:
+        return line
+    best = s["max_stable"]
+    other = "no orbit of the curve is stable" if best is None else \
+        f"the largest stable one is {best[0]:.4g} N at {best[1]:.1f} rpm"
+    return f"{line}, **an unstable orbit** ({s['max_std_kind']}): {other}"
+
+
+def _stability_lines(s: dict, stability: bool, attractors) -> list[str]:
+    """Report lines on the Floquet verdicts, or that none were computed."""
+    if not stability:
+        return ["- stability: **not computed** (`[hbm] stability = false`): every point is "
+                "listed as stable without a check"]
+    kinds = ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in s["unstable_kinds"].items())
+    return [f"- unstable points: {s['unstable_points']}" + (f" ({kinds})" if kinds else "")
+            + " — Floquet exponents of the variational equation, every mode",
+            *unstable_lines(s["unstable_segments"], attractors),
+            *_unresolved(s["unresolved_rpm"])]
 
 
 def _unresolved(rpm: list[float]) -> list[str]:
     """Report lines for points whose stability the harmonic set does not resolve."""
     if not rpm:
         return []
-    return [f"- **stability not resolved at {len(rpm)} points** ({min(rpm):.1f}–{max(rpm):.1f} "
+    n = f"{len(rpm)} point{'' if len(rpm) == 1 else 's'}"
+    return [f"- **stability not resolved at {n}** ({min(rpm):.1f}–{max(rpm):.1f} "
             "rpm): the branch lies between two folds of the harmonic balance there (reported "
             "unstable) but the variational equation finds the orbit stable, so the harmonic "
             "set does not resolve the orbit; raise `hbm.mesh_harmonics` / `sideband_order` "
@@ -72,12 +112,54 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
     out = ["- unstable segments (branch order; the curve shows the periodic orbit, which the "
            f"machine leaves there; {how}; docs/theory.md §11 and §13.5):"]
     at = {a.segment: a for a in found or []}         # segments are frozen: equal by value
-    for u in segments:
-        out.append(f"  - {u.rpm[0]:.1f}–{u.rpm[1]:.1f} rpm, {u.points} points, std up to "
-                   f"{u.peak_std:.4g} N: {u.label}, {_MEANING[u.kind]}")
-        if u in at:
-            out.append(attractor_line(at[u]))
+    for group in _winding_groups(segments):
+        u, lo, hi = group[0], min(g.rpm[0] for g in group), max(g.rpm[1] for g in group)
+        pts = sum(g.points for g in group)
+        where = f"{pts} point{'' if pts == 1 else 's'}" if len(group) == 1 else \
+            f"{pts} points in {len(group)} segments (the branch winds there)"
+        out.append(f"  - {lo:.1f}–{hi:.1f} rpm, {where}, std up to "
+                   f"{max(g.peak_std for g in group):.4g} N: {u.label}, {_MEANING[u.kind]}")
+        out += [attractor_line(at[g]) for g in group if g in at]
     return out
+
+
+#: speeds closer than this (relative) are one place of the curve in report.md
+_NEAR = 2e-3
+
+
+def _winding_groups(segments: list[UnstableSegment]) -> list[list[UnstableSegment]]:
+    """Consecutive segments (branch order) of one kind that together span less than
+    :data:`_NEAR` of the speed: where the branch winds, one line."""
+    groups: list[list[UnstableSegment]] = []
+    for u in segments:
+        if groups and groups[-1][0].kind == u.kind:
+            lo = min(u.rpm[0], *(g.rpm[0] for g in groups[-1]))
+            hi = max(u.rpm[1], *(g.rpm[1] for g in groups[-1]))
+            if hi - lo <= _NEAR * hi:
+                groups[-1].append(u)
+                continue
+        groups.append([u])
+    return groups
+
+
+def _folds_text(folds: list[float]) -> str:
+    """Fold speeds in branch order; three or more within :data:`_NEAR` of the speed of
+    each other (the branch winding) as one range with their count."""
+    if not folds:
+        return "none"
+    runs: list[list[float]] = []
+    for f in folds:
+        if runs and max(*runs[-1], f) - min(*runs[-1], f) <= _NEAR * max(*runs[-1], f):
+            runs[-1].append(f)
+        else:
+            runs.append([f])
+    parts = []
+    for r in runs:
+        if len(r) < 3:
+            parts += [f"{x:.1f}" for x in r]
+        else:
+            parts.append(f"{min(r):.1f}–{max(r):.1f} ({len(r)} folds)")
+    return ", ".join(parts) + " rpm"
 
 
 def _loops(br) -> list[str]:
@@ -92,6 +174,37 @@ def _loops(br) -> list[str]:
     return out
 
 
+def rom_line(result) -> list[str]:
+    """Report line on the ROM's check against the full FE model (Fig. 9), beside the
+    highest mesh frequency of the run; none for a lumped scene."""
+    rd = result.rom
+    if rd is None:
+        return []
+    top = result.scene.continuation.speed[1]
+    f_mesh = result.scene.gear.teeth * top / 60.0
+    head = f"- ROM: {rd.n_cm} component modes; "
+    reach = f"the mesh frequency reaches {f_mesh:.0f} Hz at {top:g} rpm"
+    v = rd.validation
+    if v is None or len(v.full_hz) == 0:
+        return [head + f"**not checked** against the full FE model (`rom.n_check` = 0); {reach}"]
+    err, n = np.asarray(v.relative_error), len(v.full_hz)
+    bad = np.flatnonzero(err > v.tol)
+    if bad.size == 0:
+        checked = float(v.full_hz[-1])
+        txt = f"its {n} lowest coupled frequencies agree with the full FE model's within " \
+              f"{err.max():.1e} (tol {v.tol:g}) up to {checked:.0f} Hz, where the check stops"
+    else:
+        k = int(bad[0])
+        checked = float(v.validity_hz)
+        txt = f"**valid only to {checked:.0f} Hz** (tol {v.tol:g}): coupled mode {k + 1} of " \
+              f"the {n} checked, {v.full_hz[k]:.0f} Hz in the full FE model, is " \
+              f"{err[k]:.1e} off; raise `rom.n_cm`"
+    if checked < f_mesh:
+        reach += " (above the checked range, `geardyn convergence --only n_cm` measures the " \
+                 "ROM's effect on the curve, docs/convergence.md)"
+    return [head + txt + "; " + reach]
+
+
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
@@ -99,7 +212,7 @@ def write_report(result) -> Path:
     lines = [f"# {sc.name}", "", sc.scene.description or "", "",
              "## Model", "",
              f"- kind: {sc.scene.kind}; {result.problem.system.n_dof} DOF, condensation "
-             f"`{result.problem.condensation}`",
+             f"`{result.problem.condensation}`", *rom_line(result),
              f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
              f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
              f"ε_α = {g.contact_ratio:.3f}",
@@ -122,18 +235,12 @@ def write_report(result) -> Path:
              *_loops(result.branch),
              f"- largest relative residual {s['max_residual']:.2e} "
              f"(tolerance {sc.continuation.tolerance:g})",
-             f"- largest std of the dynamic mesh load {s['max_mesh_load_std']:.4g} N at "
-             f"{s['at_rpm']:.1f} rpm",
+             _largest_line(s, sc.hbm.stability),
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
-             f"- unstable points: {s['unstable_points']}"
-             + (" (" + ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in
-                                 s["unstable_kinds"].items()) + ")" if s["unstable_kinds"] else "")
-             + " — Floquet exponents of the variational equation, every mode",
-             *unstable_lines(s["unstable_segments"], result.attractors),
-             *_unresolved(s["unresolved_rpm"]),
-             "- folds (jumps) near: " + (", ".join(f"{f:.1f}" for f in s["folds"]) or "none")
-             + " rpm", "", "### Grazing bifurcations", "",
+             *_stability_lines(s, sc.hbm.stability, result.attractors),
+             "- folds (jumps) near: " + _folds_text(s["folds"]),
+             "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]
     lines += [f"| {r:.2f} | {k} | {sd} |" for r, k, sd in s["grazing"]] or ["| – | – | – |"]
     lines += ["", "### Speed ranges with impacts (rpm)", ""]

@@ -135,7 +135,8 @@ def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
     """Write ``/continuation``, ``/grazing`` and ``/folds`` of a (partial) branch."""
     c = f.create_group("continuation")
     for k in _branch_arrays(branch):
-        c.create_dataset(k, data=np.asarray(getattr(branch, k)))
+        v = np.asarray(getattr(branch, k))
+        c.create_dataset(k, data=v.astype(np.int64).reshape(-1, 4) if k == "loops" else v)
     c["harmonics"] = np.asarray(branch.harmonics, dtype=np.int64)
     c.attrs["status"] = branch.status
     c.attrs["message"] = branch.message

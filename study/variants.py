@@ -27,7 +27,7 @@ def variants_table(results: list) -> str:
         br = r.branch
         i = int(np.argmax(br.mesh_load_std))
         gz = ", ".join(f"{g.rpm:.1f}" for g in sorted(br.grazing, key=lambda g: g.rpm)) or "–"
-        iv = contact_intervals(br.rpm, br.contact)
+        iv = contact_intervals(br.rpm, br.contact, [g.rpm for g in br.grazing])
         imp = "; ".join(f"{'SS' if c == 1 else 'DS'} {a:.0f}–{b:.0f}"
                         for c, ivs in iv.items() for a, b in ivs) or "none"
         st = ", ".join(f"{k}:{v.split(' ')[0]}" for k, v in r.stages.items()
@@ -58,7 +58,9 @@ def write_variants(out: Path, results: list) -> tuple[Path, Path]:
 def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
                         cache: str | None = None):
     """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
-    from study.pipeline import Pipeline, RunResult, SolverError
+    from study.errors import SceneError
+    from study.parallel import mark_collective
+    from study.pipeline import Pipeline, RunResult
     from study.results import read_branch
     from study.scene_load import load_scene
 
@@ -66,11 +68,17 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     pipe = Pipeline(scene, out, cache_dir=cache, progress=False)
     problem, rom = pipe.problem()
     key = pipe.hbm_key()
-    br = read_branch(Path(out) / "results.h5", problem, expected_key=key)
-    if br is None:  # read by every rank under mpirun: the same error everywhere
-        from study.parallel import mark_collective
-        raise mark_collective(SolverError(f"{Path(out) / 'results.h5'}: no results of this "
-                                          "scene; run `geardyn run` first"))
+    path = Path(out) / "results.h5"
+    # read by every rank under mpirun: the same error everywhere
+    if not path.exists():
+        raise mark_collective(FileNotFoundError(f"{path}: no such file; run `geardyn run` "
+                                                "with this scene and --out first"))
+    br = read_branch(path, problem, expected_key=key)
+    if br is None:
+        raise mark_collective(SceneError(f"{path} holds no continuation of this scene's "
+                                         "inputs (model, harmonic set, speed range, --set "
+                                         "values or code version differ); run `geardyn run` "
+                                         "with them first"))
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
 

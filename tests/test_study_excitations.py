@@ -176,6 +176,7 @@ def test_changes_against_internal(run):
     out, _, rows = run
     span = {c: float(rows[c]["span_rpm"]) for c in CASES}
     peak = {c: float(rows[c]["primary_peak_N"]) for c in CASES}
+    unstable = {}
     for c in CASES:
         assert float(rows[c]["span_change"]) == pytest.approx(span[c] / span["internal"] - 1)
         assert float(rows[c]["primary_peak_change"]) == pytest.approx(
@@ -183,8 +184,16 @@ def test_changes_against_internal(run):
         with h5py.File(out / c / "results.h5", "r") as f:
             std = f["continuation/mesh_load_std"][()]
             rpm = f["continuation/rpm"][()]
+            stable = f["continuation/stable"][()].astype(bool)
         assert float(rows[c]["max_std_N"]) == pytest.approx(std.max())
         assert float(rows[c]["max_std_rpm"]) == pytest.approx(rpm[np.argmax(std)])
+        # flagged unstable exactly when the file's verdict at that point is
+        assert bool(rows[c]["max_std_unstable"]) == (not stable[np.argmax(std)])
+        unstable[c] = rows[c]["max_std_unstable"]
+    md = (out / "excitations.md").read_text()
+    for c in CASES:
+        line = next(ln for ln in md.splitlines() if ln.startswith(f"| {c}:"))
+        assert ("(**unstable**: " in line) == bool(unstable[c]), line
     # the primary peak is the largest std of the internal-only curve
     with h5py.File(out / "internal" / "results.h5", "r") as f:
         std = f["continuation/mesh_load_std"][()]

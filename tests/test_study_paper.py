@@ -10,6 +10,7 @@ import pytest
 from hbm.postprocess import MeshPeriodEnvelope
 from study.curves import (
     FoldPair,
+    class_intervals,
     contact_windows,
     fold_pairs,
     impact_intervals,
@@ -140,6 +141,20 @@ def test_impact_intervals_span_and_windows():
     assert iv == [(980.0, 1260.0), (1300.0, 2200.0), (2380.0, 4000.0)]
     assert impact_span(iv) == pytest.approx(280.0 + 900.0 + 1620.0)
     assert contact_windows(iv) == [(1260.0, 1300.0), (2200.0, 2380.0)]
+    # with the grazing speeds the continuation located, each interval ends there
+    graz = [993.0, 1251.5, 1311.0, 2187.25, 2390.0]
+    iv = impact_intervals(RPM, _contact(REGIONS), graz)
+    assert iv == [(993.0, 1251.5), (1311.0, 2187.25), (2390.0, 4000.0)]
+    assert contact_windows(iv) == [(1251.5, 1311.0), (2187.25, 2390.0)]
+    # a transition without its grazing (not located) keeps the whole segment
+    assert impact_intervals(RPM, _contact(REGIONS), graz[1:])[0] == (980.0, 1251.5)
+    # per class: double-sided impacts 1500-1600 rpm, their grazings at 1490 and 1605
+    c = _contact(REGIONS)
+    c[(RPM >= 1500.0) & (RPM <= 1600.0)] = 2
+    per = class_intervals(RPM, c, [*graz, 1490.0, 1605.0])
+    assert per[2] == [(1490.0, 1605.0)]
+    assert per[1] == [(993.0, 1251.5), (1311.0, 1490.0), (1605.0, 2187.25), (2390.0, 4000.0)]
+    assert impact_intervals(RPM, c, [*graz, 1490.0, 1605.0])[1] == (1311.0, 2187.25)
 
 
 def test_ipp_runs_cyclic():
@@ -205,7 +220,7 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     g = _row(md, "| grazing speeds")
     assert "5: 990, 1250, 1310, 2190, 2390 (within 3 %: yes)" in g
     w = _row(md, "| permanent-contact")
-    assert "| 1260–1300, 2200–2380 |" in w
+    assert "| 1250–1310, 2190–2390 |" in w         # bounded by the grazings
     pk = _row(md, "| primary peak")
     assert "93 → 88 N (-5.4 %)" in pk
     top = _true_maxima()[2][1]
@@ -226,6 +241,10 @@ def test_paper_table_rows_from_the_curves(tmp_path):
     ns = unstable_segments(RPM, _std(RPM), np.abs(RPM - pi) > 45.0, np.full(RPM.size, 3))
     shaky = replace(inp, cases={**inp.cases, "internal": replace(inp.cases["internal"],
                                                                  unstable=tuple(ns))})
+    # the segment alone is no verdict on the peak: its own point's orbit decides
+    assert "unstable" not in _row(paper_markdown(shaky), "| primary peak")
+    shaky.primary = {**inp.primary, "internal": replace(inp.primary["internal"],
+                                                        kind="neimark_sacker")}
     assert f"**the periodic orbit at the peak is unstable** (internal: Neimark–Sacker " \
            f"{ns[0].rpm[0]:.0f}–{ns[0].rpm[1]:.0f} rpm): the machine leaves it" \
         in _row(paper_markdown(shaky), "| primary peak")
@@ -235,7 +254,8 @@ def test_paper_table_rows_from_the_curves(tmp_path):
         "; time integration from the most unstable orbit there: 145.9 → 145.8 N (-0.1 %; "
         "from 3023 → 3019 rpm) | Sect. 4.2, Fig. 12 (internal only → all excitations) |")
     span = _row(md, "| vibro-impact span")
-    assert f"1180 → 2800 rpm ({100 * (2800 / 1180 - 1):+.1f} %)" in span
+    # from grazing to grazing: 990-1250, 1310-2190 (and 2390-4000 with all excitations)
+    assert f"1140 → 2750 rpm ({100 * (2750 / 1140 - 1):+.1f} %)" in span
     ipp = _row(md, "| IPP sequence at 1700")
     assert "1-IPP 21.1 %, 2-IPP 78.9 %" in ipp and "2-IPP 39.5 %" in ipp
     assert "outside the computed range" in _row(md, "| IPP sequence at 1070")
@@ -327,3 +347,36 @@ def test_calibrated_rows_are_marked_and_every_row_has_a_calibration_key():
     assert all(ln.endswith("| not fitted |") for ln in rows[2:] if ln not in marked)
     used = {r.key for f in (_mode_rows, _ipp_rows, _spectrum_rows) for r in f(inp)}
     assert used <= set(CALIBRATION_ROWS) and "h2_speed" in used and "mesh_mode" in used
+
+
+def test_a_peak_is_flagged_by_its_own_orbit_not_by_a_segment_beside_it():
+    """On a fold the stable top of the upper branch lies inside the speed range of the
+    unstable middle branch: the peak's and the largest std's verdicts are those of their
+    own points, and excitations.md flags only an unstable one."""
+    from study.excitations import comparison_table
+
+    # a branch going up to 1000 rpm, back to 950 (middle, unstable) and on over its top
+    # at 980 rpm to 1100 rpm: the top lies inside the middle's 950-990 rpm
+    rpm = np.r_[np.linspace(800.0, 1000.0, 9), np.linspace(990.0, 950.0, 5),
+                np.linspace(960.0, 1100.0, 8)]
+    std = np.r_[np.linspace(10.0, 30.0, 9), np.linspace(32.0, 40.0, 5),
+                [42.0, 50.0, 45.0, 38.0, 30.0, 22.0, 15.0, 8.0]]
+    stable = np.r_[np.ones(9, bool), np.zeros(5, bool), np.ones(8, bool)]
+    kind = np.where(stable, 0, 1)
+    s = summarize_curve(rpm, std, np.zeros(rpm.size, int), [], (800.0, 1100.0),
+                        stable=stable, kind=kind)
+    top = primary_peak(s)
+    assert s.unstable and s.unstable[0].contains(top.rpm)      # the segment covers it
+    assert top.index == 15 and top.kind == "" and s.max_std_kind == ""
+    inp = PaperInputs("fold", 2.5, 70.0, cases={"internal": s},
+                      primary={"internal": top})
+    assert "unstable" not in comparison_table(inp)
+    # the same curve with its top point unstable (Neimark-Sacker there)
+    stable[15], kind[15] = False, 3
+    s = summarize_curve(rpm, std, np.zeros(rpm.size, int), [], (800.0, 1100.0),
+                        stable=stable, kind=kind)
+    assert primary_peak(s).kind == "neimark_sacker" and s.max_std_kind == "neimark_sacker"
+    inp = PaperInputs("fold", 2.5, 70.0, cases={"internal": s},
+                      primary={"internal": primary_peak(s)})
+    row = comparison_table(inp).splitlines()[2]
+    assert row.count("(**unstable**: Neimark–Sacker)") == 2, row

@@ -270,6 +270,10 @@ def test_exit_codes(tmp_path):
     assert p.returncode == 2 and "did you mean 'backlash_um'" in p.stderr
     p = _geardyn("mesh", str(SDOF), "--out", str(tmp_path / "o"), check=False)
     assert p.returncode == 2
+    p = _geardyn("run", str(SDOF), "--out", str(tmp_path / "o"), "--knob", "n_cm=5",
+                 check=False)
+    assert p.returncode == 2 and "--knob, --only and --tol are options of `geardyn " \
+        "convergence` only" in p.stderr
     # a continuation that cannot reach the end (too few points) is a solver failure
     p = _geardyn("run", str(SDOF), "--out", str(tmp_path / "m"), "--set",
                  "continuation.max_points=5", "--no-progress", check=False)
@@ -359,7 +363,8 @@ def test_report_from_existing_results(sdof_run):
         while j + 1 < n and key[j + 1] == key[i]:
             j += 1
         r = rpm[i:j + 1]
-        assert (f"  - {r.min():.1f}–{r.max():.1f} rpm, {j - i + 1} points, std up to "
+        pts = f"{j - i + 1} point" + ("" if i == j else "s")
+        assert (f"  - {r.min():.1f}–{r.max():.1f} rpm, {pts}, std up to "
                 f"{std[i:j + 1].max():.4g} N: {names[int(kind[i])]}, ") in text
     assert (out / "forced_response.png").exists()
 
@@ -447,3 +452,17 @@ def test_incomplete_curve_is_plotted_and_resumed_after_a_step_change(tmp_path):
     p = _geardyn("run", str(SDOF), "--out", str(out), *base, "--resume", "--set",
                  "load.torque_Nm=3.0")
     assert "not resuming from it" in p.stderr and "resuming from point" not in p.stderr
+
+
+def test_report_without_matching_results_names_the_cause(sdof_run, tmp_path):
+    """`geardyn report` on a folder without results.h5 is a file error (exit 5); on
+    results of other inputs it is invalid input (exit 2), not a solver failure."""
+    out, _, _ = sdof_run
+    p = _geardyn("report", str(SDOF), "--out", str(tmp_path / "empty"), check=False)
+    assert p.returncode == 5, p.stderr[-2000:]
+    assert "results.h5: no such file; run `geardyn run`" in p.stderr
+    p = _geardyn("report", str(SDOF), "--out", str(out), "--set", "damping.modal_ratio=0.04",
+                 check=False)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert "holds no continuation of this scene's inputs" in p.stderr
+    assert "Traceback" not in p.stderr

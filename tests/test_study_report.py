@@ -1,0 +1,96 @@
+"""report.md lines that say what a run did not check or where its headline is not what
+the machine does: the ROM's check against the full FE model beside the mesh frequency,
+the largest std when its orbit is unstable, and a run without stability."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from reduction.validate import Validation
+from study.report import _largest_line, _largest_stable, _stability_lines, rom_line
+
+
+def _result(validation, teeth=76, top=7000.0, n_cm=100):
+    scene = SimpleNamespace(continuation=SimpleNamespace(speed=(500.0, top)),
+                            gear=SimpleNamespace(teeth=teeth))
+    rom = SimpleNamespace(n_cm=n_cm, validation=validation)
+    return SimpleNamespace(scene=scene, rom=rom)
+
+
+def test_rom_line_says_how_far_the_rom_was_checked():
+    full = np.array([100.0, 1000.0, 4053.6, 5000.0])
+    # every checked mode within tolerance: checked to the last one, below H_Z at 7000 rpm
+    ok = Validation(full, full * (1 + 2e-4), np.array([1e-5, 1e-4, 2e-4, 1.5e-4]), 5000.0, 1e-3)
+    line = rom_line(_result(ok))[0]
+    f_mesh = 76 * 7000.0 / 60.0                      # 8867 Hz
+    assert "its 4 lowest coupled frequencies agree with the full FE model's within 2.0e-04 " \
+           "(tol 0.001) up to 5000 Hz, where the check stops" in line
+    assert f"the mesh frequency reaches {f_mesh:.0f} Hz at 7000 rpm (above the checked " \
+           "range, `geardyn convergence --only n_cm`" in line
+    # a range whose mesh frequency stays below the check: no pointer to the study
+    assert "above the checked" not in rom_line(_result(ok, top=3000.0))[0]
+    # the third mode off by 1.79e-3: valid only to the second (the pump's coarse ROM)
+    bad = Validation(full, full, np.array([1e-5, 1e-4, 1.79e-3, 1e-4]), 1000.0, 1e-3)
+    line = rom_line(_result(bad))[0]
+    assert "**valid only to 1000 Hz** (tol 0.001): coupled mode 3 of the 4 checked, 4054 Hz " \
+           "in the full FE model, is 1.8e-03 off; raise `rom.n_cm`" in line
+    assert "**not checked**" in rom_line(_result(None))[0]
+    assert rom_line(SimpleNamespace(rom=None)) == []                 # lumped scene
+
+
+def test_largest_std_on_an_unstable_orbit_names_the_largest_stable_one():
+    rpm = np.linspace(2000.0, 3000.0, 11)
+    std = 50.0 - np.abs(rpm - 2600.0) / 20.0          # top 50 N at 2600 rpm
+    stable = np.abs(rpm - 2600.0) > 150.0              # 2500-2700 rpm unstable
+    br = SimpleNamespace(rpm=rpm, mesh_load_std=std, stable=stable)
+    best = _largest_stable(br)
+    assert best == (40.0, 2400.0)                      # 2400 rpm: 50 - 200/20
+    s = {"max_mesh_load_std": 50.0, "at_rpm": 2600.0, "max_std_kind": "Neimark–Sacker",
+         "max_stable": best}
+    assert _largest_line(s, True) == (
+        "- largest std of the dynamic mesh load 50 N at 2600.0 rpm, **an unstable orbit** "
+        "(Neimark–Sacker): the largest stable one is 40 N at 2400.0 rpm")
+    assert _largest_line({**s, "max_std_kind": ""}, True).endswith("at 2600.0 rpm")
+    assert _largest_stable(SimpleNamespace(rpm=rpm, mesh_load_std=std,
+                                           stable=np.zeros(11, bool))) is None
+    assert _largest_line({**s, "max_stable": None}, True).endswith(
+        "no orbit of the curve is stable")
+
+
+def test_a_run_without_stability_says_so():
+    s = {"unstable_points": 0, "unstable_kinds": {}, "unstable_segments": [],
+         "unresolved_rpm": []}
+    assert _stability_lines(s, False, []) == [
+        "- stability: **not computed** (`[hbm] stability = false`): every point is listed "
+        "as stable without a check"]
+    assert _stability_lines(s, True, [])[0].startswith("- unstable points: 0 — Floquet")
+    # no 'unstable' flag on the largest std when nothing was checked
+    s = {"max_mesh_load_std": 50.0, "at_rpm": 2600.0, "max_std_kind": "fold",
+         "max_stable": None}
+    assert "unstable" not in _largest_line(s, False)
+
+
+def test_where_the_branch_winds_the_report_gives_one_line():
+    """Unstable segments of one kind spanning less than 0.2 % of the speed together
+    (the pump's period doubling at 2508.7-2510.3 rpm) are one line; the nested folds of
+    a wide hysteresis (the single-DOF scene's 1791-2195 and 2090-3004 rpm) stay two."""
+    from study.curves import UnstableSegment
+    from study.report import _folds_text, unstable_lines
+
+    pd = [UnstableSegment("period_doubling", (2508.7 + 0.1 * j, 2509.0 + 0.1 * j), 3,
+                          87.0 + j, (10 * j, 10 * j + 2)) for j in range(5)]
+    wide = [UnstableSegment("fold", (1791.2, 2195.0), 91, 5377.0, (100, 190)),
+            UnstableSegment("fold", (2089.9, 3004.0), 686, 7.788e4, (200, 885))]
+    lines = unstable_lines(pd + wide)
+    assert lines[1] == ("  - 2508.7–2509.4 rpm, 15 points in 5 segments (the branch winds "
+                        "there), std up to 91 N: period doubling, a response at half the "
+                        "fundamental frequency takes over (not computed: the harmonic set "
+                        "holds multiples of the fundamental only)")
+    assert lines[2].startswith("  - 1791.2–2195.0 rpm, 91 points, std up to 5377 N: fold")
+    assert lines[3].startswith("  - 2089.9–3004.0 rpm, 686 points, std up to 7.788e+04 N")
+    assert len(lines) == 4
+    assert _folds_text([1452.5, 1450.6, 2195.1, 1791.0]) == "1452.5, 1450.6, 2195.1, 1791.0 rpm"
+    assert _folds_text([2505.4, 2507.0, 2510.3, 2506.1, 3000.0]) == \
+        "2505.4–2510.3 (4 folds), 3000.0 rpm"
+    assert _folds_text([]) == "none"

@@ -86,7 +86,7 @@ def _unresolved(rpm: list[float]) -> list[str]:
             "rpm): the branch lies between two folds of the harmonic balance there (reported "
             "unstable) but the variational equation finds the orbit stable, so the harmonic "
             "set does not resolve the orbit; raise `hbm.mesh_harmonics` / `sideband_order` "
-            "(docs/convergence.md)"]
+            "(where the branch winds this may not help: docs/convergence.md)"]
 
 
 #: what the machine does where the periodic orbit is unstable, per leading kind
@@ -113,12 +113,19 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
            f"machine leaves there; {how}; docs/theory.md §11 and §13.5):"]
     at = {a.segment: a for a in found or []}         # segments are frozen: equal by value
     for group in _winding_groups(segments):
-        u, lo, hi = group[0], min(g.rpm[0] for g in group), max(g.rpm[1] for g in group)
-        pts = sum(g.points for g in group)
-        where = f"{pts} point{'' if pts == 1 else 's'}" if len(group) == 1 else \
-            f"{pts} points in {len(group)} segments (the branch winds there)"
-        out.append(f"  - {lo:.1f}–{hi:.1f} rpm, {where}, std up to "
-                   f"{max(g.peak_std for g in group):.4g} N: {u.label}, {_MEANING[u.kind]}")
+        lo, hi = min(g.rpm[0] for g in group), max(g.rpm[1] for g in group)
+        pts, top = sum(g.points for g in group), max(g.peak_std for g in group)
+        if len(group) == 1:
+            u = group[0]
+            out.append(f"  - {lo:.1f}–{hi:.1f} rpm, {pts} point{'' if pts == 1 else 's'}, "
+                       f"std up to {top:.4g} N: {u.label}, {_MEANING[u.kind]}")
+        else:
+            kinds = {g.kind: g.label for g in group}
+            count = ", ".join(f"{label} {sum(g.points for g in group if g.kind == k)}"
+                              for k, label in kinds.items())
+            out.append(f"  - {lo:.1f}–{hi:.1f} rpm, where the branch winds: {pts} points in "
+                       f"{len(group)} segments ({count}), std up to {top:.4g} N; "
+                       + "; ".join(f"{label}: {_MEANING[k]}" for k, label in kinds.items()))
         out += [attractor_line(at[g]) for g in group if g in at]
     return out
 
@@ -128,11 +135,11 @@ _NEAR = 2e-3
 
 
 def _winding_groups(segments: list[UnstableSegment]) -> list[list[UnstableSegment]]:
-    """Consecutive segments (branch order) of one kind that together span less than
-    :data:`_NEAR` of the speed: where the branch winds, one line."""
+    """Consecutive segments (branch order) that together span less than :data:`_NEAR`
+    of the speed and more than one of them: where the branch winds, one line."""
     groups: list[list[UnstableSegment]] = []
     for u in segments:
-        if groups and groups[-1][0].kind == u.kind:
+        if groups:
             lo = min(u.rpm[0], *(g.rpm[0] for g in groups[-1]))
             hi = max(u.rpm[1], *(g.rpm[1] for g in groups[-1]))
             if hi - lo <= _NEAR * hi:
@@ -158,7 +165,9 @@ def _folds_text(folds: list[float]) -> str:
         if len(r) < 3:
             parts += [f"{x:.1f}" for x in r]
         else:
-            parts.append(f"{min(r):.1f}–{max(r):.1f} ({len(r)} folds)")
+            span = f"{min(r):.1f}" if f"{min(r):.1f}" == f"{max(r):.1f}" else \
+                f"{min(r):.1f}–{max(r):.1f}"
+            parts.append(f"{span} ({len(r)} folds)")
     return ", ".join(parts) + " rpm"
 
 

@@ -72,25 +72,30 @@ def test_a_run_without_stability_says_so():
 
 
 def test_where_the_branch_winds_the_report_gives_one_line():
-    """Unstable segments of one kind spanning less than 0.2 % of the speed together
-    (the pump's period doubling at 2508.7-2510.3 rpm) are one line; the nested folds of
+    """Consecutive unstable segments spanning less than 0.2 % of the speed together
+    (the pump's at 2508.7-2510.3 rpm, of three kinds) are one line; the nested folds of
     a wide hysteresis (the single-DOF scene's 1791-2195 and 2090-3004 rpm) stay two."""
     from study.curves import UnstableSegment
     from study.report import _folds_text, unstable_lines
 
-    pd = [UnstableSegment("period_doubling", (2508.7 + 0.1 * j, 2509.0 + 0.1 * j), 3,
-                          87.0 + j, (10 * j, 10 * j + 2)) for j in range(5)]
+    kinds = ("period_doubling", "fold", "period_doubling", "neimark_sacker", "fold")
+    pd = [UnstableSegment(k, (2508.7 + 0.1 * j, 2509.0 + 0.1 * j), 3, 87.0 + j,
+                          (10 * j, 10 * j + 2)) for j, k in enumerate(kinds)]
     wide = [UnstableSegment("fold", (1791.2, 2195.0), 91, 5377.0, (100, 190)),
             UnstableSegment("fold", (2089.9, 3004.0), 686, 7.788e4, (200, 885))]
     lines = unstable_lines(pd + wide)
-    assert lines[1] == ("  - 2508.7–2509.4 rpm, 15 points in 5 segments (the branch winds "
-                        "there), std up to 91 N: period doubling, a response at half the "
-                        "fundamental frequency takes over (not computed: the harmonic set "
-                        "holds multiples of the fundamental only)")
+    assert lines[1] == (
+        "  - 2508.7–2509.4 rpm, where the branch winds: 15 points in 5 segments (period "
+        "doubling 6, fold 6, Neimark–Sacker 3), std up to 91 N; period doubling: a response "
+        "at half the fundamental frequency takes over (not computed: the harmonic set holds "
+        "multiples of the fundamental only); fold: the middle part of an amplitude jump; "
+        "Neimark–Sacker: a quasi-periodic response or another, coexisting periodic one "
+        "takes over (not computed)")
     assert lines[2].startswith("  - 1791.2–2195.0 rpm, 91 points, std up to 5377 N: fold")
     assert lines[3].startswith("  - 2089.9–3004.0 rpm, 686 points, std up to 7.788e+04 N")
     assert len(lines) == 4
     assert _folds_text([1452.5, 1450.6, 2195.1, 1791.0]) == "1452.5, 1450.6, 2195.1, 1791.0 rpm"
     assert _folds_text([2505.4, 2507.0, 2510.3, 2506.1, 3000.0]) == \
         "2505.4–2510.3 (4 folds), 3000.0 rpm"
+    assert _folds_text([1393.13, 1393.11, 1393.14]) == "1393.1 (3 folds) rpm"
     assert _folds_text([]) == "none"

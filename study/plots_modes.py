@@ -117,6 +117,19 @@ def _level_lines(ax, x, y, level, norm, cmap, lw=4.0):
     ax.add_collection(lc)
 
 
+def _order_ticks(orders, n_teeth: int, most: int = 40) -> list[int]:
+    """Rows of the order map to label: every mesh order kZ, then low orders (< Z/2) and
+    every few rows, each only if no labelled row is closer than ``len / most`` rows
+    (labels of a contiguous set would pile up)."""
+    gap = max(1, len(orders) // most)
+    ticks = [r for r, o in enumerate(orders) if o % n_teeth == 0]
+    rest = [r for r, o in enumerate(orders) if o < n_teeth // 2 or r % gap == 0]
+    for r in rest:
+        if all(abs(r - t) >= gap for t in ticks):
+            ticks.append(r)
+    return sorted(ticks)
+
+
 def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_teeth: int,
                    path: Path, quantity: str, title: str = "",
                    modes_hz: np.ndarray | None = None, dynamic_range_db: float = 60.0) -> Path:
@@ -145,9 +158,7 @@ def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_
         _level_lines(bx, rpm, o * rpm / 60.0, np.maximum(lv[:, r], top - dynamic_range_db),
                      norm, cmap, lw=2.0)
     labels = [order_label(o, n_teeth) for o in orders]
-    step = max(1, len(orders) // 40)
-    ticks = [r for r, o in enumerate(orders)
-             if r % step == 0 or o % n_teeth == 0 or o < n_teeth // 2]
+    ticks = _order_ticks(orders, n_teeth)
     ax.set_yticks(ticks)
     ax.set_yticklabels([labels[r] for r in ticks], fontsize=7)
     ax.set_ylim(-0.7, len(orders) - 0.3)

@@ -81,7 +81,9 @@ def forced_response_overlay(branches: list, labels: list[str], path: Path,
     ax.set_xlabel("shaft speed Ω (rpm)")
     ax.set_ylabel("std of dynamic mesh load (N)")
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    # below the axes: inside, the legend hides the impact bars along the bottom
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8,
+              frameon=False)
     ax.set_title(title or "parameter study (bars: impact ranges, thick = double-sided)")
     return save_figure(fig, path)
 

@@ -44,3 +44,16 @@ def test_plots_are_written(tmp_path):
     lv = np.random.default_rng(0).uniform(0, 60, (30, orders.size))
     p = plots.order_map_plot(rpm, orders, lv, 76, tmp_path / "m.png", "test dB", modes_hz=f)
     assert p.stat().st_size > 10_000
+
+
+def test_order_map_labels_do_not_pile_up():
+    """Contiguous set 0…12Z+12 (925 rows, Z = 76): every mesh order labelled, no two
+    labels closer than 925 // 40 = 23 rows; a sparse set keeps every row's label."""
+    from study.plots_modes import _order_ticks
+
+    orders = np.arange(925)
+    ticks = _order_ticks(orders, 76)
+    assert {76 * k for k in range(13)} <= {int(orders[t]) for t in ticks}
+    assert np.min(np.diff(ticks)) >= 23
+    sparse = np.array([0, 1, 2, 4, 74, 76, 78, 152, 228])
+    assert _order_ticks(sparse, 76) == list(range(sparse.size))

@@ -70,7 +70,7 @@ def _stability_lines(s: dict, stability: bool, attractors) -> list[str]:
     if not stability:
         return ["- stability: **not computed** (`[hbm] stability = false`): every point is "
                 "listed as stable without a check"]
-    kinds = ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in s["unstable_kinds"].items())
+    kinds = ", ".join(f"{kind_label(k)} {n}" for k, n in s["unstable_kinds"].items())
     return [f"- unstable points: {s['unstable_points']}" + (f" ({kinds})" if kinds else "")
             + " — Floquet exponents of the variational equation, every mode",
             *unstable_lines(s["unstable_segments"], attractors),
@@ -135,8 +135,8 @@ _NEAR = 2e-3
 
 
 def _winding_groups(segments: list[UnstableSegment]) -> list[list[UnstableSegment]]:
-    """Consecutive segments (branch order) that together span less than :data:`_NEAR`
-    of the speed and more than one of them: where the branch winds, one line."""
+    """Consecutive segments (branch order), grouped while together they span less than
+    :data:`_NEAR` of the speed: a group of several is where the branch winds (one line)."""
     groups: list[list[UnstableSegment]] = []
     for u in segments:
         if groups:

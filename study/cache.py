@@ -154,24 +154,30 @@ class StageCache:
         return None
 
     def store(self, stage: str, key: str, produce: Callable[[Path], None],
-              info: dict | None = None, comm: Any = None, elapsed: float = 0.0) -> Path:
+              info: dict | None = None, comm: Any = None,
+              elapsed: float | None = 0.0) -> Path:
         """Run ``produce(folder)`` in a temporary folder, checksum, and move into place.
 
         The manifest records ``seconds``: the time of ``produce`` plus ``elapsed``, the
         seconds already spent computing what it writes (a continuation run before the
-        call), so that a later reuse knows what the entry cost (:meth:`seconds`).
+        call), so that a later reuse knows what the entry cost (:meth:`seconds`);
+        ``elapsed=None``: the cost is not known (a continuation resumed from an earlier
+        process), and the manifest says so (``seconds`` null).
 
         With ``comm`` (a :class:`study.parallel.World`) the call is collective: rank 0
         creates the folder, every rank runs ``produce`` (which may be collective and
         should write each file from one rank), then rank 0 checksums and renames the
         entry while the others wait; every rank gets the entry's path.
         """
-        t0 = time.perf_counter() - elapsed
+        t0 = time.perf_counter() - (elapsed or 0.0)
+
+        def took() -> float | None:
+            return None if elapsed is None else time.perf_counter() - t0
         if comm is None or comm.size == 1:
             tmp = self._begin(stage, key)
             try:
                 produce(tmp)
-                return self._commit(stage, key, tmp, info, time.perf_counter() - t0)
+                return self._commit(stage, key, tmp, info, took())
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise
@@ -184,7 +190,7 @@ class StageCache:
             raise
         comm.barrier()
 
-        seconds = time.perf_counter() - t0
+        seconds = took()
 
         def commit() -> Path:
             try:

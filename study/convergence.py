@@ -158,8 +158,10 @@ def _run_one(setting: Setting, scene: Scene, out: Path, cache_dir: Path, timings
         res = pipe.run(until="hbm")
     except (SolverError, ConvergenceError) as exc:
         logger.error("setting %s: %s", setting.label, exc)
-        row.status = "solver failure"
+        row.status, row.note = "solver failure", str(exc)
         row.stages = dict(pipe.stages)
+        partial = getattr(getattr(exc, "result", None), "branch", None)
+        row.points = 0 if partial is None else len(partial)
         return row
     res.scene = scene
     timings.record(pipe)

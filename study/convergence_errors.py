@@ -74,6 +74,7 @@ class Row:
     housing_err: float | None = None
     housing_metric: str = ""
     recommended: bool = False
+    note: str = ""                     # why the setting failed (status != "ok")
     result: Any = field(default=None, repr=False)
     housing: Any = field(default=None, repr=False)
 

@@ -102,6 +102,15 @@ def recommendation_text(result: ConvergenceResult) -> str:
             "no other value within tolerance: the reference"
         lines.append(f"- {knob} = {_num(r.setting.value)} (cost {cost_text(r)}, max error "
                      f"{(r.max_err or 0.0):.2e}; {why})")
+    for knob in dict.fromkeys(r.setting.knob for r in result.rows):
+        if knob not in result.recommendation:
+            lines.append(f"- {knob}: none — its reference setting failed, so no errors "
+                         "were computed (below)")
+    failed = [r for r in result.rows if r.status != "ok"]
+    if failed:
+        lines += ["", "Failed settings (their points are in `runs/<setting>/results.h5`):", ""]
+        lines += [f"- {r.setting.label}: {r.status}, {r.points} points: {r.note}"
+                  for r in failed]
     ov = result.overrides()
     if ov:
         lines += ["", "As scene overrides: " + " ".join(

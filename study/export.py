@@ -54,13 +54,22 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     logger.info("wrote %s", result.results)
     comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
                    result.nvh)
-    if housing and result.rom is not None and result.scene.outputs.housing_field:
-        fields = fe_stages.housing_fields(result)
-        result.figures += fields
-        if figures and "housing" in result.scene.outputs.plots:
-            comm.root_call(_render, result, fields)
+    if housing:
+        write_housing(result, figures)
     if figures:
         comm.root_call(_figures, result)
+
+
+def write_housing(result, figures: bool = True) -> None:
+    """The housing fields the scene asks for (FE scenes, ``[outputs] housing_field_rpm``)
+    and, with ``figures`` and the ``housing`` plot, their renderings; collective under
+    mpirun (rank 0 writes)."""
+    if result.rom is None or not result.scene.outputs.housing_field:
+        return
+    fields = fe_stages.housing_fields(result)
+    result.figures += fields
+    if figures and "housing" in result.scene.outputs.plots:
+        world().root_call(_render, result, fields)
 
 
 def _render(result, fields: list[Path]) -> None:

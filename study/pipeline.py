@@ -267,7 +267,7 @@ class Pipeline:
     def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
         """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
         from hbm import trace
-        from study.results import Checkpointer, read_branch
+        from study.results import Checkpointer, read_branch, stored_key
 
         key = self.keys["hbm"] = self.hbm_key()
         hit = self.cache.lookup("hbm", key)
@@ -279,7 +279,7 @@ class Pipeline:
         c = self.scene.continuation
         lo, hi = c.speed
         span = hi - lo
-        resume = None
+        resume, same = None, True
         results = self.out / "results.h5"
         rkey = self.keys["hbm_resume"] = self.hbm_resume_key()
         if self.resume:
@@ -296,6 +296,13 @@ class Pipeline:
             else:
                 logger.info("resuming from point %d at %.6g rpm (%s)", len(resume),
                             resume.rpm[-1], resume.status)
+                same = stored_key(results, "stage_key_hbm") == key
+                if not same:    # steps/tolerance changed: go on with this call's step
+                    resume = dataclasses.replace(resume, next_step=0.0)
+                    logger.warning("--resume with other continuation steps or tolerance than "
+                                   "the partial run: going on with continuation.step_rpm = "
+                                   "%g; the curve is not cached (a fresh run with these "
+                                   "settings traces other points)", c.step)
         bar = ProgressBar(lo, hi, self.progress)
         ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
         t = time.perf_counter()
@@ -321,7 +328,9 @@ class Pipeline:
                 from study.results import write_branch
                 with h5py.File(tmp / "branch.h5", "w") as f:
                     write_branch(f, br)
-            self.cache.store("hbm", key, produce, {"points": len(br)}, elapsed=dt)
+            if resume is None or same:  # a resumed entry's cost is unknown (None)
+                self.cache.store("hbm", key, produce, {"points": len(br)},
+                                 elapsed=dt if resume is None else None)
         return br, how
 
     # ------------------------------------------------------------------ all

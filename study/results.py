@@ -27,7 +27,8 @@ from geometry.files import atomic_write
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "Checkpointer", "versions"]
+__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "stored_key", "Checkpointer",
+           "versions"]
 
 #: Version of the results.h5 layout (attribute ``/format_version``).
 FORMAT_VERSION = 1
@@ -168,6 +169,16 @@ def write_results(path: str | Path, scene, problem, branch, *, settings: dict | 
     with atomic_write(path) as tmp, h5py.File(tmp, "w") as f:
         write_static(f, scene, problem, extra, stage_keys)
         write_branch(f, branch, settings)
+
+
+def stored_key(path: str | Path, name: str = "stage_key_hbm") -> str:
+    """The stage key ``name`` recorded in the ``/scene`` attributes of ``path`` ("" when
+    the file or the attribute is missing)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return str(f["scene"].attrs.get(name, ""))
+    except (OSError, KeyError):
+        return ""
 
 
 def read_branch(path: str | Path, problem=None, expected_key: str | None = None,

@@ -61,7 +61,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     from study.errors import SceneError
     from study.parallel import mark_collective
     from study.pipeline import Pipeline, RunResult
-    from study.results import read_branch
+    from study.results import read_branch, stored_key
     from study.scene_load import load_scene
 
     scene = load_scene(scene_path, overrides)
@@ -73,7 +73,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     if not path.exists():
         raise mark_collective(FileNotFoundError(f"{path}: no such file; run `geardyn run` "
                                                 "with this scene and --out first"))
-    br = read_branch(path, problem, expected_key=key)
+    br = read_branch(path, problem, expected_key=key) if stored_key(path) == key else None
     if br is None:
         raise mark_collective(SceneError(f"{path} holds no continuation of this scene's "
                                          "inputs (model, harmonic set, speed range, --set "
@@ -89,5 +89,9 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
         res.figures += plots.draw_all(res)
         write_report_files(res)
+    if scene.scene.kind == "fe" and scene.outputs.housing_field:
+        from study.export import write_housing
+        res.mesh_dir = pipe.run_mesh()
+        write_housing(res)                          # collective: the FE model on every rank
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

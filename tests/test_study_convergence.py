@@ -205,6 +205,22 @@ def test_a_stage_cached_by_a_plain_run_keeps_its_cost(tmp_path):
 
 # --------------------------------------------------------------------------- pump
 
+def test_failed_settings_are_said_with_their_points(tmp_path):
+    """Settings whose continuation stops early keep their partial points in the table,
+    and convergence.md says why each failed and that the knob has no recommendation
+    (the row read 'points 0', the Recommendation section was empty)."""
+    from study.runs import SolverError
+
+    with pytest.raises(SolverError, match="settings failed: harmonics=4, harmonics=8"):
+        run_convergence(SDOF, tmp_path / "o", knobs={"harmonics": [4, 8]}, only=["harmonics"],
+                        overrides={"continuation.max_points": 10}, cache_dir=tmp_path / "c")
+    md = (tmp_path / "o" / "convergence.md").read_text()
+    assert "- harmonics: none — its reference setting failed" in md
+    for h in (4, 8):
+        assert f"- harmonics={h}: solver failure, 10 points: continuation stopped" in md
+        assert f"| harmonics | {h} | n/a | 10 |" in md
+
+
 @pytest.mark.slow
 @pytest.mark.fem
 def test_pump_convergence(tmp_path):

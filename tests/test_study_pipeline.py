@@ -257,6 +257,13 @@ def test_kill_and_resume_gives_the_same_curve(tmp_path):
             np.testing.assert_allclose(b["continuation"][k][()], a["continuation"][k][()],
                                        rtol=1e-9, atol=0)
         np.testing.assert_allclose(b["grazing/rpm"][()], a["grazing/rpm"][()], rtol=1e-9)
+    # the resumed curve is the uninterrupted one, so it is cached, but its cost is unknown
+    # (a convergence study must not take the resumed part's seconds for the whole)
+    man = [json.loads(m.read_text()) for m in (tmp_path / "c2" / "hbm").glob("*/manifest.json")]
+    assert len(man) == 1 and man[0]["seconds"] is None
+    p = _geardyn("run", str(SDOF), "--out", str(tmp_path / "again"), "--cache",
+                 str(tmp_path / "c2"), *sets)
+    assert "stage hbm    cached" in p.stderr
 
 
 def test_exit_codes(tmp_path):
@@ -448,6 +455,12 @@ def test_incomplete_curve_is_plotted_and_resumed_after_a_step_change(tmp_path):
     np.testing.assert_array_equal(rpm[:30], first)
     assert rpm[-1] == pytest.approx(2300.0)
     assert "incomplete" not in (out / "report.md").read_text()
+    # steps changed on resume: this call's step is used, and the curve is not cached under
+    # the new settings (a fresh run with them traces other points)
+    assert "going on with continuation.step_rpm = 4" in p.stderr
+    fresh = _geardyn("run", str(SDOF), "--out", str(tmp_path / "fresh"), *base, "--set",
+                     "continuation.step_rpm=4", "--set", "continuation.tolerance=1e-9")
+    assert "stage hbm    ran" in fresh.stderr, fresh.stderr[-2000:]
     # a changed physical input is not resumed
     p = _geardyn("run", str(SDOF), "--out", str(out), *base, "--resume", "--set",
                  "load.torque_Nm=3.0")
@@ -465,4 +478,5 @@ def test_report_without_matching_results_names_the_cause(sdof_run, tmp_path):
                  check=False)
     assert p.returncode == 2, p.stderr[-2000:]
     assert "holds no continuation of this scene's inputs" in p.stderr
+    assert "not resuming" not in p.stderr          # a report resumes nothing
     assert "Traceback" not in p.stderr

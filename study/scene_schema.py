@@ -210,9 +210,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "plots": Spec("strs", list(PLOT_NAMES),
                       doc="plots to draw, among " + ", ".join(PLOT_NAMES)),
         "time_series_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
-                              doc="speeds for time series/spectra (default: most loaded point)"),
+                              doc="speeds for time series/spectra, within the speed range "
+                              "(default: most loaded point)"),
         "housing_field_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
-                                doc="speeds for the XDMF housing field (FE)"),
+                                doc="speeds for the XDMF housing field (FE), within the "
+                                "speed range; the nearest point is used"),
         "report": Spec("bool", True, doc="write report.md"),
         "attractor_transient_turns": _f(
             0, "", 0, 100_000, kind="int",

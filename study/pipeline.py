@@ -400,7 +400,8 @@ class Pipeline:
         export(result, figures=(until == "export"))
         self._log_stage("export", StageStatus("ran", seconds=time.perf_counter() - t))
         result.seconds = time.perf_counter() - t0
-        ran = [k for k, v in self.stages.items() if v in ("ran", "resumed")]
+        ran = [k if v == "ran" else f"{k} (resumed)" for k, v in self.stages.items()
+               if v in ("ran", "resumed")]
         cached = [k for k, v in self.stages.items() if v == "cached"]
         logger.info("done in %.2f s; ran: %s; from cache: %s", result.seconds,
                     ", ".join(ran) or "-", ", ".join(cached) or "-")

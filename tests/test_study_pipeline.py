@@ -250,7 +250,7 @@ def test_kill_and_resume_gives_the_same_curve(tmp_path):
     assert n_saved == saved
     p = _geardyn("run", str(SDOF), "--out", str(out), "--cache", str(tmp_path / "c2"),
                  "--resume", *sets)
-    assert "resuming from point" in p.stderr
+    assert "resuming from point" in p.stderr and "ran: hbm (resumed), export" in p.stderr
     with h5py.File(ref / "results.h5", "r") as a, h5py.File(out / "results.h5", "r") as b:
         assert b["continuation"].attrs["status"] == "completed"
         for k in ("rpm", "mesh_load_std", "contact"):

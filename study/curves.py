@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 __all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
-           "fold_pairs", "unstable_segments", "kind_label", "is_unstable",
+           "fold_pairs", "unstable_segments", "kind_name", "kind_label", "is_unstable",
            "class_intervals", "impact_intervals", "merge_intervals", "impact_span",
            "contact_windows", "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
@@ -65,6 +65,15 @@ class FoldPair:
     def centre(self) -> float:
         """Mid speed of the pair (rpm)."""
         return 0.5 * (self.rpm[0] + self.rpm[1])
+
+
+def kind_name(code: int) -> str:
+    """The :data:`hbm.stability.KINDS` name of a leading-exponent code (1 fold, 2 period
+    doubling, 3 Neimark–Sacker; another code, e.g. read from an old file,
+    ``"unclassified"``)."""
+    from hbm.stability import KINDS
+
+    return KINDS[code] if 1 <= code < len(KINDS) else "unclassified"
 
 
 def is_unstable(kind: str) -> bool:
@@ -313,8 +322,6 @@ def unstable_segments(rpm: np.ndarray, std: np.ndarray, stable: np.ndarray,
         (0 stable, 1 fold, 2 period doubling, 3 Neimark–Sacker); an unstable point
         with another code is ``"unclassified"``.
     """
-    from hbm.stability import KINDS
-
     rpm = np.asarray(rpm, dtype=float)
     std = np.asarray(std, dtype=float)
     bad = ~np.asarray(stable, dtype=bool)
@@ -332,7 +339,7 @@ def unstable_segments(rpm: np.ndarray, std: np.ndarray, stable: np.ndarray,
         while j + 1 < n and bad[j + 1] and kind[j + 1] == kind[i]:
             j += 1
         seg = slice(i, j + 1)
-        name = KINDS[kind[i]] if 1 <= kind[i] < len(KINDS) else "unclassified"
+        name = kind_name(int(kind[i]))
         out.append(UnstableSegment(name, (float(rpm[seg].min()), float(rpm[seg].max())),
                                    j - i + 1, float(std[seg].max()), (i, j)))
         i = j + 1
@@ -365,14 +372,11 @@ def summarize_curve(rpm, std, contact, grazing, speed_range, complete: bool = Tr
 def _point_kinds(stable, kind, n: int) -> list[str]:
     """Per point, the leading Floquet kind of an unstable orbit ("" when stable or when
     no verdicts are given)."""
-    from hbm.stability import KINDS
-
     if stable is None:
         return [""] * n
     bad = ~np.asarray(stable, dtype=bool)
     code = np.asarray(kind, dtype=int)
-    return [("" if not b else KINDS[c] if 1 <= c < len(KINDS) else "unclassified")
-            for b, c in zip(bad, code, strict=True)]
+    return [kind_name(int(c)) if b else "" for b, c in zip(bad, code, strict=True)]
 
 
 def summarize_branch(branch) -> CurveSummary:

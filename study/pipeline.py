@@ -285,6 +285,10 @@ class Pipeline:
         if self.resume:
             resume = read_branch(results, problem, expected_key=rkey,
                                  key_name="stage_key_hbm_resume")
+            if resume is None and stored_key(results, "stage_key_hbm_resume") not in ("", rkey):
+                logger.warning("%s was written for another model, harmonic set, speed range "
+                               "or code version (only the continuation steps/tolerance may "
+                               "change); not resuming from it", results)
             if resume is not None and len(resume) and np.max(resume.residual) >= c.tolerance:
                 logger.warning("--resume: the points in %s have residuals up to %.3g, above "
                                "continuation.tolerance = %g; starting from %g rpm", results,

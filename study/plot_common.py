@@ -38,18 +38,16 @@ def save_figure(fig, path: Path) -> Path:
     return path
 
 
-def contact_intervals(rpm: np.ndarray, contact: np.ndarray,
-                      grazing=()) -> dict[int, list[tuple[float, float]]]:
-    """Merged speed intervals (rpm) with impacts, per class, bounded by the grazing
-    speeds (:func:`study.curves.class_intervals`)."""
-    return class_intervals(rpm, contact, grazing)
+def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
+    grazing speeds (:func:`study.curves.class_intervals`)."""
+    return class_intervals(branch.rpm, branch.contact, [g.rpm for g in branch.grazing])
 
 
-def shade_impacts(ax, rpm: np.ndarray, contact: np.ndarray,
-                  alpha: tuple[float, float] = (0.18, 0.25), grazing=()) -> None:
-    """Shade the speed ranges with single- and double-sided impacts (``alpha`` of each
-    class; bounded by the ``grazing`` speeds), each class labelled once."""
-    for c, iv in contact_intervals(rpm, contact, grazing).items():
+def shade_impacts(ax, branch, alpha: tuple[float, float] = (0.18, 0.25)) -> None:
+    """Shade the speed ranges of a branch with single- and double-sided impacts
+    (``alpha`` of each class), each class labelled once."""
+    for c, iv in contact_intervals(branch).items():
         col, name = CLASS_COLOURS[c]
         for j, (a, b) in enumerate(iv):
             ax.axvspan(a, b, color=col, alpha=alpha[c - 1], lw=0,

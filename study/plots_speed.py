@@ -24,7 +24,7 @@ __all__ = ["forced_response", "forced_response_overlay", "erp_plot", "accelerome
 def _curve(ax, branch, colour="k", label=None, shade=True):
     rpm, std, stable = branch.rpm, branch.mesh_load_std, branch.stable.astype(bool)
     if shade:
-        shade_impacts(ax, rpm, branch.contact, grazing=[g.rpm for g in branch.grazing])
+        shade_impacts(ax, branch)
     # split into runs of equal stability; consecutive runs share their end point
     start = 0
     first = True
@@ -68,8 +68,7 @@ def forced_response_overlay(branches: list, labels: list[str], path: Path,
     for j, (br, lab) in enumerate(zip(branches, labels, strict=True)):
         col = colours[j % len(colours)]
         _curve(ax, br, colour=col, label=lab, shade=False)
-        for c, iv in contact_intervals(br.rpm, br.contact,
-                                       [g.rpm for g in br.grazing]).items():
+        for c, iv in contact_intervals(br).items():
             y = 0.02 + 0.025 * j
             for a, b in iv:
                 ax.plot([a, b], [y, y], transform=ax.get_xaxis_transform(), color=col,
@@ -95,8 +94,7 @@ def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.nd
     ``n_orders`` orders with the highest peak level; impact ranges shaded."""
     rpm = branch.rpm
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    shade_impacts(ax, rpm, branch.contact, alpha=(0.15, 0.15),
-                  grazing=[g.rpm for g in branch.grazing])
+    shade_impacts(ax, branch, alpha=(0.15, 0.15))
     ax.plot(rpm, erp_total_db, "k", lw=1.8, label="total")
     orders = np.asarray(orders)
     cand = np.flatnonzero(orders > 0)

@@ -9,7 +9,7 @@ import numpy as np
 from geometry.files import atomic_write
 from hbm.stability import KINDS
 from study.attractors import attractor_line
-from study.curves import UnstableSegment, kind_label, unstable_segments
+from study.curves import UnstableSegment, kind_label, kind_name, unstable_segments
 from study.fields import velocity_level_db
 from study.plot_common import contact_intervals, order_label
 
@@ -34,14 +34,10 @@ def summary(result) -> dict:
         "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
         "unstable_segments": unstable_segments(br.rpm, br.mesh_load_std, br.stable,
                                                br.floquet_kind),
-        "intervals": contact_intervals(br.rpm, br.contact, [g.rpm for g in br.grazing]),
-        "max_std_kind": "" if br.stable[i] else _kind_name(int(br.floquet_kind[i])),
+        "intervals": contact_intervals(br),
+        "max_std_kind": "" if br.stable[i] else kind_label(kind_name(int(br.floquet_kind[i]))),
         "max_stable": _largest_stable(br),
     }
-
-
-def _kind_name(code: int) -> str:
-    return kind_label(KINDS[code]) if 1 <= code < len(KINDS) else "unclassified"
 
 
 def _largest_stable(br) -> tuple[float, float] | None:

@@ -201,9 +201,7 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
                 return None
             if expected_key is not None and \
                     f["scene"].attrs.get(key_name, "") != expected_key:
-                logger.warning("%s was written for another model, harmonic set, speed range "
-                               "or code version (only the continuation steps/tolerance may "
-                               "change); not resuming from it", p)
+                logger.debug("%s: %s differs; not read", p, key_name)   # the caller says why
                 return None
             c = f["continuation"]
             arrays = {k: c[k][()] for k in _branch_array_fields() if k in c}

@@ -27,7 +27,7 @@ def variants_table(results: list) -> str:
         br = r.branch
         i = int(np.argmax(br.mesh_load_std))
         gz = ", ".join(f"{g.rpm:.1f}" for g in sorted(br.grazing, key=lambda g: g.rpm)) or "–"
-        iv = contact_intervals(br.rpm, br.contact, [g.rpm for g in br.grazing])
+        iv = contact_intervals(br)
         imp = "; ".join(f"{'SS' if c == 1 else 'DS'} {a:.0f}–{b:.0f}"
                         for c, ivs in iv.items() for a, b in ivs) or "none"
         st = ", ".join(f"{k}:{v.split(' ')[0]}" for k, v in r.stages.items()
@@ -61,7 +61,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     from study.errors import SceneError
     from study.parallel import mark_collective
     from study.pipeline import Pipeline, RunResult
-    from study.results import read_branch, stored_key
+    from study.results import read_branch
     from study.scene_load import load_scene
 
     scene = load_scene(scene_path, overrides)
@@ -73,7 +73,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     if not path.exists():
         raise mark_collective(FileNotFoundError(f"{path}: no such file; run `geardyn run` "
                                                 "with this scene and --out first"))
-    br = read_branch(path, problem, expected_key=key) if stored_key(path) == key else None
+    br = read_branch(path, problem, expected_key=key)
     if br is None:
         raise mark_collective(SceneError(f"{path} holds no continuation of this scene's "
                                          "inputs (model, harmonic set, speed range, --set "

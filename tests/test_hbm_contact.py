@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hbm.contact import dead_zone, dead_zone_stiffness
+from hbm.elements.contact_law import dead_zone, dead_zone_stiffness
 
 
 def test_dead_zone_by_hand():

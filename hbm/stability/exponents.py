@@ -116,7 +116,7 @@ def line_of_action_operator(problem: HBMProblem, jf: np.ndarray, lam: complex, w
         return t, _blocks_times(blocks[2][0, 0], blocks[3][0, 0], jf)
     nr = jf.shape[0] // ne
     out = []
-    for x, y in ((blocks[0], blocks[1]), (blocks[2], blocks[3]))[:2 if derivative else 1]:
+    for x, y in zip(blocks[0::2], blocks[1::2], strict=True):
         t = np.zeros(jf.shape, dtype=np.result_type(x, y, jf))
         for e in range(ne):
             for f in range(ne):

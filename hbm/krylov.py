@@ -218,8 +218,10 @@ class LoaJacobian(_KrylovSolvable):
         if self.scales is not None:
             vv = vv * self.scales[:, None]
         x = hs.synthesize(vv)
-        a = hs.analyse(np.stack([st.apply(xe) for st, xe in zip(self.stiffness, x,
-                                                                strict=True)]))
+        ys = [st.apply(xe) for st, xe in zip(self.stiffness, x, strict=True)]
+        a = hs.analyse(ys[0][None] if ne == 1 else np.stack(ys))
+        if ne == 1 and self.scales is None:
+            return v + complex_mul(self.h[0, 0], a[0])
         out = np.empty(ne * nr)
         for e in range(ne):
             acc = complex_mul(self.h[e, 0], a[0])

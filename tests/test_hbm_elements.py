@@ -16,7 +16,8 @@ import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
 import hbm
-from hbm.stability import stability
+from hbm.post.time_response import integrate
+from hbm.stability import floquet_exponents, stability
 
 RPM = hbm.RPM_TO_RAD_S
 
@@ -98,7 +99,8 @@ def _damping(zeta: float = 0.05) -> np.ndarray:
     return MASS @ phi @ np.diag(2 * zeta * np.sqrt(w2)) @ phi.T @ MASS      # eq. (19)
 
 
-def _two_meshes(h: int, ratio=1, n_time=None, condensation: str = "loa"):
+def _two_meshes(h: int, ratio=1, n_time=None, condensation: str = "loa",
+                forcing: bool = True):
     """Two masses: mesh A between mass 1 and the ground (one tooth, Delta_A = x1), mesh B
     between the masses (two teeth: twice the shaft frequency, Delta_B = x2 - x1), each with
     its parametric stiffness, TE and backlash; a static load through both, a harmonic
@@ -107,7 +109,8 @@ def _two_meshes(h: int, ratio=1, n_time=None, condensation: str = "loa"):
     b = hbm.GearMesh(GB, 2, {0: KB, 1: 0.25 * KB}, te={1: 0.02}, backlash=0.5, name="B")
     hs = hbm.HarmonicSet(range(h + 1), ratio=ratio, n_time=n_time)
     return hbm.HBMProblem(hbm.LinearSystem(MASS, _damping(), np.zeros((2, 2))), [a, b],
-                          hbm.Excitation(2, constant={0: F0, 1: F1}), hs, condensation)
+                          hbm.Excitation(2, constant={0: F0, 1: F1} if forcing else {0: F0}),
+                          hs, condensation)
 
 
 def _equations(w: float):
@@ -171,6 +174,24 @@ def test_two_meshes_against_time_integration(w, contact):
         assert st[e].mesh_load_std == pytest.approx(ref[e], rel=1e-4)
     assert hbm.full_residual(pb, pt) < 1e-9
     assert hbm.shooting_error(pb, pt, rtol=1e-10).relative < 1e-3
+    # hbm's own time integration with every element (modal form) settles on the same
+    # orbit: its load std on 64 samples per mesh period is the HBM's on the same instants
+    for e in range(2):
+        tr = integrate(pb, pt.rpm, pt, transient=60, window=2, rtol=1e-10, element=e)
+        same = hbm.time_series(pb, pt, samples_per_period=64 * (e + 1), element=e).load
+        assert tr.std == pytest.approx(np.std(same), rel=1e-5)
+        assert tr.envelope.peak_load.size == 2 * (e + 1)        # base periods of 2 turns
+
+
+def test_two_meshes_quasi_static_limit():
+    """Omega -> 0 with the static load only: the harmonic balance is the pointwise
+    statics of both meshes (hbm.quasi_static_delta, Newton on the two equations)."""
+    pb = _two_meshes(20, forcing=False)
+    qs = hbm.quasi_static_delta(pb)
+    assert qs.shape == (2, pb.harmonics.n_time)
+    pt = pb.solve(1e-8 / RPM, tol=1e-13)
+    d = (pb.E @ pb.delta_real(pt.unknowns).T).T
+    assert np.max(np.abs(d - qs)) < 1e-9 * np.max(np.abs(qs))
 
 
 def _fd_exponent(pb, pt, eps: float = 1e-6) -> tuple[float, np.ndarray]:
@@ -211,6 +232,11 @@ def test_two_meshes_floquet_verdict_against_a_monodromy_of_the_time_integration(
             if br.floquet_kind[i] == 2:             # period doubling: a multiplier < -1
                 assert top.real < 0 and abs(top.imag) < 1e-3 * abs(top)
     assert {1, 2} <= kinds
+    # Hill's method with both meshes (T.9 exact root added) at a stable impacting point
+    i = int(np.flatnonzero(br.stable & (br.element(1).contact > 0))[0])
+    pt = pb.point(br.unknowns[i], br.omega[i])
+    assert floquet_exponents(pb, pt, method="hill")[0] == pytest.approx(
+        br.floquet_max_real[i], rel=0.05)
 
 
 # ------------------------------------------------------------- a fundamental below the shaft

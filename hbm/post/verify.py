@@ -236,32 +236,43 @@ def quasi_static_delta(problem: HBMProblem) -> np.ndarray:
 
 
 def _static_newton(problem: HBMProblem, h0: np.ndarray, d0: np.ndarray, samples: list,
-                   tol: float = 1e-14, max_iter: int = 100) -> np.ndarray:
-    """Newton on ``z + H0 (f(z) - K_bar z) = d0`` (E equations) from ``z = d0``, each step
-    halved until the residual norm decreases (the force is piecewise linear)."""
-    els, kbar = problem.elements, problem.kbar
-
-    def residual(z):
-        f = np.array([el.load(np.array([zi]), s)[0] for el, zi, s in
-                      zip(els, z, samples, strict=True)])
-        return z + h0 @ (f - kbar * z) - d0
-
-    z = d0.copy()
-    r = residual(z)
+                   tol: float = 1e-14, max_iter: int = 50) -> np.ndarray:
+    """``z + H0 f'(z) = d0`` (E equations, ``f' = f - K_bar z``): Newton with halving steps
+    from the elements' linear laws (law 0, one step) to their own (law 1), through
+    intermediate laws when a stage fails (the force is only piecewise linear)."""
+    els = problem.elements
     scale = max(float(np.max(np.abs(d0))), float(np.max(problem.length_scales)))
-    for _ in range(max_iter):
-        if np.linalg.norm(r) <= tol * scale:
-            return z
-        k = np.array([el.load_stiffness(np.array([zi]), s)[0] for el, zi, s in
-                      zip(els, z, samples, strict=True)])
-        step = np.linalg.solve(np.eye(z.size) + h0 * (k - kbar)[None, :], -r)
-        alpha = 1.0
-        while alpha > 1e-6:
-            zn = z + alpha * step
-            rn = residual(zn)
-            if np.linalg.norm(rn) < np.linalg.norm(r):
-                break
-            alpha *= 0.5
-        z, r = zn, rn
-    raise ArithmeticError(f"quasi_static_delta: Newton did not converge (residual "
-                          f"{np.linalg.norm(r):.3g} m)")
+
+    def evaluate(z, law):
+        out = [el.force(np.array([zi]), s, law, False) for el, zi, s in
+               zip(els, z, samples, strict=True)]
+        r = z + h0 @ np.array([f[0] for f, _ in out]) - d0
+        return r, np.eye(z.size) + h0 * np.array([st.samples[0] for _, st in out])[None, :]
+
+    def solve(z, law):
+        r, j = evaluate(z, law)
+        for _ in range(max_iter):
+            if np.linalg.norm(r) <= tol * scale:
+                return z
+            step = np.linalg.solve(j, -r)
+            alpha = 1.0
+            while True:
+                zn = z + alpha * step
+                rn, jn = evaluate(zn, law)
+                if np.linalg.norm(rn) < np.linalg.norm(r) or alpha < 1e-6:
+                    break
+                alpha *= 0.5
+            z, r, j = zn, rn, jn
+        raise ArithmeticError(f"quasi_static_delta: Newton did not converge at law {law} "
+                              f"(residual {np.linalg.norm(r):.3g} m)")
+
+    z = solve(d0.copy(), 0.0)
+    laws, done = [1.0], 0.0
+    while laws:
+        try:
+            z, done = solve(z, laws[0]), laws.pop(0)
+        except (ArithmeticError, np.linalg.LinAlgError):
+            if laws[0] - done < 1e-3:
+                raise
+            laws.insert(0, 0.5 * (done + laws[0]))
+    return z

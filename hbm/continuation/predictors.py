@@ -88,7 +88,7 @@ def _tangent_predictor(ctx, rec, y, t, ds, conds):
 
 def _corner_predictor(ctx, rec, y, t, ds, conds):
     """Spherical corrector past a corner of the piecewise-linear branch
-    (:func:`hbm.corrector._corner_step`, radius at most ``CORNER_RADIUS``)."""
+    (:func:`hbm.continuation.corrector.corner_step`, radius at most ``CORNER_RADIUS``)."""
     travel = y - ctx.state(rec, -2) if len(rec) >= 2 else t
     yn, it, res, jx, jw = corner_step(ctx.evaluate, y, t, travel, min(ds, CORNER_RADIUS),
                                        ctx.tol, ctx.max_iter, conds)

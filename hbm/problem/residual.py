@@ -459,7 +459,7 @@ class HBMProblem:
     def solve(self, rpm: float, x0: np.ndarray | None = None, tol: float = 1e-8,
               max_iter: int = 40) -> Point:
         """Newton corrector at fixed speed with scaled unknowns and equations; on failure the
-        contact-law homotopy, then damped Newton (:func:`hbm.fixed_speed.solve`).
+        contact-law homotopy, then damped Newton (:func:`hbm.problem.fixed_speed.solve`).
 
         Parameters
         ----------

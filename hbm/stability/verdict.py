@@ -55,7 +55,7 @@ class Stability:
     error
         Estimated error of ``max_real`` from the time step (1/s).
     basis
-        Dominant subspace of the monodromy (see :class:`hbm.monodromy.MonodromyResult`).
+        Dominant subspace of the monodromy (see :class:`hbm.stability.monodromy.MonodromyResult`).
     """
 
     max_real: float

@@ -158,6 +158,17 @@ def test_pyproject_declares_packages_and_entry_point() -> None:
     assert (ROOT / "docs" / "theory.md").is_file()
 
 
+def test_the_continuation_imports_no_problem() -> None:
+    """hbm/continuation follows any residual with its tangent (its protocols): it imports
+    no problem, element, stability or post-processing module, only linear algebra."""
+    graph = module_graph(ROOT, "hbm")
+    allowed = {"hbm.newton", "hbm.krylov", "hbm.units", "hbm.records"}
+    for mod, edges in graph.items():
+        if mod.startswith("hbm.continuation."):
+            outside = {m for m in edges if not m.startswith("hbm.continuation.")}
+            assert outside <= allowed, f"{mod} imports {sorted(outside - allowed)}"
+
+
 def test_hbm_imports_without_the_fe_stack() -> None:
     code = (
         "import sys, hbm\n"

@@ -73,7 +73,8 @@ class PointMonitor:
         pb = self.problem
         return {"harmonics": tuple(pb.harmonics.indices), "condensation": pb.condensation,
                 "element_names": tuple(el.name for el in pb.elements),
-                "statistics": self.statistics}
+                "statistics": self.statistics,
+                "element_statistics": tuple(el.statistic_names() for el in pb.elements)}
 
     def start(self) -> None:
         if self._process and self.worker is None:
@@ -140,10 +141,10 @@ class PointMonitor:
             fill = -1 if spec.integer else float("nan")
             values = [d.get(name, fill) for d in per_element]
             if spec.per_period:
-                width = max(np.size(v) for v in values)
-                values = [np.pad(np.atleast_1d(v), (0, width - np.size(v)),
-                                 constant_values=-1) if np.size(v) < width else v
-                          for v in values]
+                values = [np.atleast_1d(v) for v in values]
+                width = max(v.size for v in values)
+                values = [np.pad(v, (0, width - v.size), constant_values=-1)
+                          if v.size < width else v for v in values]
             out[name] = np.array(values)
         out["coefficients"] = coefficients
         return out

@@ -15,6 +15,7 @@ half-written file. During the continuation the whole file is rewritten every
 """
 from __future__ import annotations
 
+import json
 import logging
 import platform
 from collections.abc import Callable
@@ -41,7 +42,8 @@ _BRANCH_ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newto
                   "margin_reverse", "ipp", "tangents")
 # Branch fields that are not per-point datasets of /continuation
 _META = {"harmonics", "condensation", "rpm_start", "rpm_end", "omega_scale", "grazing",
-         "folds", "status", "message", "next_step", "stats", "element_names"}
+         "folds", "status", "message", "next_step", "stats", "element_names",
+         "element_statistics"}
 
 
 def _branch_array_fields() -> tuple[str, ...]:
@@ -187,6 +189,8 @@ def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
     c.attrs["n_points"] = len(branch)
     if branch.n_elements > 1:
         c.attrs["elements"] = list(branch.element_names)
+        c.attrs["element_statistics"] = json.dumps([list(s) for s in
+                                                    branch.element_statistics])
     for k, v in (settings or {}).items():
         c.attrs[k] = v
     units = {"rpm": "rpm", "omega": "rad/s", "coefficients": "m", "mesh_load_std": "N",
@@ -269,7 +273,9 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
                         condensation=str(c.attrs["condensation"]),
                         rpm_start=float(c.attrs["rpm_start"]), rpm_end=float(c.attrs["rpm_end"]),
                         omega_scale=float(c.attrs["omega_scale"]), **arrays, stats=stats,
-                        element_names=tuple(names) or (_element_name(f),), grazing=grazing,
+                        element_names=tuple(names) or (_element_name(f),),
+                        element_statistics=tuple(tuple(x) for x in json.loads(
+                            c.attrs.get("element_statistics", "[]"))), grazing=grazing,
                         folds=[float(x) for x in f["folds/rpm"][()]],
                         status=str(c.attrs["status"]), message=str(c.attrs["message"]),
                         next_step=float(c.attrs["next_step"]))

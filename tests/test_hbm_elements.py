@@ -297,6 +297,29 @@ def test_the_registry_builds_elements_by_kind():
         hbm.elements.register(Other)
 
 
+def test_a_mesh_and_a_spring_in_one_table():
+    """Elements of different kinds: the branch's table holds the union of their
+    statistics (NaN, or -1 for integers, where a kind has none), each element's curve
+    only its own; the events are the mesh's."""
+    springs = hbm.CubicSpring(GB, linear=KB, cubic=0.3, name="spring")
+    mesh = hbm.GearMesh(GA, 1, {0: KA, 1: 0.2 * KA}, te={1: 0.05j}, backlash=1.0,
+                        name="mesh")
+    pb = hbm.HBMProblem(hbm.LinearSystem(MASS, _damping(), np.zeros((2, 2))),
+                        [mesh, springs], hbm.Excitation(2, constant={0: F0, 1: F1}),
+                        hbm.HarmonicSet(range(21)))
+    br = hbm.trace(pb, 0.2 / RPM, 1.5 / RPM, stability=False)
+    assert br.status == "completed"
+    assert np.all(np.isnan(br.stats["mesh_load_std"][:, 1]))
+    assert np.all(np.isnan(br.stats["force_std"][:, 0]))
+    assert np.all(br.stats["contact"][:, 1] == -1) and np.all(br.stats["ipp"][:, 1] == -1)
+    assert set(br.element(1)) == {"force_std", "force_max", "deflection_max", "coefficients"}
+    assert "force_std" not in br.element(0) and "mesh_load_std" in br.element(0)
+    assert br.grazing and all(g.element == 0 for g in br.grazing)
+    pt = pb.point(br.unknowns[-1], br.omega[-1])
+    d = (pb.E @ pb.delta_real(pt.unknowns).T).T[1]
+    assert br.element(1).deflection_max[-1] == pytest.approx(np.abs(d).max(), rel=1e-2)
+
+
 def _duffing(h: int, k3: float = 0.5, zeta: float = 0.05, force: float = 0.1):
     """x'' + 2 zeta x' + x + k3 x^3 = F cos(Omega t): a cubic spring (k1 = 1 moved into K')
     on a free unit mass."""

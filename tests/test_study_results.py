@@ -72,3 +72,4 @@ def test_two_elements_have_an_element_axis(tmp_path):
     back = read_branch(path, pb)
     _same(br, back)
     assert back.element(1).name == "half 1"
+    assert back.element_statistics == br.element_statistics

@@ -97,6 +97,9 @@ class Branch:
         element's curve with :meth:`element`.
     element_names
         The elements' labels.
+    element_statistics
+        Per element, the names of its own statistics (the others of the table are NaN or
+        -1 for it); empty: every element has every statistic.
     tangents
         Scaled unit tangents (n_points, n_unknowns + 1), for resuming.
     grazing, folds
@@ -151,6 +154,7 @@ class Branch:
     stability_consistent: np.ndarray
     stats: dict[str, np.ndarray] = field(default_factory=dict)
     element_names: tuple[str, ...] = ()
+    element_statistics: tuple[tuple[str, ...], ...] = ()
     loop: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     loops: list = field(default_factory=list)
     grazing: list = field(default_factory=list)
@@ -175,12 +179,15 @@ class Branch:
         return len(self.element_names)
 
     def element(self, e: int = 0) -> ElementCurve:
-        """Element ``e``'s curve: its statistics per point (each array's first axis), its
-        label and the events located on it."""
+        """Element ``e``'s curve: its own statistics per point (each array's first axis)
+        and the coefficients of its deflection, its label and the events located on it."""
         if not 0 <= e < max(self.n_elements, 1):
             raise IndexError(f"branch.element({e}): the branch has {self.n_elements} "
                              "elements")
-        values = {k: (v[:, e] if v.ndim >= 2 else v) for k, v in self.stats.items()}
+        own = set(self.element_statistics[e]) | {"coefficients"} \
+            if self.element_statistics else set(self.stats)
+        values = {k: (v[:, e] if v.ndim >= 2 else v) for k, v in self.stats.items()
+                  if k in own}
         name = self.element_names[e] if self.element_names else ""
         return ElementCurve(values, e, name, [g for g in self.grazing if g.element == e])
 
@@ -201,6 +208,7 @@ class Recorder:
                          condensation=meta["condensation"], rpm_start=float(rpm_start),
                          rpm_end=float(rpm_end), omega_scale=float(omega_scale))
         self.element_names = tuple(meta.get("element_names", ()))
+        self.element_statistics = tuple(tuple(s) for s in meta.get("element_statistics", ()))
         self.stat_names = tuple(meta["statistics"])
         self.lists: dict[str, list] = {k: [] for k in (*POINT_FIELDS, *self.stat_names)}
         self.grazing: list[GrazingPoint] = []
@@ -342,6 +350,7 @@ class Recorder:
                 np.array(v) if v else np.zeros((0,)))
         stats = {k: arrays.pop(k) for k in self.stat_names}
         return Branch(**self.meta, **arrays, stats=stats, element_names=self.element_names,
+                      element_statistics=self.element_statistics,
                       loops=[tuple(lp) for lp in self.loops],
                       grazing=list(self.grazing), folds=list(self.folds),
                       fold_index=list(self.fold_index),

@@ -103,8 +103,9 @@ class Monitor(Protocol):
 
     def branch_meta(self) -> dict[str, Any]:
         """What the branch records about the problem: ``harmonics`` (indices),
-        ``condensation``, ``element_names`` and ``statistics`` (the names of the
-        per-element statistics every measurement holds)."""
+        ``condensation``, ``element_names``, ``statistics`` (the names of the
+        per-element statistics every measurement holds) and ``element_statistics`` (per
+        element, the names of its own)."""
 
     def measure(self, unknowns: np.ndarray, omega: float, iterations: int, residual: float,
                 tangent: np.ndarray) -> Measurement:

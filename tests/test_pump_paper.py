@@ -80,7 +80,7 @@ def _ipp_at(result, rpm):
 
     pt, how = solution_at(result, rpm)
     assert how != "nearest branch point"            # solved at that speed
-    return point_stats(result.problem, pt).ipp
+    return point_stats(result.problem, pt)[0].ipp
 
 
 def test_ipp_at_1700_rpm_is_the_calibrated_one(result):

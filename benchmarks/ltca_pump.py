@@ -16,7 +16,7 @@ import logging
 import math
 from pathlib import Path
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study import tooth_contact as tc
 from study.scene import load_scene
 

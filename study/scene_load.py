@@ -14,10 +14,11 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from core.errors import show
 from study.errors import SceneError, StageUnavailable
 from study.fe_params import fe_parameters
 from study.gears import estimate_mesh_stiffness, estimate_ste
-from study.scene_check import check_known, check_table, fmt, suggest
+from study.scene_check import check_known, check_table, suggest
 from study.scene_data import (
     Accelerometer,
     AcousticsData,
@@ -86,7 +87,7 @@ def _build_gear(d: dict) -> GearData:
 
 def _build_accelerometers(items: Any, kind: str) -> tuple[Accelerometer, ...]:
     if not isinstance(items, list):
-        raise SceneError(f"outputs.accelerometer = {fmt(items)}: must be an array of tables "
+        raise SceneError(f"outputs.accelerometer = {show(items)}: must be an array of tables "
                          "([[outputs.accelerometer]])")
     out: list[Accelerometer] = []
     for i, item in enumerate(items):
@@ -106,14 +107,14 @@ def _build_external(ext: Any, kind: str) -> ExternalData:
     if ext is None:
         return ExternalData()
     if not isinstance(ext, dict):
-        raise SceneError(f"[external] = {fmt(ext)}: must be a table")
+        raise SceneError(f"[external] = {show(ext)}: must be a table")
     check_known(ext, ("aero", "unbalance"), lambda key: f"external.{key}",
                 note=" ([[external.aero]] tables)")
     aero, unb = [], []
     for name, target in (("aero", aero), ("unbalance", unb)):
         items = ext.get(name, [])
         if not isinstance(items, list):
-            raise SceneError(f"external.{name} = {fmt(items)}: must be an array of tables "
+            raise SceneError(f"external.{name} = {show(items)}: must be an array of tables "
                              f"([[external.{name}]])")
         for i, item in enumerate(items):
             where = f"external.{name}[{i}]"
@@ -259,7 +260,7 @@ def _fe_sections(raw: dict, kind: str, gear: GearData) -> dict[str, dict]:
             raise SceneError(f"[{s}]: only allowed when scene.kind = 'fe' (kind is "
                              f"{kind!r})")
         if not isinstance(t, dict):
-            raise SceneError(f"[{s}] = {fmt(t)}: must be a table")
+            raise SceneError(f"[{s}] = {show(t)}: must be a table")
         fe[s] = copy.deepcopy(t)
     if kind == "fe":
         try:  # geometry and fem are imported only here, for FE scenes
@@ -274,7 +275,7 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
     """Known sections only; each schema section checked. Returns the checked sections
     and the raw ``[[outputs.accelerometer]]`` list (checked with the outputs)."""
     if not isinstance(raw, dict):
-        raise SceneError(f"scene = {fmt(raw)}: must be a TOML document (table)")
+        raise SceneError(f"scene = {show(raw)}: must be a TOML document (table)")
     check_known(raw, TOP_LEVEL, lambda key: f"[{key}]", what="section")
     raw_out = raw.get("outputs", {})
     accel_raw = []

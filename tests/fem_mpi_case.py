@@ -19,7 +19,7 @@ def main(out: str) -> None:
     from mpi4py import MPI
 
     import fem
-    from geometry.files import atomic_write
+    from core.files import atomic_write
 
     comm = MPI.COMM_WORLD
     with fs.gmsh_session() as model:

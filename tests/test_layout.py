@@ -10,14 +10,17 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["geometry", "fem", "reduction", "hbm", "study"]
-# What each package may import from the project and from the heavy stacks.
+PACKAGES = ["core", "geometry", "fem", "reduction", "hbm", "study"]
+# What each package may import from the project and from the heavy stacks. ``core`` is
+# the bottom layer: it imports nothing of the project, and every package but ``hbm``
+# (which imports nothing of the project) may import it.
 ALLOWED_PROJECT = {
-    "geometry": set(),
-    "fem": {"geometry"},
-    "reduction": {"fem", "geometry"},
+    "core": set(),
+    "geometry": {"core"},
+    "fem": {"core", "geometry"},
+    "reduction": {"core", "fem", "geometry"},
     "hbm": set(),
-    "study": {"geometry", "fem", "reduction", "hbm"},
+    "study": {"core", "geometry", "fem", "reduction", "hbm"},
 }
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
@@ -156,6 +159,13 @@ def test_pyproject_declares_packages_and_entry_point() -> None:
     for folder in ["scenes", "benchmarks", "docs", "tests"]:
         assert (ROOT / folder).is_dir()
     assert (ROOT / "docs" / "theory.md").is_file()
+
+
+def test_core_uses_the_standard_library_only() -> None:
+    for path in sorted((ROOT / "core").rglob("*.py")):
+        outside = {m for m in _imports(path) - {"__future__"}
+                   if m not in sys.stdlib_module_names}
+        assert not outside, f"{path.relative_to(ROOT)} imports {sorted(outside)}"
 
 
 def test_hbm_imports_without_the_fe_stack() -> None:

@@ -29,7 +29,7 @@ test-slow: setup
 	$(PY) -m pytest -q -m slow tests
 
 lint: setup
-	$(PY) -m ruff check core geometry fem reduction hbm study tests benchmarks
+	$(PY) -m ruff check core gears geometry fem reduction hbm study tests benchmarks
 
 bench: setup
 	$(PY) -m benchmarks.run_all

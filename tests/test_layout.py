@@ -173,6 +173,17 @@ def test_bottom_packages_use_the_standard_library_and_numpy_only(package: str,
         assert not outside, f"{path.relative_to(ROOT)} imports {sorted(outside)}"
 
 
+def test_product_tests_import_no_benchmarks() -> None:
+    """The paper calibration and benchmark tools are not the product: their tests live
+    in benchmarks/tests/ (``make test`` runs both folders)."""
+    for path in sorted((ROOT / "tests").rglob("*.py")):
+        assert "benchmarks" not in _imports(path), (
+            f"{path.relative_to(ROOT)} imports benchmarks: move the test to benchmarks/tests/")
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert meta["tool"]["pytest"]["ini_options"]["testpaths"] == ["tests", "benchmarks/tests"]
+    assert "pytest -q tests benchmarks/tests" in (ROOT / "Makefile").read_text()
+
+
 def test_hbm_imports_without_the_fe_stack() -> None:
     code = (
         "import sys, hbm\n"

@@ -12,6 +12,7 @@ phases) in plain numbers.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 
 import numpy as np
@@ -107,7 +108,9 @@ def rectangular_mesh_stiffness(single_pair: float, contact_ratio: float,
     """
     check_range("single_pair", single_pair, lo=0.0, lo_open=True, unit="N/m")
     check_range("contact_ratio", contact_ratio, lo=1.0)
-    check_range("n_harmonics", n_harmonics, lo=1)
+    if (isinstance(n_harmonics, bool) or not isinstance(n_harmonics, numbers.Integral)
+            or n_harmonics < 1):
+        raise InputError.of("n_harmonics", n_harmonics, "must be an integer >= 1")
     k1, eps = single_pair, contact_ratio
     d = eps - math.floor(eps)  # fraction with one more pair in contact
     n0 = math.floor(eps)

@@ -15,6 +15,7 @@ parameters. Pure NumPy, SI units (m, rad).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -195,7 +196,8 @@ class GearPair:
         if len(self.teeth) != 2:
             raise InputError.of("teeth", self.teeth, "must be (z_1, z_2)")
         for i, z in enumerate(self.teeth, start=1):
-            if isinstance(z, bool) or not isinstance(z, int) or not 5 <= z <= 1000:
+            if (isinstance(z, bool) or not isinstance(z, numbers.Integral)
+                    or not 5 <= z <= 1000):
                 raise InputError.of(f"teeth[{i}]", z, "must be an integer >= 5 and <= 1000")
         check_range("module", self.module, lo=0.0, lo_open=True, unit="m")
         check_range("pressure_angle", self.pressure_angle, lo=0.0, hi=0.5 * math.pi,

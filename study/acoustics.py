@@ -359,7 +359,7 @@ def radiation_data(model, T, path, part: str = "housing") -> None:
     """
     import h5py
 
-    from geometry.files import atomic_write
+    from core.files import atomic_write
 
     comm = model.comm
     mesh = model.fe_mesh.mesh

@@ -14,7 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from hbm.time_response import TimeResponse, integrate
 from study.curves import UnstableSegment, unstable_segments
 

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
 from study.errors import SceneError, StageUnavailable
 from study.parallel import mark_collective, world

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.plot_common import contact_intervals
 from study.plots_speed import forced_response_overlay
 

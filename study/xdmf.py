@@ -14,7 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 __all__ = ["write_xdmf", "TOPOLOGY"]
 

@@ -10,14 +10,19 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["geometry", "fem", "reduction", "hbm", "study"]
-# What each package may import from the project and from the heavy stacks.
+PACKAGES = ["core", "gears", "geometry", "fem", "reduction", "hbm", "study"]
+# What each package may import from the project and from the heavy stacks. ``core`` is
+# the bottom layer: it imports nothing of the project, and every package but ``hbm``
+# (which imports nothing of the project) may import it. ``gears`` (pure NumPy gear
+# physics) imports ``core`` only; ``fem`` takes the pair frame and G of eq. (11) from it.
 ALLOWED_PROJECT = {
-    "geometry": set(),
-    "fem": {"geometry"},
-    "reduction": {"fem", "geometry"},
+    "core": set(),
+    "gears": {"core"},
+    "geometry": {"core"},
+    "fem": {"core", "gears", "geometry"},
+    "reduction": {"core", "fem", "geometry"},
     "hbm": set(),
-    "study": {"geometry", "fem", "reduction", "hbm"},
+    "study": {"core", "gears", "geometry", "fem", "reduction", "hbm"},
 }
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
@@ -156,6 +161,27 @@ def test_pyproject_declares_packages_and_entry_point() -> None:
     for folder in ["scenes", "benchmarks", "docs", "tests"]:
         assert (ROOT / folder).is_dir()
     assert (ROOT / "docs" / "theory.md").is_file()
+
+
+@pytest.mark.parametrize(("package", "allowed"), [("core", set()),
+                                                  ("gears", {"numpy", "core"})])
+def test_bottom_packages_use_the_standard_library_and_numpy_only(package: str,
+                                                                 allowed: set[str]) -> None:
+    for path in sorted((ROOT / package).rglob("*.py")):
+        outside = {m for m in _imports(path) - {"__future__"} - allowed
+                   if m not in sys.stdlib_module_names}
+        assert not outside, f"{path.relative_to(ROOT)} imports {sorted(outside)}"
+
+
+def test_product_tests_import_no_benchmarks() -> None:
+    """The paper calibration and benchmark tools are not the product: their tests live
+    in benchmarks/tests/ (``make test`` runs both folders)."""
+    for path in sorted((ROOT / "tests").rglob("*.py")):
+        assert "benchmarks" not in _imports(path), (
+            f"{path.relative_to(ROOT)} imports benchmarks: move the test to benchmarks/tests/")
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert meta["tool"]["pytest"]["ini_options"]["testpaths"] == ["tests", "benchmarks/tests"]
+    assert "pytest -q tests benchmarks/tests" in (ROOT / "Makefile").read_text()
 
 
 def test_hbm_imports_without_the_fe_stack() -> None:

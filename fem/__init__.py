@@ -6,6 +6,7 @@ distributing links (RBE3-type) and clamps eliminated exactly by a prolongation P
 stay distributed PETSc ``Mat`` objects. See docs/fem.md.
 """
 
+from .dense import dense_projection
 from .eigen import eigenfrequencies
 from .frames import gear_pair_frame, projection_vector
 from .lumped import axial_spring, disk_mass, rigid_body_mass, two_node
@@ -47,6 +48,7 @@ __all__ = [
     "build_model",
     "build_prolongation",
     "build_pump_model",
+    "dense_projection",
     "disk_mass",
     "eigenfrequencies",
     "gear_pair_frame",

@@ -86,10 +86,11 @@ def housing_data(model: Any, PT: Any, path: str | Path, part: str = "housing",
     """Write ``part``'s field data (module docstring) to ``path``; collective on
     ``model.comm``, rank 0 writes.
 
-    Each rank takes its owned cells of ``part`` and, at the nodes it supplies (a node on
-    several ranks comes from the lowest), the rows of the distributed ``P T``
-    (:func:`fem.post.operator.point_rows`); rank 0 numbers the nodes by their input
-    numbers and receives the rows block by block.
+    Each rank takes its owned cells of ``part``; rank 0 numbers their nodes by their
+    input numbers (a node on several ranks is supplied by the lowest). Then, block of
+    nodes by block, each rank takes the rows of the distributed ``P T`` at its nodes of
+    the block (:func:`fem.post.operator.point_rows`) and rank 0 receives and writes
+    them: no rank holds more than a block of rows.
 
     Parameters
     ----------
@@ -118,8 +119,7 @@ def housing_data(model: Any, PT: Any, path: str | Path, part: str = "housing",
                                                     input_ids(mesh, conn))
     mine = pos >= 0                                     # ascending positions (ids sorted)
     pos = pos[mine]
-    blocks = node_blocks(mesh, model.V, cells)[used[mine]]
-    rows = point_rows(model, PT, blocks[:, None], np.ones(1))            # (n_s, 3, n_r)
+    blocks = node_blocks(mesh, model.V, cells)[used[mine]][:, None]       # (n_s, 1)
     n_r = int(PT.getSize()[1])
     n_p = comm.bcast(None if uid is None else int(uid.size), root=0)
     per = nodes_per_block(n_r, block_bytes)
@@ -136,7 +136,8 @@ def housing_data(model: Any, PT: Any, path: str | Path, part: str = "housing",
         for a in range(0, n_p, per):
             b = min(a + per, n_p)
             lo, hi = np.searchsorted(pos, [a, b])
-            got = comm.gather((pos[lo:hi], rows[lo:hi]), root=0)
+            rows = point_rows(model, PT, blocks[lo:hi], np.ones(1))     # collective
+            got = comm.gather((pos[lo:hi], rows), root=0)
             if ds is not None:
                 buf = np.empty((b - a, 3, n_r))
                 for p, r in got:

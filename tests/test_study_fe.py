@@ -72,6 +72,22 @@ def test_rotors_enter_the_fe_key_only_when_given(tmp_path):
 
 
 
+def test_rom_key_hashes_the_code_that_writes_the_rom_files(tmp_path, monkeypatch):
+    """The rom stage writes radiation.h5 and housing.h5 with fem.post: its key hashes
+    fem.post's sources (fem's own top-level modules reach it through the fe key; the hbm
+    key takes the rom key, so a change there reruns the continuation too)."""
+    import study.pipeline as pl
+    from study.scene import load_scene
+
+    asked: list[tuple[str, ...]] = []
+    real = pl.source_hash
+    monkeypatch.setattr(pl, "source_hash", lambda *m: asked.append(m) or real(*m))
+    pl.Pipeline(load_scene(PUMP), tmp_path).rom_key()
+    rom = next(m for m in asked if "reduction" in m)
+    assert {"reduction", "fem.post", "study.fe_stages"} <= set(rom)
+    assert any("fem" in m for m in asked)                            # via the fe key
+
+
 def _pump_groups_and_centres() -> tuple[dict, dict]:
     """Every group and centre name pump_spec asks for (values are not used)."""
     names = ["housing/feet"] + [f"{s}/{n}" for s in ("in", "out")

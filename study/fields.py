@@ -162,54 +162,74 @@ def write_housing_fields(out: Path, rpm: float, hd, rad: dict | None, qk: np.nda
     omega : float
         Shaft speed Ω [rad/s].
     """
-    from fem.post.xdmf import write_xdmf, xdmf_writer
-
     out = Path(out)
     idx = np.asarray(harmonics.indices)
     w0 = harmonics.fundamental_rad_s(omega)
-    z = scene.gear.teeth
     tag = f"{rpm:.0f}rpm"
     nf = frames_per_mesh_period(scene, harmonics)
     n_frames = nf * scene.outputs.housing_mesh_periods
-    t_mesh = 2 * np.pi / (z * omega)
+    t_mesh = 2 * np.pi / (scene.gear.teeth * omega)
     times = [j * t_mesh / nf for j in range(n_frames)]
     dyn = idx > 0                                        # the mean is removed
     q_t = (qk[:, dyn] @ np.exp(1j * np.outer(idx[dyn] * w0, times))).real  # (n_r, n_frames)
-    orders = field_orders(scene, harmonics)
     pos = {int(k) * harmonics.divisor: j for j, k in enumerate(idx)}
-    sel = [(o, pos[o]) for o in orders if o in pos]
-    q_sel = qk[:, [j for _, j in sel]]
+    sel = [(o, pos[o]) for o in field_orders(scene, harmonics) if o in pos]
+    paths = _write_volume_fields(out, tag, hd, times, q_t,
+                                 {o: qk[:, j] for o, j in sel})
+    logger.info("wrote %s (%d frames, %d per mesh period, %d mesh periods)", paths[0],
+                n_frames, nf, scene.outputs.housing_mesh_periods)
+    if rad is not None:
+        ac = scene.acoustics
+        vn = {o: 1j * idx[j] * w0 * (rad["facet_rows"] @ qk[:, j]) for o, j in sel}
+        paths.append(_write_surface_fields(out / f"housing_surface_{tag}.xdmf", rad,
+                                           hd.part_tag, vn, ac.air_density, ac.sound_speed))
+    logger.info("wrote per-order housing fields for orders %s at %s",
+                ", ".join(str(o) for o, _ in sel) or "-", tag)
+    return paths
+
+
+def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.ndarray,
+                         q_orders: dict[int, np.ndarray]) -> list[Path]:
+    """``housing_<tag>.xdmf`` (``u_rows q(t_j)`` per frame) and ``housing_orders_<tag>.xdmf``
+    (``u_rows q̃_o`` per order), filled block of nodes by block from ``housing.h5``."""
+    from fem.post.fields import BLOCK_BYTES
+    from fem.post.xdmf import xdmf_writer
+
     part_id = np.full(hd.cells.shape[0], hd.part_tag, np.int64)
     paths = [out / f"housing_{tag}.xdmf", out / f"housing_orders_{tag}.xdmf"]
-    nodes = max(1, (64 << 20) // (24 * (hd.n_r + 2 * n_frames + 8 * len(sel))))
+    q_sel = np.column_stack(list(q_orders.values())) if q_orders else np.zeros((hd.n_r, 0))
+    # float64 per node of a block: rows 3 n_r, the frames twice (product, transposed copy),
+    # per order the complex amplitude and its four fields (6 + 12)
+    nodes = BLOCK_BYTES // (8 * 3 * (hd.n_r + 2 * len(times) + 6 * len(q_orders)))
     with xdmf_writer(paths[0], hd.points, "tetra10", hd.cells, times) as ts, \
             xdmf_writer(paths[1], hd.points, "tetra10", hd.cells) as od:
         ts.add("part_id", part_id, "Cell")
-        disp = [ts.create("displacement", frame=j) for j in range(n_frames)]
-        amp = {f"u_o{o}_{p}": od.create(f"u_o{o}_{p}") for o, _ in sel for p in _COMPLEX_PARTS}
+        disp = [ts.create("displacement", frame=j) for j in range(len(times))]
+        amp = {f"u_o{o}_{p}": od.create(f"u_o{o}_{p}") for o in q_orders
+               for p in _COMPLEX_PARTS}
         od.add("part_id", part_id, "Cell")
-        for a, b, rows in hd.row_blocks(nodes):
+        for a, b, rows in hd.row_blocks(max(1, nodes)):
             r = rows.reshape(-1, hd.n_r)
             u_t = np.ascontiguousarray((r @ q_t).T)      # (n_frames, 3 (b - a))
             for j, ds in enumerate(disp):
                 ds[a:b] = u_t[j].reshape(-1, 3)
-            u_o = r @ q_sel                               # (3 (b - a), n_sel)
-            for i, (o, _) in enumerate(sel):
+            u_o = r @ q_sel                               # (3 (b - a), n_orders)
+            for i, o in enumerate(q_orders):
                 for name, v in _complex_fields(f"u_o{o}", u_o[:, i].reshape(-1, 3)).items():
                     amp[name][a:b] = v
-    logger.info("wrote %s (%d frames, %d per mesh period, %d mesh periods)", paths[0],
-                n_frames, nf, scene.outputs.housing_mesh_periods)
-    if rad is not None:
-        cdata: dict[str, np.ndarray] = {
-            "part_id": np.full(rad["facet_nodes"].shape[0], hd.part_tag, np.int64),
-            "area": rad["facet_area"]}
-        ac = scene.acoustics
-        for o, j in sel:
-            vn = 1j * idx[j] * w0 * (rad["facet_rows"] @ qk[:, j])
-            cdata.update(_complex_fields(f"vn_o{o}", vn))
-            cdata[f"erp_density_o{o}"] = 0.5 * ac.air_density * ac.sound_speed * np.abs(vn) ** 2
-        paths.append(write_xdmf(out / f"housing_surface_{tag}.xdmf", rad["points"], "triangle6",
-                                rad["facet_nodes"], cell_data=cdata))
-    logger.info("wrote per-order housing fields for orders %s at %s",
-                ", ".join(str(o) for o, _ in sel) or "-", tag)
     return paths
+
+
+def _write_surface_fields(path: Path, rad: dict, part_tag: int, vn: dict[int, np.ndarray],
+                          rho: float, c: float) -> Path:
+    """``housing_surface_<rpm>rpm.xdmf``: facet areas, and per order the normal velocity
+    ``vn`` at the facet centres and the ERP density ``½ ρ c |ṽ_n|²``."""
+    from fem.post.xdmf import write_xdmf
+
+    cdata: dict[str, np.ndarray] = {
+        "part_id": np.full(rad["facet_nodes"].shape[0], part_tag, np.int64),
+        "area": rad["facet_area"]}
+    for o, v in vn.items():
+        cdata.update(_complex_fields(f"vn_o{o}", v))
+        cdata[f"erp_density_o{o}"] = 0.5 * rho * c * np.abs(v) ** 2
+    return write_xdmf(path, rad["points"], "triangle6", rad["facet_nodes"], cell_data=cdata)

@@ -198,9 +198,13 @@ def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.nd
     part_id = np.full(hd.cells.shape[0], hd.part_tag, np.int64)
     paths = [out / f"housing_{tag}.xdmf", out / f"housing_orders_{tag}.xdmf"]
     q_sel = np.column_stack(list(q_orders.values())) if q_orders else np.zeros((hd.n_r, 0))
+    # one real product per block gives the frames and the orders' real and imaginary parts
+    # (a complex product, r cast to complex, varied in the last bit from run to run)
+    n_t, n_o = len(times), len(q_orders)
+    q_all = np.hstack([q_t, q_sel.real, q_sel.imag])             # (n_r, n_t + 2 n_o)
     # float64 per node of a block: rows 3 n_r, the frames twice (product, transposed copy),
-    # per order the complex amplitude and its four fields (6 + 12)
-    nodes = BLOCK_BYTES // (8 * 3 * (hd.n_r + 2 * len(times) + 6 * len(q_orders)))
+    # per order the product, the complex amplitude and its four fields (2 + 2 + 4)
+    nodes = BLOCK_BYTES // (8 * 3 * (hd.n_r + 2 * n_t + 8 * n_o))
     with xdmf_writer(paths[0], hd.points, "tetra10", hd.cells, times) as ts, \
             xdmf_writer(paths[1], hd.points, "tetra10", hd.cells) as od:
         ts.add("part_id", part_id, "Cell")
@@ -209,13 +213,13 @@ def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.nd
                for p in _COMPLEX_PARTS}
         od.add("part_id", part_id, "Cell")
         for a, b, rows in hd.row_blocks(max(1, nodes)):
-            r = rows.reshape(-1, hd.n_r)
-            u_t = np.ascontiguousarray((r @ q_t).T)      # (n_frames, 3 (b - a))
+            u = rows.reshape(-1, hd.n_r) @ q_all                   # (3 (b - a), n_t + 2 n_o)
+            u_t = np.ascontiguousarray(u[:, :n_t].T)                # (n_t, 3 (b - a))
             for j, ds in enumerate(disp):
                 ds[a:b] = u_t[j].reshape(-1, 3)
-            u_o = r @ q_sel                               # (3 (b - a), n_orders)
             for i, o in enumerate(q_orders):
-                for name, v in _complex_fields(f"u_o{o}", u_o[:, i].reshape(-1, 3)).items():
+                z = u[:, n_t + i] + 1j * u[:, n_t + n_o + i]
+                for name, v in _complex_fields(f"u_o{o}", z.reshape(-1, 3)).items():
                     amp[name][a:b] = v
     return paths
 

@@ -7,6 +7,7 @@ stay distributed PETSc ``Mat`` objects. The gear-pair frame and the line-of-acti
 vector G (Fig. 1, eq. 11) come from :mod:`gears.pair`. See docs/fem.md.
 """
 
+from .dense import dense_projection
 from .eigen import eigenfrequencies
 from .lumped import axial_spring, disk_mass, rigid_body_mass, two_node
 from .materials import ALUMINIUM, CAST_IRON, STEEL, Material
@@ -47,6 +48,7 @@ __all__ = [
     "build_model",
     "build_prolongation",
     "build_pump_model",
+    "dense_projection",
     "disk_mass",
     "eigenfrequencies",
     "gmsh_physical_groups",

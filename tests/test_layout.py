@@ -27,6 +27,8 @@ ALLOWED_PROJECT = {
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
     "geometry": {"dolfinx", "petsc4py", "slepc4py", "ufl"},
+    # the FE post-processing is fem.post's; study works on the arrays it cached
+    "study": {"dolfinx", "ufl", "basix", "petsc4py"},
 }
 
 
@@ -53,6 +55,15 @@ def test_dependencies_point_one_way(package: str) -> None:
         )
         bad = imported & FORBIDDEN_THIRD_PARTY.get(package, set())
         assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def test_forbidden_imports_are_found_inside_functions(tmp_path: Path) -> None:
+    """study may not import the FE stack lazily either (its FE work is fem.post's)."""
+    mod = tmp_path / "m.py"
+    mod.write_text("import numpy\n\ndef f():\n    from dolfinx import fem\n"
+                   "    import petsc4py.PETSc\n    from . import sibling\n")
+    assert _imports(mod) == {"numpy", "dolfinx", "petsc4py"}
+    assert _imports(mod) & FORBIDDEN_THIRD_PARTY["study"] == {"dolfinx", "petsc4py"}
 
 
 def _module_name(root: Path, package: str, path: Path) -> str:

@@ -1,6 +1,7 @@
 # Two commands do all set-up on a fresh Debian 12 machine (see README):
 #   make demo   -> install what is missing, run the default pump scene into out/
-#   make test   -> install what is missing, run the test suite (incl. an mpirun -n 2 case)
+#   make test   -> install what is missing, run the test suite (incl. an mpirun -n 2 case):
+#                  the product's tests/ and the benchmark tools' benchmarks/tests/
 PY      := .venv/bin/python
 GEARDYN := .venv/bin/geardyn
 SCENE   ?= scenes/pump.toml
@@ -23,13 +24,13 @@ demo: setup
 	  ls $$d | sed 's/^/      /'; done
 
 test: setup
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q tests benchmarks/tests
 
 test-slow: setup
-	$(PY) -m pytest -q -m slow tests
+	$(PY) -m pytest -q -m slow tests benchmarks/tests
 
 lint: setup
-	$(PY) -m ruff check geometry fem reduction hbm study tests benchmarks
+	$(PY) -m ruff check core gears geometry fem reduction hbm study tests benchmarks
 
 bench: setup
 	$(PY) -m benchmarks.run_all

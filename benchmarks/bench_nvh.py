@@ -34,10 +34,12 @@ def main(argv: list[str] | None = None) -> dict:
     import h5py
 
     import study
+    from fem import post
     from reduction import load_basis, reconstruct
-    from study import acoustics, fe_stages
+    from study import fe_stages
     from study.acoustics import erp_harmonics
     from study.export import point_at
+    from study.pipeline import Pipeline
 
     t0 = time.perf_counter()
     ov = {"continuation.speed_rpm": [2000.0, 2100.0], "hbm.stability": False,
@@ -47,13 +49,16 @@ def main(argv: list[str] | None = None) -> dict:
         ov["rom.n_cm"] = 40
     r = study.run(ROOT / "scenes" / "pump.toml", args.work / "run", cache_dir=args.work / "cache",
                   overrides=ov)
-    model = fe_stages.fe_stage(r.scene, r.mesh_dir)
+    mesh_dir = Pipeline(r.scene, r.out, cache_dir=args.work / "cache").run_mesh()  # cached
+    model = fe_stages.fe_stage(r.scene, mesh_dir)
     with h5py.File(r.rom.folder / "rom.h5", "r") as f:
         T = f["rom/basis"][()]
     n_r = T.shape[1]
 
     def build():
-        acoustics.radiation_data(model, T, args.work / "radiation.h5")
+        PT = post.field_operator(model, T)
+        post.radiation_data(model, PT, args.work / "radiation.h5")
+        PT.destroy()
     t_build, _ = median_time(build, repeats=max(1, args.repeats // 2), warmup=0)
     W = r.rom.radiation["W"]
     pt = point_at(r, len(r.branch) // 2)
@@ -64,8 +69,8 @@ def main(argv: list[str] | None = None) -> dict:
     t_recover, _ = median_time(lambda: r.problem.recover(pt), repeats=args.repeats)
     t_erp, erp = median_time(lambda: erp_harmonics(W, qk, idx * w0), repeats=args.repeats)
     Tp = load_basis(r.rom.folder / "rom.h5", row_range=model.K.getOwnershipRange())
-    facets = acoustics.outer_surface_facets(model.fe_mesh)
-    A = acoustics.normal_gram(model.V, facets)
+    facets = post.outer_surface_facets(model.fe_mesh)
+    A = post.normal_gram(model.V, facets)
 
     def full():
         out = np.zeros(idx.size)

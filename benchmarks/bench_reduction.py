@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import reset_peak, status_kib
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 log = logging.getLogger("bench_reduction")
 OUT = Path(__file__).resolve().parent / "results" / "reduction.json"

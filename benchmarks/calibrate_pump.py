@@ -139,7 +139,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import scene_overrides, write_json
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 log = logging.getLogger("calibrate_pump")
 ROOT = Path(__file__).resolve().parent.parent

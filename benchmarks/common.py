@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -33,7 +33,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.scene_load import load_scene
 
 log = logging.getLogger("external_sensitivity")

@@ -1,7 +1,7 @@
 """Mesh stiffness and STE of the pump's gear pair from the loaded tooth contact analysis.
 
 Prints the comparison table of docs/theory.md §13.3 (scenes/pump.toml's invented
-values beside study/tooth_contact.py's for perfect teeth and for ISO 1328-1:2013
+values beside gears.ltca's for perfect teeth and for ISO 1328-1:2013
 class-6 deviations, at T = 2.5 and 3.29 N·m) and, with ``--json FILE``, writes the
 numbers atomically. Not a timing benchmark (not picked up by ``run_all``).
 
@@ -16,14 +16,15 @@ import logging
 import math
 from pathlib import Path
 
-from geometry.files import atomic_write
-from study import tooth_contact as tc
+import gears as tc
+from core.files import atomic_write
+from gears.iso6336 import pair_stiffness
 from study.scene import load_scene
 
 log = logging.getLogger("ltca_pump")
 ROOT = Path(__file__).resolve().parent.parent
 
-# name -> keyword arguments of tooth_contact.class_deviations (None: perfect teeth)
+# name -> keyword arguments of gears.class_deviations (None: perfect teeth)
 CASES: dict[str, dict | None] = {
     "perfect teeth": None,
     "class 6, profile only (gear 1)": {"slope_signs": (1, 0), "form_signs": (1, 0),
@@ -38,7 +39,8 @@ CASES: dict[str, dict | None] = {
 def measure(torques: tuple[float, ...], positions: int, slices: int) -> dict:
     """Scene values and LTCA coefficients per case and torque."""
     scene = load_scene(ROOT / "scenes" / "pump.toml")
-    pair = tc.spur_pair(scene.gear)
+    pair = tc.SpurPair.from_pair(scene.gear.pair())
+    c_prime, c_gamma = pair_stiffness(pair.geometry)
     ms, te = scene.mesh_stiffness, scene.transmission_error
     out: dict = {
         "scene": {"mesh_stiffness": {"mean_N_per_um": ms.mean * 1e-6,
@@ -48,8 +50,8 @@ def measure(torques: tuple[float, ...], positions: int, slices: int) -> dict:
                                          "amplitudes_um": [a * 1e6 for a in te.amplitudes],
                                          "phases_deg": [math.degrees(p) for p in te.phases]}},
         "pitch_point_pair_N_per_um": tc.pitch_point_stiffness(pair) * 1e-6,
-        "iso6336_c_prime_N_per_um": tc.iso6336_stiffness(pair)[0] * 1e-6,
-        "iso6336_c_gamma_N_per_um": tc.iso6336_stiffness(pair)[1] * 1e-6,
+        "iso6336_c_prime_N_per_um": c_prime * 1e-6,
+        "iso6336_c_gamma_N_per_um": c_gamma * 1e-6,
         "iso1328_class6_um": tc.class_deviations(pair, 6)[1],
         "contact_ratio": pair.contact_ratio,
         "cases": {},

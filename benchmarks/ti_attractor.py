@@ -33,7 +33,7 @@ import numpy as np
 
 from benchmarks.bench_verify import hbm_load, map_unknowns
 from benchmarks.common import RESULTS
-from geometry.files import atomic_write
+from core.files import atomic_write
 from hbm.post.time_response import SAMPLES_PER_MESH_PERIOD, fundamentals_per_turn
 from hbm.post.time_response import integrate as time_integrate
 

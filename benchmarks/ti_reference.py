@@ -51,7 +51,7 @@ from benchmarks.bench_verify import (
     steady_state,
 )
 from benchmarks.common import RESULTS, machine
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 log = logging.getLogger("ti_reference")
 ROOT = Path(__file__).resolve().parents[1]

@@ -3,11 +3,12 @@
 P2 elasticity with a material per volume, extra 6-DOF nodes, rigid links (RBE2),
 distributing links (RBE3-type) and clamps eliminated exactly by a prolongation P
 (K_bar = P^T K P), lumped masses and springs, and the pump's named nodes. Matrices
-stay distributed PETSc ``Mat`` objects. See docs/fem.md.
+stay distributed PETSc ``Mat`` objects. The gear-pair frame and the line-of-action
+vector G (Fig. 1, eq. 11) come from :mod:`gears.pair`. See docs/fem.md.
 """
 
+from .dense import dense_projection
 from .eigen import eigenfrequencies
-from .frames import gear_pair_frame, projection_vector
 from .lumped import axial_spring, disk_mass, rigid_body_mass, two_node
 from .materials import ALUMINIUM, CAST_IRON, STEEL, Material
 from .mesh import FEMesh, gmsh_physical_groups, load_gmsh_mesh, load_meshed_model
@@ -47,13 +48,12 @@ __all__ = [
     "build_model",
     "build_prolongation",
     "build_pump_model",
+    "dense_projection",
     "disk_mass",
     "eigenfrequencies",
-    "gear_pair_frame",
     "gmsh_physical_groups",
     "load_gmsh_mesh",
     "load_meshed_model",
-    "projection_vector",
     "pump_spec",
     "rigid_body_mass",
     "two_node",

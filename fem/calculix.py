@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 from .materials import Material
 

@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from .frames import gear_pair_frame, projection_vector
+from gears.pair import line_of_action_vector, pair_frame
+
 from .lumped import axial_spring, disk_mass, rigid_body_mass
 from .materials import Material
 from .mesh import FEMesh, load_meshed_model
@@ -117,9 +118,9 @@ class GearParams:
         return rb / math.cos(self.pressure_angle) + 0.100 / 76.0
 
     def G(self) -> np.ndarray:
-        """Projection vector on q_c, eq. (11)."""
-        return projection_vector(self.pressure_angle, self.helix_angle,
-                                 self.base_radius_1, self.base_radius_2)  # fmt: skip
+        """Projection vector on q_c, eq. (11) (:func:`gears.pair.line_of_action_vector`)."""
+        return line_of_action_vector(self.pressure_angle, self.helix_angle,
+                                     self.base_radius_1, self.base_radius_2)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -295,7 +296,7 @@ def pump_spec(
         if name not in groups:
             raise ValueError(f"groups: missing surface group {name!r}")
     spec = ModelSpec(shared="first")
-    frame = gear_pair_frame(gears.pressure_angle)
+    frame = pair_frame(gears.pressure_angle)
 
     def centre(name: str) -> np.ndarray:
         if name not in centres:

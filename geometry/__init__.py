@@ -4,9 +4,8 @@
 Never imports dolfinx. See docs/geometry.md for the frame, parameters, group
 names and presets, and :mod:`geometry.pump` for the hand-over to DOLFINx.
 
-The public names are resolved on first use (PEP 562), so ``import geometry.files``
-(the atomic-write helper every package uses) does not load gmsh: a lumped run
-never imports the FE stack.
+The public names are resolved on first use (PEP 562), so importing the package or
+one of its light modules (``geometry.params``) does not load gmsh.
 """
 from __future__ import annotations
 
@@ -25,7 +24,6 @@ _WHERE = {
     "finalize_gmsh": "session", "gmsh_session": "session",
     "build_shaft": "shaft",
     "housing_volume": "volumes", "part_volumes": "volumes", "shaft_volume": "volumes",
-    "atomic_write": "files",
 }
 
 __all__ = [
@@ -37,7 +35,6 @@ __all__ = [
     "QualityReport",
     "SHAFT_NAMES",
     "ShaftParams",
-    "atomic_write",
     "build_housing",
     "build_pump",
     "build_shaft",
@@ -53,7 +50,6 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
-    from .files import atomic_write
     from .housing import build_housing
     from .io import write_msh
     from .meshing import mesh_volume

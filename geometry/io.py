@@ -8,7 +8,7 @@ from pathlib import Path
 
 import gmsh
 
-from .files import atomic_write
+from core.files import atomic_write
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,7 @@ from reduction.coupled import (
     mesh_softening,
     modal_damping,
 )
-from reduction.craig_bampton import CBResult, craig_bampton, cutoff_from_speed, dense_projection
+from reduction.craig_bampton import CBResult, craig_bampton, cutoff_from_speed
 from reduction.io import load_basis, load_rom, save_rom
 from reduction.pipeline import reduce_fe_model
 from reduction.reconstruct import reconstruct
@@ -40,7 +40,6 @@ __all__ = [
     "couple",
     "coupled_modes",
     "craig_bampton",
-    "dense_projection",
     "dynamic_factor",
     "cutoff_from_speed",
     "load_basis",

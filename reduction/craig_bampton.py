@@ -23,6 +23,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+from fem.dense import dense_projection
 from fem.eigen import shift_invert_eps
 from reduction.interface import interface_columns, interface_eliminated
 
@@ -460,24 +461,3 @@ def _max_op():
     from mpi4py import MPI
 
     return MPI.MAX
-
-
-def dense_projection(A: PETSc.Mat, T: PETSc.Mat) -> np.ndarray:
-    """Dense ``Tᵀ A T`` (symmetrised) on every rank: ``A·T`` by PETSc, then each rank's
-    rows ``T_locᵀ (AT)_loc`` summed with an allreduce (eq. 9).
-
-    Parameters
-    ----------
-    A : PETSc.Mat
-        Square AIJ matrix on ``T``'s row layout.
-    T : PETSc.Mat
-        Distributed dense matrix (n × m).
-    """
-    from mpi4py import MPI
-
-    AT = A.matMult(T)
-    local = T.getDenseArray().T @ AT.getDenseArray()
-    AT.destroy()
-    out = np.empty_like(local)
-    T.getComm().tompi4py().Allreduce(np.ascontiguousarray(local), out, op=MPI.SUM)
-    return 0.5 * (out + out.T)

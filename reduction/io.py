@@ -4,7 +4,7 @@ Rank 0 writes the dense ROM data; the basis ``T`` is written as the dataset
 ``rom/basis`` (n_fe × n_r) by rows, each rank writing its own rows in turn
 (serial h5py, no parallel HDF5 needed), so it is never gathered on one process.
 The file is written under a temporary name in the target folder and
-``os.replace``d when complete (:func:`geometry.files.atomic_write`, on rank 0).
+``os.replace``d when complete (:func:`core.files.atomic_write`, on rank 0).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 from petsc4py import PETSc
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from reduction.rom import ROM
 from reduction.validate import Validation
 

@@ -1,6 +1,6 @@
 """What the machine does where the periodic orbit is unstable: time integration from the
 orbit at the most unstable point of each unstable segment (``[outputs]
-attractor_transient_turns``, :func:`hbm.time_response.integrate`), for report.md.
+attractor_transient_turns``, :func:`hbm.post.time_response.integrate`), for report.md.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from hbm.post.time_response import TimeResponse, integrate
 from study.curves import UnstableSegment, unstable_segments
 

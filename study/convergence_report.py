@@ -7,7 +7,7 @@ import io
 import logging
 from pathlib import Path
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.convergence_errors import ConvergenceResult, Row
 from study.knobs import fmt_value as _num
 from study.scene_data import Scene

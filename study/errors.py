@@ -2,11 +2,14 @@
 layer of :mod:`study`: imports nothing of it)."""
 from __future__ import annotations
 
+from core.errors import InputError
+
 __all__ = ["SceneError", "StageUnavailable"]
 
 
-class SceneError(ValueError):
-    """Invalid scene: the message names the field, its value and what is allowed."""
+class SceneError(InputError):
+    """Invalid scene: the message names the field, its value and what is allowed
+    (:class:`core.errors.InputError`, so a :class:`ValueError`); ``geardyn`` exit code 2."""
 
 
 class StageUnavailable(RuntimeError):

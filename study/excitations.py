@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.curves import Peak, kind_label, primary_peak, summarize_branch
 from study.errors import SceneError
 from study.scene_data import Scene

@@ -7,7 +7,7 @@ and ``[links]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOption
 (:func:`fe_parameters`; ``[links]`` sets ``GearParams.hub_link`` and
 ``BearingParams.seat_link``). Keys
 are the dataclass field names in SI units, or the field name with a unit suffix of
-:data:`study.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
+:data:`core.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
 ``radial_N_per_um = 100``). geometry and fem are imported inside
 :func:`fe_parameters`, so importing this module loads neither.
 """
@@ -18,9 +18,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from core.units import FE_SUFFIXES, TO_SI
 from study.errors import SceneError
 from study.scene_check import suggest
-from study.units import FE_SUFFIXES, TO_SI
 
 __all__ = ["FEParams", "fe_parameters"]
 

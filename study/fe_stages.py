@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from study import acoustics, fields
+from study import fields
 from study.errors import SceneError
 from study.fe_params import FEParams, fe_parameters
 from study.model import build_problem
@@ -83,9 +83,11 @@ def fe_stage(scene, mesh_dir: Path, comm=None):
 
 
 def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
-    """Craig–Bampton ROM (``rom.h5`` with basis), the radiation data of the housing
-    (``radiation.h5``, from the distributed basis) and the basis rows of the load nodes
-    (collective on the model's communicator; rank 0 writes the small files).
+    """Craig–Bampton ROM (``rom.h5`` with basis), what the export needs of the FE model
+    computed once from the distributed ``P T`` — the radiation data of the housing's outer
+    surface (``radiation.h5``) and its field data (``housing.h5``: nodes, cells, rows of
+    ``P T``; :mod:`fem.post`) — and the basis rows of the load nodes (``nodes.h5``);
+    collective on the model's communicator, rank 0 writes the files.
 
     The coupled quantities stored in rom.h5 (frequencies, mesh energy, C, and the
     Fig. 9 validation) use the scene's mean mesh stiffness at build time; the hbm
@@ -93,6 +95,7 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
     """
     import h5py
 
+    from fem import post
     from reduction import build_rom, craig_bampton, save_rom, validate_rom
 
     r = scene.rom
@@ -106,8 +109,12 @@ def rom_stage(scene, model, folder: Path, progress: bool = False) -> None:
                                       min(r.n_check, rom.n_r))
     # collective: each rank writes its basis rows with their partition-independent keys
     save_rom(folder / "rom.h5", rom, row_keys=model.row_keys())
-    # collective: each rank its facets, rank 0 gathers and writes (no serial FE model)
-    acoustics.radiation_data(model, rom.T, folder / acoustics.RADIATION_FILE)
+    # collective: each rank its facets and housing nodes, rank 0 gathers and writes
+    # (no serial FE model); the export reads these files instead of the FE model
+    PT = post.field_operator(model, rom.T)
+    post.radiation_data(model, PT, folder / post.RADIATION_FILE)
+    post.housing_data(model, PT, folder / post.HOUSING_FILE)
+    PT.destroy()
     if rom.T.getComm().tompi4py().rank != 0:
         return
     nodes = {n: [int(i) for i in model.node_dofs[n]] for n in NODE_NAMES if n in model.node_dofs}
@@ -200,15 +207,9 @@ def load_rom_data(scene, rom_dir: Path) -> RomData:
 
 def _load_radiation(folder: Path) -> dict | None:
     """Datasets and attributes of the cached ``radiation.h5`` (None when absent)."""
-    import h5py
+    from fem.post import RADIATION_FILE, read_radiation
 
-    p = folder / acoustics.RADIATION_FILE
-    if not p.exists():
-        return None
-    with h5py.File(p, "r") as f:
-        out = {k: f[k][()] for k in f}
-        out.update({k: f.attrs[k] for k in f.attrs})
-    return out
+    return read_radiation(folder / RADIATION_FILE)
 
 
 def rom_problem(scene, rom_dir: Path):
@@ -244,30 +245,21 @@ def housing_fields(result) -> list[Path]:
     time series of the dynamic displacement (no aliasing), complex amplitudes per order,
     normal velocity and ERP density per order on the outer surface.
 
-    Collective: every rank rebuilds its part of the FE model from the cached mesh and
-    reads its rows of the basis by their partition-independent keys; rank 0 gathers the
-    housing's nodes (:func:`study.fields.housing_mesh`) and writes the files, which are
-    the same whatever the number of ranks."""
-    from reduction import load_basis
-
-    sc, rd = result.scene, result.rom
-    logger.info("rebuilding the FE model from the cached mesh for the housing fields")
-    model = fe_stage(sc, result.mesh_dir)
-    T = load_basis(rd.folder / "rom.h5", comm=model.K.getComm(),
-                   row_range=model.K.getOwnershipRange(), row_keys=model.row_keys())
-    PT = model.P.matMult(T)
-    T.destroy()
-    hm = fields.housing_mesh(model, PT)
-    PT.destroy()
-    return world().root_call(_write_housing_fields, result, hm)
+    From the cached ROM alone (``housing.h5`` and ``radiation.h5`` of the rom stage): no
+    FE model and no mesh file. Rank 0 writes; the files are the same whatever the number
+    of ranks that reduced the model."""
+    return world().root_call(_write_housing_fields, result)
 
 
-def _write_housing_fields(result, hm) -> list[Path]:
+def _write_housing_fields(result) -> list[Path]:
+    from fem.post import HOUSING_FILE, read_housing
+
     sc = result.scene
+    hd = read_housing(result.rom.folder / HOUSING_FILE)
     paths = []
     for rpm in sc.outputs.housing_field:
         _, pt = nearest_point(result, rpm)
         qk = result.problem.recover(pt)                      # (n_r, nS) complex
-        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hm, result.rom.radiation,
+        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hd, result.rom.radiation,
                                              qk, result.problem.harmonics, pt.omega, sc)
     return paths

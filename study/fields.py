@@ -28,27 +28,21 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from study.errors import SceneError
-from study.surface_facets import node_blocks
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["field_orders", "frames_per_mesh_period", "check_outputs", "HousingMesh",
-           "housing_mesh", "write_housing_fields", "accelerometer_rows", "V_REF",
-           "velocity_level_db", "SNAP_DISTANCE"]
+__all__ = ["field_orders", "frames_per_mesh_period", "check_outputs", "write_housing_fields",
+           "accelerometer_rows", "V_REF", "velocity_level_db", "SNAP_DISTANCE"]
 
 #: Reference velocity of velocity levels (ISO 1683) [m/s].
 V_REF = 1e-9
 #: Largest distance from an accelerometer position to its outer facet centre [m].
 SNAP_DISTANCE = 0.010
-#: XDMF/VTK order of the 10 nodes of a P2 tetrahedron from the DOLFINx (basix) order:
-#: vertices, then the edge nodes of edges 01, 12, 02, 03, 13, 23 (basix edges 5, 2, 4, 3, 1, 0).
-TET10_VTK = np.array([0, 1, 2, 3, 9, 6, 8, 7, 5, 4])
 
 
 def velocity_level_db(v_amp: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -137,130 +131,109 @@ def accelerometer_rows(accels, rad: dict) -> tuple[np.ndarray, np.ndarray, np.nd
             np.array(dirs).reshape(-1, 3))
 
 
-@dataclass
-class HousingMesh:
-    """The housing's second-order cells and the ROM basis at its nodes.
-
-    Attributes
-    ----------
-    points : (n_p, 3) float
-        Housing geometry nodes [m].
-    cells : (n_c, 10) int
-        ``Tetrahedron_10`` connectivity (XDMF/VTK order) into ``points``.
-    part_id : (n_c,) int
-        Volume tag of each cell.
-    basis : (n_p, 3, n_r) float
-        Displacement at each node per unit ROM coordinate (``u = basis @ q``) [m].
-    """
-
-    points: np.ndarray
-    cells: np.ndarray
-    part_id: np.ndarray
-    basis: np.ndarray
-
-
-def housing_mesh(model, PT, part: str = "housing") -> HousingMesh | None:
-    """:class:`HousingMesh` of ``part`` on rank 0 (``None`` on the other ranks);
-    collective on ``model.comm``.
-
-    Each rank takes its owned cells of ``part`` and the basis rows at their nodes from
-    the distributed ``P T`` (:func:`study.acoustics.block_u_rows`); rank 0 gathers
-    them, merges the nodes shared by several ranks and orders nodes and cells by the
-    input mesh's node numbers, so the mesh does not depend on the partition.
-
-    Parameters
-    ----------
-    model : fem.FEModel
-    PT : PETSc dense Mat
-        ``P T``: the reduction basis on the P2 DOF of ``model.V``.
-    part : str
-        Volume group.
-    """
-    from study.acoustics import block_u_rows
-
-    fm = model.fe_mesh
-    mesh = fm.mesh
-    comm = mesh.comm
-    tag = fm.tag(part, 3)
-    cells = np.sort(fm.cell_tags.find(tag))
-    cells = cells[cells < mesh.topology.index_map(3).size_local]         # owned only
-    cg = mesh.geometry.dofmap
-    conn = (np.stack([cg.links(c) for c in cells]) if cells.size
-            else np.zeros((0, 10), dtype=np.int64))                      # DOLFINx order
-    used = np.unique(conn)
-    blocks = node_blocks(mesh, model.V, cells)[used]
-    rows = block_u_rows(model, PT, blocks[:, None], np.ones(1))          # (n_u, 3, n_r)
-    ids = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
-    parts = comm.gather((ids[used], mesh.geometry.x[used], rows, ids[conn]), root=0)
-    if comm.rank != 0:
-        return None
-    node_ids, x, basis, cell_ids = (np.concatenate(a) for a in zip(*parts, strict=True))
-    uid, first = np.unique(node_ids, return_index=True)
-    cell_ids = cell_ids[np.lexsort(np.sort(cell_ids[:, :4], axis=1).T[::-1])]
-    conn = np.searchsorted(uid, cell_ids)[:, TET10_VTK]
-    return HousingMesh(x[first].copy(), conn, np.full(conn.shape[0], tag, np.int64),
-                       basis[first])
+#: Fields written per complex amplitude z: Re z, Im z, |z| and arg z [deg].
+_COMPLEX_PARTS = ("re", "im", "mag", "phase_deg")
 
 
 def _complex_fields(prefix: str, z: np.ndarray) -> dict[str, np.ndarray]:
-    return {f"{prefix}_re": z.real, f"{prefix}_im": z.imag, f"{prefix}_mag": np.abs(z),
-            f"{prefix}_phase_deg": np.degrees(np.angle(z))}
+    """``{prefix}_re``, ``_im``, ``_mag``, ``_phase_deg`` of the complex array ``z``."""
+    parts = (z.real, z.imag, np.abs(z), np.degrees(np.angle(z)))
+    return {f"{prefix}_{p}": v for p, v in zip(_COMPLEX_PARTS, parts, strict=True)}
 
 
-def write_housing_fields(out: Path, rpm: float, hm: HousingMesh, rad: dict | None,
-                         qk: np.ndarray, harmonics, omega: float, scene) -> list[Path]:
+def write_housing_fields(out: Path, rpm: float, hd, rad: dict | None, qk: np.ndarray,
+                         harmonics, omega: float, scene) -> list[Path]:
     """Write the three XDMF files of one speed (module docstring); returns their paths.
+
+    The displacement is ``u = u_rows q`` at the housing's nodes, ``u_rows`` read block by
+    block from the cached ROM's ``housing.h5`` (no FE model, no mesh file): per block the
+    time series is ``u_rows q(t_j)`` with the modal time series
+    ``q(t) = Re Σ_{k>0} q̃_k e^{i k ω₀ t}`` and the amplitude of order o is ``u_rows q̃_o``.
 
     Parameters
     ----------
+    hd : fem.post.fields.HousingData
+        The housing's nodes, cells and rows (``fem.post.read_housing``).
+    rad : dict or None
+        The ROM's radiation data (``radiation.h5``): the surface file is written with it.
     qk : (n_r, n_h) complex
         ROM coordinates per harmonic of the point.
     harmonics : hbm HarmonicSet
     omega : float
         Shaft speed Ω [rad/s].
     """
-    from study.xdmf import write_xdmf
-
     out = Path(out)
     idx = np.asarray(harmonics.indices)
     w0 = harmonics.fundamental_rad_s(omega)
-    z = scene.gear.teeth
     tag = f"{rpm:.0f}rpm"
-    paths = []
-    # time series of the dynamic displacement (k > 0 only: the mean is removed)
     nf = frames_per_mesh_period(scene, harmonics)
     n_frames = nf * scene.outputs.housing_mesh_periods
-    t_mesh = 2 * np.pi / (z * omega)
-    dyn = idx > 0
-    uk = np.einsum("pcr,rk->pck", hm.basis, qk[:, dyn])             # (n_p, 3, n_dyn)
-    frames = []
-    for j in range(n_frames):
-        t = j * t_mesh / nf
-        frames.append((t, {"displacement": (uk * np.exp(1j * idx[dyn] * w0 * t)).real.sum(-1)}))
-    paths.append(write_xdmf(out / f"housing_{tag}.xdmf", hm.points, "tetra10", hm.cells,
-                            cell_data={"part_id": hm.part_id}, frames=frames))
-    logger.info("wrote %s (%d frames, %d per mesh period, %d mesh periods)", paths[-1],
-                n_frames, nf, scene.outputs.housing_mesh_periods)
-    # complex amplitude per selected order
-    orders = field_orders(scene, harmonics)
+    t_mesh = 2 * np.pi / (scene.gear.teeth * omega)
+    times = [j * t_mesh / nf for j in range(n_frames)]
+    dyn = idx > 0                                        # the mean is removed
+    q_t = (qk[:, dyn] @ np.exp(1j * np.outer(idx[dyn] * w0, times))).real  # (n_r, n_frames)
     pos = {int(k) * harmonics.integer_ratio: j for j, k in enumerate(idx)}
-    sel = [(o, pos[o]) for o in orders if o in pos]
-    pdata = {}
-    for o, j in sel:
-        pdata.update(_complex_fields(f"u_o{o}", uk[:, :, int(np.sum(dyn[:j]))]))
-    paths.append(write_xdmf(out / f"housing_orders_{tag}.xdmf", hm.points, "tetra10", hm.cells,
-                            point_data=pdata, cell_data={"part_id": hm.part_id}))
+    sel = [(o, pos[o]) for o in field_orders(scene, harmonics) if o in pos]
+    paths = _write_volume_fields(out, tag, hd, times, q_t,
+                                 {o: qk[:, j] for o, j in sel})
+    logger.info("wrote %s (%d frames, %d per mesh period, %d mesh periods)", paths[0],
+                n_frames, nf, scene.outputs.housing_mesh_periods)
     if rad is not None:
-        cdata: dict[str, np.ndarray] = {
-            "part_id": np.full(rad["facet_nodes"].shape[0], hm.part_id[0], np.int64),
-            "area": rad["facet_area"]}
         ac = scene.acoustics
-        for o, j in sel:
-            vn = 1j * idx[j] * w0 * (rad["facet_rows"] @ qk[:, j])
-            cdata.update(_complex_fields(f"vn_o{o}", vn))
-            cdata[f"erp_density_o{o}"] = 0.5 * ac.air_density * ac.sound_speed * np.abs(vn) ** 2
-        paths.append(write_xdmf(out / f"housing_surface_{tag}.xdmf", rad["points"], "triangle6",
-                                rad["facet_nodes"], cell_data=cdata))
+        vn = {o: 1j * idx[j] * w0 * (rad["facet_rows"] @ qk[:, j]) for o, j in sel}
+        paths.append(_write_surface_fields(out / f"housing_surface_{tag}.xdmf", rad,
+                                           hd.part_tag, vn, ac.air_density, ac.sound_speed))
     logger.info("wrote per-order housing fields for orders %s at %s",
                 ", ".join(str(o) for o, _ in sel) or "-", tag)
     return paths
+
+
+def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.ndarray,
+                         q_orders: dict[int, np.ndarray]) -> list[Path]:
+    """``housing_<tag>.xdmf`` (``u_rows q(t_j)`` per frame) and ``housing_orders_<tag>.xdmf``
+    (``u_rows q̃_o`` per order), filled block of nodes by block from ``housing.h5``."""
+    from fem.post.fields import BLOCK_BYTES
+    from fem.post.xdmf import xdmf_writer
+
+    part_id = np.full(hd.cells.shape[0], hd.part_tag, np.int64)
+    paths = [out / f"housing_{tag}.xdmf", out / f"housing_orders_{tag}.xdmf"]
+    q_sel = np.column_stack(list(q_orders.values())) if q_orders else np.zeros((hd.n_r, 0))
+    # one real product per block gives the frames and the orders' real and imaginary parts
+    # (a complex product, r cast to complex, varied in the last bit from run to run)
+    n_t, n_o = len(times), len(q_orders)
+    q_all = np.hstack([q_t, q_sel.real, q_sel.imag])             # (n_r, n_t + 2 n_o)
+    # float64 per node of a block: rows 3 n_r, the frames twice (product, transposed copy),
+    # per order the product, the complex amplitude and its four fields (2 + 2 + 4)
+    nodes = BLOCK_BYTES // (8 * 3 * (hd.n_r + 2 * n_t + 8 * n_o))
+    with xdmf_writer(paths[0], hd.points, "tetra10", hd.cells, times) as ts, \
+            xdmf_writer(paths[1], hd.points, "tetra10", hd.cells) as od:
+        ts.add("part_id", part_id, "Cell")
+        disp = [ts.create("displacement", frame=j) for j in range(len(times))]
+        amp = {f"u_o{o}_{p}": od.create(f"u_o{o}_{p}") for o in q_orders
+               for p in _COMPLEX_PARTS}
+        od.add("part_id", part_id, "Cell")
+        for a, b, rows in hd.row_blocks(max(1, nodes)):
+            u = rows.reshape(-1, hd.n_r) @ q_all                   # (3 (b - a), n_t + 2 n_o)
+            u_t = np.ascontiguousarray(u[:, :n_t].T)                # (n_t, 3 (b - a))
+            for j, ds in enumerate(disp):
+                ds[a:b] = u_t[j].reshape(-1, 3)
+            for i, o in enumerate(q_orders):
+                z = u[:, n_t + i] + 1j * u[:, n_t + n_o + i]
+                for name, v in _complex_fields(f"u_o{o}", z.reshape(-1, 3)).items():
+                    amp[name][a:b] = v
+    return paths
+
+
+def _write_surface_fields(path: Path, rad: dict, part_tag: int, vn: dict[int, np.ndarray],
+                          rho: float, c: float) -> Path:
+    """``housing_surface_<rpm>rpm.xdmf``: facet areas, and per order the normal velocity
+    ``vn`` at the facet centres and the ERP density ``½ ρ c |ṽ_n|²``."""
+    from fem.post.xdmf import write_xdmf
+
+    cdata: dict[str, np.ndarray] = {
+        "part_id": np.full(rad["facet_nodes"].shape[0], part_tag, np.int64),
+        "area": rad["facet_area"]}
+    for o, v in vn.items():
+        cdata.update(_complex_fields(f"vn_o{o}", v))
+        cdata[f"erp_density_o{o}"] = 0.5 * rho * c * np.abs(v) ** 2
+    return write_xdmf(path, rad["points"], "triangle6", rad["facet_nodes"], cell_data=cdata)

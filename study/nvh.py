@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.acoustics import P_REF, erp_harmonics, power_db
 from study.fields import V_REF, accelerometer_rows, velocity_level_db
 from study.points import point_at

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs, is_unstable, kind_label
 from study.paper_data import (
     FIGURES,

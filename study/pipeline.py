@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
 from study.errors import SceneError, StageUnavailable
 from study.parallel import mark_collective, world
@@ -157,7 +157,7 @@ class Pipeline:
 
     def rom_key(self) -> str:
         return stage_key("rom", {"fe": self.fe_key(), "rom": _asdict(self.scene.rom)},
-                         source_hash("reduction", "study.fe_stages", "study.acoustics"))
+                         source_hash("reduction", "fem.post", "study.fe_stages"))
 
     def run_mesh(self) -> Path:
         """Mesh stage (FE scenes): cached gmsh model file."""
@@ -396,8 +396,6 @@ class Pipeline:
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
                 "point, or, after a walk back or a closed loop it could not leave, from the "
                 "point before the speeds where it was caught)", result))
-        if s.scene.kind == "fe" and s.outputs.housing_field:
-            result.mesh_dir = self.run_mesh()
         t = time.perf_counter()
         # listed in report.md, written during export
         self._log_stage("export", StageStatus("ran"), log=False)

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from geometry.files import atomic_write  # noqa: E402
+from core.files import atomic_write  # noqa: E402
 from study.curves import class_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from hbm.stability import KINDS
 from study.attractors import attractor_line
 from study.curves import UnstableSegment, kind_label, kind_name, unstable_segments

@@ -8,7 +8,7 @@ coefficients, backlash, static load, teeth), ``/system`` (lumped M, C, K, G) or
 ``/grazing`` and ``/folds``.
 
 Every write goes to a temporary file in the destination folder, then ``os.replace``
-(:func:`geometry.files.atomic_write`) — a reader (or a killed run) never sees a
+(:func:`core.files.atomic_write`) — a reader (or a killed run) never sees a
 half-written file. During the continuation the whole file is rewritten every
 ``checkpoint_every`` points with ``continuation.attrs["status"] = "running"``;
 ``--resume`` rebuilds the :class:`hbm.Branch` from it and continues from the last saved point.
@@ -24,7 +24,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 logger = logging.getLogger(__name__)
 

@@ -93,6 +93,5 @@ class RunResult:
     figures: list[Path] = field(default_factory=list)
     seconds: float = 0.0
     rom: Any = None
-    mesh_dir: Path | None = None
     nvh: Any = None
     attractors: list = field(default_factory=list)

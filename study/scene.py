@@ -14,15 +14,14 @@ value and what is allowed. The schema is documented in ``docs/scenes.md``.
 
 The work is done by modules that import one way (docs/architecture.md):
 :mod:`study.scene_schema` (the :class:`Spec` table) → :mod:`study.scene_check` (the
-checker) → :mod:`study.scene_data` (the frozen dataclasses) → :mod:`study.gears`
-(ISO 6336 and STE estimates) → :mod:`study.scene_overrides` (``--set``) →
-:mod:`study.scene_load` (validation and loading). This module re-exports their
+checker) → :mod:`study.scene_data` (the frozen dataclasses) → :mod:`study.scene_overrides`
+(``--set``) → :mod:`study.scene_load` (validation and loading; the ISO 6336 and STE
+estimates come from :mod:`gears`). This module re-exports their
 public names; code inside :mod:`study` imports from the module that holds a name.
 """
 from __future__ import annotations
 
 from study.errors import SceneError, StageUnavailable
-from study.gears import estimate_mesh_stiffness, estimate_ste, iso6336_single_tooth_stiffness
 from study.scene_data import (
     Accelerometer,
     AcousticsData,
@@ -55,5 +54,4 @@ __all__ = [
     "parse_scene",
     "scene_from_dict", "apply_overrides", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES",
     "FourierSeries", "Spec", "StageUnavailable", "schema_markdown", "parse_set_values",
-    "iso6336_single_tooth_stiffness", "estimate_mesh_stiffness", "estimate_ste",
 ]

@@ -3,7 +3,7 @@
 :func:`check_table` refuses unknown keys (with a "did you mean"), wrong types,
 values out of range and missing required keys with a :class:`SceneError` naming the
 field, its value and what is allowed; it returns the table's values in SI units
-(factors of :data:`study.units.TO_SI`) under their attribute names, defaults filled in.
+(factors of :data:`core.units.TO_SI`) under their attribute names, defaults filled in.
 """
 from __future__ import annotations
 
@@ -13,16 +13,12 @@ import math
 from collections.abc import Callable, Collection, Iterable
 from typing import Any
 
+from core.errors import show
+from core.units import TO_SI
 from study.errors import SceneError
 from study.scene_schema import Spec, attr_name
-from study.units import TO_SI
 
-__all__ = ["check_table", "check_value", "check_known", "suggest", "fmt"]
-
-
-def fmt(v: Any) -> str:
-    """A value as error messages show it (strings quoted)."""
-    return repr(v) if isinstance(v, str) else str(v)
+__all__ = ["check_table", "check_value", "check_known", "suggest"]
 
 
 def _is_num(v: Any) -> bool:
@@ -35,19 +31,19 @@ def _check_number(where: str, v: Any, spec: Spec) -> float | int:
             if _is_num(v) and float(v).is_integer():
                 v = int(v)
             else:
-                raise SceneError(f"{where} = {fmt(v)}: must be an integer "
+                raise SceneError(f"{where} = {show(v)}: must be an integer "
                                  f"({spec.range_text()})")
     elif not _is_num(v):
-        raise SceneError(f"{where} = {fmt(v)}: must be a number ({spec.range_text()})")
+        raise SceneError(f"{where} = {show(v)}: must be a number ({spec.range_text()})")
     if not math.isfinite(v):
-        raise SceneError(f"{where} = {fmt(v)}: must be finite ({spec.range_text()})")
+        raise SceneError(f"{where} = {show(v)}: must be finite ({spec.range_text()})")
     bad = False
     if spec.lo is not None:
         bad |= v <= spec.lo if spec.lo_open else v < spec.lo
     if spec.hi is not None:
         bad |= v >= spec.hi if spec.hi_open else v > spec.hi
     if bad:
-        raise SceneError(f"{where} = {fmt(v)}: must be {spec.range_text()}")
+        raise SceneError(f"{where} = {show(v)}: must be {spec.range_text()}")
     return v
 
 
@@ -60,32 +56,32 @@ def check_value(where: str, v: Any, spec: Spec) -> Any:
         return n if k == "int" else float(n) * factor
     if k == "bool":
         if not isinstance(v, bool):
-            raise SceneError(f"{where} = {fmt(v)}: must be true or false")
+            raise SceneError(f"{where} = {show(v)}: must be true or false")
         return v
     if k == "str":
         if not isinstance(v, str):
-            raise SceneError(f"{where} = {fmt(v)}: must be a string")
+            raise SceneError(f"{where} = {show(v)}: must be a string")
         return v
     if k == "choice":
         if not isinstance(v, str) or v not in spec.choices:
             hint = suggest(v, spec.choices) if isinstance(v, str) else ""
-            raise SceneError(f"{where} = {fmt(v)}: must be {spec.range_text()}{hint}")
+            raise SceneError(f"{where} = {show(v)}: must be {spec.range_text()}{hint}")
         return v
     if k == "strs":
         if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
-            raise SceneError(f"{where} = {fmt(v)}: must be a list of strings")
+            raise SceneError(f"{where} = {show(v)}: must be a list of strings")
         return tuple(v)
     if k in ("floats", "ints", "vec3", "pair"):
         if not isinstance(v, list):
-            raise SceneError(f"{where} = {fmt(v)}: must be a list of numbers")
+            raise SceneError(f"{where} = {show(v)}: must be a list of numbers")
         if k == "vec3" and len(v) != 3:
-            raise SceneError(f"{where} = {fmt(v)}: must be a list of 3 numbers (x, y, z)")
+            raise SceneError(f"{where} = {show(v)}: must be a list of 3 numbers (x, y, z)")
         if k == "pair" and len(v) != 2:
-            raise SceneError(f"{where} = {fmt(v)}: must be a list [start, end] of 2 numbers")
+            raise SceneError(f"{where} = {show(v)}: must be a list [start, end] of 2 numbers")
         item = dataclasses.replace(spec, kind="int" if k == "ints" else "float")
         out = [check_value(f"{where}[{i}]", x, item) for i, x in enumerate(v)]
         if k == "pair" and not out[0] < out[1]:
-            raise SceneError(f"{where} = {fmt(v)}: start must be smaller than end "
+            raise SceneError(f"{where} = {show(v)}: start must be smaller than end "
                              "(reversed or empty range)")
         return tuple(out)
     raise AssertionError(k)
@@ -110,7 +106,7 @@ def check_known(keys: Iterable[str], allowed: Collection[str], name: Callable[[s
 def check_table(where: str, table: Any, specs: dict[str, Spec]) -> dict[str, Any]:
     """Validate one table against its specs; returns {attr: SI value} incl. defaults."""
     if not isinstance(table, dict):
-        raise SceneError(f"[{where}] = {fmt(table)}: must be a table")
+        raise SceneError(f"[{where}] = {show(table)}: must be a table")
     check_known(table, specs, lambda key: f"{where}.{key}")
     out: dict[str, Any] = {}
     for key, spec in specs.items():

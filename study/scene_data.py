@@ -2,7 +2,8 @@
 
 Attribute names are the scene file's keys without their unit suffix. Built by
 :mod:`study.scene_load`; everything downstream (models, stages, outputs) reads a
-scene through these types only. Imports nothing of :mod:`study`.
+scene through these types only. Imports nothing of :mod:`study`; the gear geometry
+and the Fourier series of the mesh come from :mod:`gears`.
 """
 from __future__ import annotations
 
@@ -10,6 +11,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from gears.excitation import fourier_sample
+from gears.pair import GearPair, contact_path_length
 
 __all__ = ["Scene", "SceneInfo", "GearData", "FourierSeries", "MeshStiffness",
            "TransmissionError", "LoadData", "AeroLoad", "Unbalance", "ExternalData",
@@ -58,11 +62,21 @@ class GearData:
 
     @property
     def contact_ratio(self) -> float:
-        """Transverse contact ratio ε_α of the pair (spur, ratio 1:1, standard centre distance)."""
-        rb, ra, r = self.base_radius, self.tip_radius, self.pitch_radius
-        alpha = self.pressure_angle
-        path = 2.0 * math.sqrt(ra**2 - rb**2) - 2.0 * r * math.sin(alpha)
+        """Transverse contact ratio ε_α = g_α / (π m cos α) of the pair (spur, ratio 1:1,
+        standard centre distance; g_α of :func:`gears.pair.contact_path_length`)."""
+        rb, ra, alpha = self.base_radius, self.tip_radius, self.pressure_angle
+        path = contact_path_length((ra, ra), (rb, rb), self.centre_distance, alpha)
         return path / (math.pi * self.module * math.cos(alpha))
+
+    def pair(self) -> GearPair:
+        """The pair as a :class:`gears.pair.GearPair` (1:1, this module, both gears'
+        profile shift). Its radii follow the module; those above follow r_b, as the
+        dynamics do (Table 1): they agree when ``module_mm`` is omitted (to rounding)."""
+        x = self.profile_shift
+        return GearPair(teeth=(self.teeth, self.teeth), module=self.module,
+                        pressure_angle=self.pressure_angle, face_width=self.face_width,
+                        helix_angle=self.helix_angle, profile_shift=(x, x),
+                        addendum_coef=self.addendum_coef, dedendum_coef=self.dedendum_coef)
 
 
 @dataclass(frozen=True)
@@ -91,12 +105,9 @@ class FourierSeries:
         return self.mean - float(sum(self.amplitudes))
 
     def sample(self, n: int) -> np.ndarray:
-        """Values at θ = 2π j/n, j = 0 … n − 1 (one mesh period)."""
-        t = np.arange(n) / n
-        x = np.full(n, self.mean)
-        for j, (a, p) in enumerate(zip(self.amplitudes, self.phases, strict=True), start=1):
-            x += a * np.cos(2 * np.pi * j * t + p)
-        return x
+        """Values at θ = 2π j/n, j = 0 … n − 1 (one mesh period;
+        :func:`gears.excitation.fourier_sample`)."""
+        return fourier_sample(self.mean, self.amplitudes, self.phases, n)
 
 
 @dataclass(frozen=True)

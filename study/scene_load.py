@@ -14,10 +14,12 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from core.errors import show
+from gears.excitation import perfect_teeth_ste, rectangular_mesh_stiffness
+from gears.iso6336 import approximate_virtual_teeth, single_stiffness
 from study.errors import SceneError, StageUnavailable
 from study.fe_params import fe_parameters
-from study.gears import estimate_mesh_stiffness, estimate_ste
-from study.scene_check import check_known, check_table, fmt, suggest
+from study.scene_check import check_known, check_table, suggest
 from study.scene_data import (
     Accelerometer,
     AcousticsData,
@@ -86,7 +88,7 @@ def _build_gear(d: dict) -> GearData:
 
 def _build_accelerometers(items: Any, kind: str) -> tuple[Accelerometer, ...]:
     if not isinstance(items, list):
-        raise SceneError(f"outputs.accelerometer = {fmt(items)}: must be an array of tables "
+        raise SceneError(f"outputs.accelerometer = {show(items)}: must be an array of tables "
                          "([[outputs.accelerometer]])")
     out: list[Accelerometer] = []
     for i, item in enumerate(items):
@@ -106,14 +108,14 @@ def _build_external(ext: Any, kind: str) -> ExternalData:
     if ext is None:
         return ExternalData()
     if not isinstance(ext, dict):
-        raise SceneError(f"[external] = {fmt(ext)}: must be a table")
+        raise SceneError(f"[external] = {show(ext)}: must be a table")
     check_known(ext, ("aero", "unbalance"), lambda key: f"external.{key}",
                 note=" ([[external.aero]] tables)")
     aero, unb = [], []
     for name, target in (("aero", aero), ("unbalance", unb)):
         items = ext.get(name, [])
         if not isinstance(items, list):
-            raise SceneError(f"external.{name} = {fmt(items)}: must be an array of tables "
+            raise SceneError(f"external.{name} = {show(items)}: must be an array of tables "
                              f"([[external.{name}]])")
         for i, item in enumerate(items):
             where = f"external.{name}[{i}]"
@@ -139,14 +141,22 @@ def _build_external(ext: Any, kind: str) -> ExternalData:
 
 
 def _mesh_stiffness(d: dict, gear: GearData, static_load: float) -> MeshStiffness:
-    """``[mesh_stiffness]``: given harmonics, or the ISO 6336 estimate."""
+    """``[mesh_stiffness]``: given harmonics, or the ISO 6336-1 estimate: a rectangular
+    wave between c' b and 2 c' b (:func:`gears.excitation.rectangular_mesh_stiffness`,
+    :func:`gears.iso6336.single_stiffness` with z_n ≈ z/cos³β and the low-load
+    correction at F_s)."""
     if d["estimate"]:
         if d["mean"] is not None or d["amplitudes"]:
             raise SceneError("mesh_stiffness.estimate = true: remove mean_N_per_um and "
                              "amplitudes_N_per_um (they would be ignored)")
         if static_load <= 0:
             raise SceneError("load.torque_Nm = 0: mesh_stiffness.estimate needs a torque > 0")
-        return estimate_mesh_stiffness(gear, static_load, d["cm"], d["n_harmonics"])
+        zn = approximate_virtual_teeth(gear.teeth, gear.helix_angle)
+        single = single_stiffness((zn, zn), (gear.profile_shift, gear.profile_shift),
+                                  gear.helix_angle, gear.pressure_angle, gear.face_width,
+                                  c_m=d["cm"], static_load=static_load)
+        return MeshStiffness(*rectangular_mesh_stiffness(single, gear.contact_ratio,
+                                                         d["n_harmonics"]), estimated=True)
     if d["mean"] is None:
         raise SceneError("mesh_stiffness.mean_N_per_um: missing (give it, or estimate = true)")
     a, p = _harmonic_pairs("mesh_stiffness", d, "amplitudes_N_per_um", "phases_deg")
@@ -159,7 +169,8 @@ def _mesh_stiffness(d: dict, gear: GearData, static_load: float) -> MeshStiffnes
 
 
 def _transmission_error(d: dict, ms: MeshStiffness, static_load: float) -> TransmissionError:
-    """``[transmission_error]``: given harmonics, or the loaded STE of perfect teeth."""
+    """``[transmission_error]``: given harmonics, or the loaded STE of perfect teeth
+    q_s = F_s / k_m(θ), as many harmonics as k_m (:func:`gears.excitation.perfect_teeth_ste`)."""
     if d["estimate"]:
         if d["amplitudes"] or d["mean"] != 0.0:
             raise SceneError("transmission_error.estimate = true: remove mean_um and "
@@ -167,7 +178,10 @@ def _transmission_error(d: dict, ms: MeshStiffness, static_load: float) -> Trans
         if d["kind"] != "loaded":
             raise SceneError(f"transmission_error.kind = {d['kind']!r}: the estimate is a "
                              "loaded STE (kind = 'loaded')")
-        return estimate_ste(ms, static_load, max(len(ms.amplitudes), 1))
+        series = (ms.mean, ms.amplitudes, ms.phases)
+        return TransmissionError(*perfect_teeth_ste(series, static_load,
+                                                    max(len(ms.amplitudes), 1)),
+                                 estimated=True, kind="loaded")
     a, p = _harmonic_pairs("transmission_error", d, "amplitudes_um", "phases_deg")
     return TransmissionError(d["mean"], a, p, kind=d["kind"])
 
@@ -259,7 +273,7 @@ def _fe_sections(raw: dict, kind: str, gear: GearData) -> dict[str, dict]:
             raise SceneError(f"[{s}]: only allowed when scene.kind = 'fe' (kind is "
                              f"{kind!r})")
         if not isinstance(t, dict):
-            raise SceneError(f"[{s}] = {fmt(t)}: must be a table")
+            raise SceneError(f"[{s}] = {show(t)}: must be a table")
         fe[s] = copy.deepcopy(t)
     if kind == "fe":
         try:  # geometry and fem are imported only here, for FE scenes
@@ -274,7 +288,7 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
     """Known sections only; each schema section checked. Returns the checked sections
     and the raw ``[[outputs.accelerometer]]`` list (checked with the outputs)."""
     if not isinstance(raw, dict):
-        raise SceneError(f"scene = {fmt(raw)}: must be a TOML document (table)")
+        raise SceneError(f"scene = {show(raw)}: must be a TOML document (table)")
     check_known(raw, TOP_LEVEL, lambda key: f"[{key}]", what="section")
     raw_out = raw.get("outputs", {})
     accel_raw = []

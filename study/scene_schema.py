@@ -1,9 +1,9 @@
 """The scene file schema: one :class:`Spec` per key, section by section (:data:`SCHEMA`).
 
-The bottom of the scene layers (above :mod:`study.units`): what each key of a scene
+The bottom of the scene layers (above :mod:`core.units`): what each key of a scene
 file is, its type, default, allowed range, unit suffix and meaning. The one checker
 that applies it is :mod:`study.scene_check`; the unit factors come from the one unit
-table :data:`study.units.TO_SI`. ``docs/scenes.md`` lists the schema
+table :data:`core.units.TO_SI`. ``docs/scenes.md`` lists the schema
 (:func:`schema_markdown`; a test checks every key is there).
 """
 from __future__ import annotations
@@ -11,7 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from study.units import TO_SI
+from core.errors import range_text
+from core.units import TO_SI
 
 __all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
            "attr_name", "schema_markdown"]
@@ -40,12 +41,7 @@ class Spec:
     def range_text(self) -> str:
         if self.kind == "choice":
             return "one of " + ", ".join(repr(c) for c in self.choices)
-        parts = []
-        if self.lo is not None:
-            parts.append(("> " if self.lo_open else ">= ") + f"{self.lo:g}")
-        if self.hi is not None:
-            parts.append(("< " if self.hi_open else "<= ") + f"{self.hi:g}")
-        return " and ".join(parts) if parts else "any"
+        return range_text(self.lo, self.hi, lo_open=self.lo_open, hi_open=self.hi_open)
 
 
 def _f(default=None, unit="", lo=None, hi=None, lo_open=False, hi_open=False, doc="",
@@ -254,7 +250,7 @@ TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "e
 
 
 def attr_name(key: str) -> str:
-    """File key -> attribute name (unit suffix of :data:`study.units.TO_SI` dropped)."""
+    """File key -> attribute name (unit suffix of :data:`core.units.TO_SI` dropped)."""
     for suf in sorted(TO_SI, key=len, reverse=True):
         if suf and key.endswith("_" + suf):
             return key[: -len(suf) - 1]

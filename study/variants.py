@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 from study.plot_common import contact_intervals
 from study.plots_speed import forced_response_overlay
 
@@ -91,7 +91,6 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
         write_report_files(res)
     if scene.scene.kind == "fe" and scene.outputs.housing_field:
         from study.export import write_housing
-        res.mesh_dir = pipe.run_mesh()
-        write_housing(res)                          # collective: the FE model on every rank
+        write_housing(res)                          # from the cached ROM, rank 0 writes
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

@@ -19,7 +19,8 @@ def main(out: str) -> None:
     from mpi4py import MPI
 
     import fem
-    from geometry.files import atomic_write
+    from core.files import atomic_write
+    from gears.pair import pair_frame
 
     comm = MPI.COMM_WORLD
     with fs.gmsh_session() as model:
@@ -27,7 +28,7 @@ def main(out: str) -> None:
         fe_mesh = fem.load_gmsh_mesh(model, comm, centres=centres)
     spec = fem.ModelSpec()
     spec.add_clamp("end_a")
-    spec.add_node("b", fe_mesh.centres["end_b"], frame=fem.gear_pair_frame(0.349))
+    spec.add_node("b", fe_mesh.centres["end_b"], frame=pair_frame(0.349))
     spec.add_link("end_b", "b")
     spec.add_mass("b", fem.disk_mass(0.05, 0.016, 0.02, 7850.0))
     spec.add_node("c", [0.05, 0.0, 0.2])
@@ -57,10 +58,11 @@ def distributing_case(fe_mesh: object) -> dict:
     import numpy as np
 
     import fem
+    from gears.pair import pair_frame
 
     spec = fem.ModelSpec()
     spec.add_clamp("end_a")
-    spec.add_node("b", fe_mesh.centres["end_b"], frame=fem.gear_pair_frame(0.349),
+    spec.add_node("b", fe_mesh.centres["end_b"], frame=pair_frame(0.349),
                   fixed=np.array([False] * 4 + [True, False]))
     spec.add_link("end_b", "b", kind="distributing")
     spec.add_mass("b", fem.disk_mass(0.05, 0.016, 0.02, 7850.0))

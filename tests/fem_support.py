@@ -194,13 +194,14 @@ def free_shaft_model(h: float = 0.01, length: float = 0.2, radius: float = 0.01,
     from mpi4py import MPI
 
     import fem
+    from gears.pair import pair_frame
 
     with gmsh_session() as model:
         centres = build_cylinder(length, radius, h, MPI.COMM_WORLD.rank)
         fe_mesh = fem.load_gmsh_mesh(model, MPI.COMM_WORLD, centres=centres)
     spec = fem.ModelSpec()
     spec.add_node("a", fe_mesh.centres["end_a"])
-    spec.add_node("b", fe_mesh.centres["end_b"], frame=fem.gear_pair_frame(alpha))
+    spec.add_node("b", fe_mesh.centres["end_b"], frame=pair_frame(alpha))
     spec.add_link("end_a", "a")
     spec.add_link("end_b", "b")
     spec.add_mass("b", fem.disk_mass(0.05, 0.016, 0.02, 7850.0))

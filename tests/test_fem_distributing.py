@@ -16,12 +16,13 @@ from mpi4py import MPI  # noqa: E402
 import fem  # noqa: E402
 from fem.distributing import fit_operator, rigid_motion_matrix, surface_fit  # noqa: E402
 from fem.prolongation import _surface_blocks  # noqa: E402
+from gears.pair import pair_frame  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
 REFERENCE = Path(__file__).with_name("data") / "rigid_link_reference.npz"
 MESH = Path(__file__).with_name("data") / "cylinder_h20.msh"
-FRAME = fem.gear_pair_frame(0.349)
+FRAME = pair_frame(0.349)
 
 
 def _bar(length: float, radius: float, h: float) -> fem.FEMesh:

@@ -14,6 +14,7 @@ import fem_support as fs  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 import fem  # noqa: E402
+from gears.pair import pair_frame  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -95,7 +96,7 @@ def _chain_model(alpha: float) -> tuple[fem.FEModel, dict]:
     spec = fem.ModelSpec()
     spec.add_clamp("end_a")
     spec.add_node("n1", [0.3, 0.1, 0.0])
-    spec.add_node("n2", [0.3, 0.2, 0.0], frame=fem.gear_pair_frame(alpha))
+    spec.add_node("n2", [0.3, 0.2, 0.0], frame=pair_frame(alpha))
     spec.add_mass("n1", fem.rigid_body_mass(p["m1"], [p["J1"]] * 3))
     spec.add_mass("n2", fem.rigid_body_mass(p["m2"], [p["J2"]] * 3))
     spec.add_spring("n1", fem.axial_spring(p["k1"], p["k1"], p["kt1"], p["kt1"]))

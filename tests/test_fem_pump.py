@@ -5,6 +5,7 @@ and G, the single free drivetrain rotation, and the static load path of the driv
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ geometry = pytest.importorskip("geometry")
 from mpi4py import MPI  # noqa: E402
 
 import fem  # noqa: E402
+from gears.pair import line_of_action_vector  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -43,7 +45,36 @@ def test_contract_nodes_and_gear_dofs(pump: fem.FEModel) -> None:
     g = fem.GearParams()
     np.testing.assert_allclose(pump.G, [0, 1, 0, 0, 0, g.base_radius_1,
                                         0, -1, 0, 0, 0, g.base_radius_2], atol=1e-18)  # fmt: skip
+    # the model's G is the pair's line-of-action vector of gears, bitwise
+    G = line_of_action_vector(g.pressure_angle, g.helix_angle, g.base_radius_1, g.base_radius_2)
+    np.testing.assert_array_equal(pump.G, G)
     assert pump.info["clamped"] > 0
+
+
+def _eq11_before_gears(alpha: float, beta: float, rb1: float, rb2: float) -> np.ndarray:
+    """eq. (11) as fem/frames.py computed it before the gears package took it over."""
+    ta, tb = math.tan(alpha), math.tan(beta)
+    return np.array([0.0, 1.0, tb, rb1 * ta * tb, -rb1 * tb, rb1,
+                     0.0, -1.0, -tb, rb2 * ta * tb, -rb2 * tb, rb2])
+
+
+@pytest.mark.parametrize("scene", ["pump.toml", "pump-paper.toml"])
+def test_pump_g_from_the_scene_is_gears_line_of_action_vector(scene: str) -> None:
+    """The scene's gear data reach fem.GearParams (study.fe_params); their G is
+    gears.line_of_action_vector of the same numbers and the pre-gears eq. (11), bitwise."""
+    from study.fe_params import fe_parameters
+    from study.scene import load_scene
+
+    s = load_scene(Path(__file__).resolve().parents[1] / "scenes" / scene)
+    g = fe_parameters(s.fe, s.gear).gears
+    args = (s.gear.pressure_angle, s.gear.helix_angle, s.gear.base_radius, s.gear.base_radius)
+    assert (g.pressure_angle, g.helix_angle, g.base_radius_1, g.base_radius_2) == args
+    np.testing.assert_array_equal(g.G(), line_of_action_vector(*args))
+    np.testing.assert_array_equal(g.G(), _eq11_before_gears(*args))
+    for beta in (0.1, -0.3):          # helical entries too
+        np.testing.assert_array_equal(
+            fem.GearParams(helix_angle=beta).G(),
+            _eq11_before_gears(g.pressure_angle, beta, 46.984e-3, 46.984e-3))
 
 
 def _with_mesh_stiffness(pump: fem.FEModel, km: float) -> object:

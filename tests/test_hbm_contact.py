@@ -1,4 +1,5 @@
-"""The dead-zone law of eq. (13), hbm.contact, against the piecewise-linear law by hand."""
+"""The dead-zone law of eq. (13), hbm.elements.contact_law, against the piecewise-linear
+law by hand."""
 from __future__ import annotations
 
 import numpy as np

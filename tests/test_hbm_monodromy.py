@@ -1,5 +1,5 @@
-"""Floquet exponents from the variational equation (T.10, hbm.monodromy), against an
-independent integration of the same equation (scipy DOP853, physical coordinates)
+"""Floquet exponents from the variational equation (T.10, hbm.stability.monodromy),
+against an independent integration of the same equation (scipy DOP853, physical coordinates)
 and the parity of the harmonic balance's real exponents (T.9)."""
 
 import numpy as np

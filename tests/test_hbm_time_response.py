@@ -1,5 +1,5 @@
-"""hbm.time_response: the problem's equations integrated in time, against the harmonic
-balance on the Kahraman–Singh softening pair (tests/hbm_models.py)."""
+"""hbm.post.time_response: the problem's equations integrated in time, against the
+harmonic balance on the Kahraman–Singh softening pair (tests/hbm_models.py)."""
 
 import numpy as np
 import pytest

@@ -10,18 +10,25 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["geometry", "fem", "reduction", "hbm", "study"]
-# What each package may import from the project and from the heavy stacks.
+PACKAGES = ["core", "gears", "geometry", "fem", "reduction", "hbm", "study"]
+# What each package may import from the project and from the heavy stacks. ``core`` is
+# the bottom layer: it imports nothing of the project, and every package but ``hbm``
+# (which imports nothing of the project) may import it. ``gears`` (pure NumPy gear
+# physics) imports ``core`` only; ``fem`` takes the pair frame and G of eq. (11) from it.
 ALLOWED_PROJECT = {
-    "geometry": set(),
-    "fem": {"geometry"},
-    "reduction": {"fem", "geometry"},
+    "core": set(),
+    "gears": {"core"},
+    "geometry": {"core"},
+    "fem": {"core", "gears", "geometry"},
+    "reduction": {"core", "fem", "geometry"},
     "hbm": set(),
-    "study": {"geometry", "fem", "reduction", "hbm"},
+    "study": {"core", "gears", "geometry", "fem", "reduction", "hbm"},
 }
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
     "geometry": {"dolfinx", "petsc4py", "slepc4py", "ufl"},
+    # the FE post-processing is fem.post's; study works on the arrays it cached
+    "study": {"dolfinx", "ufl", "basix", "petsc4py"},
 }
 
 
@@ -48,6 +55,15 @@ def test_dependencies_point_one_way(package: str) -> None:
         )
         bad = imported & FORBIDDEN_THIRD_PARTY.get(package, set())
         assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def test_forbidden_imports_are_found_inside_functions(tmp_path: Path) -> None:
+    """study may not import the FE stack lazily either (its FE work is fem.post's)."""
+    mod = tmp_path / "m.py"
+    mod.write_text("import numpy\n\ndef f():\n    from dolfinx import fem\n"
+                   "    import petsc4py.PETSc\n    from . import sibling\n")
+    assert _imports(mod) == {"numpy", "dolfinx", "petsc4py"}
+    assert _imports(mod) & FORBIDDEN_THIRD_PARTY["study"] == {"dolfinx", "petsc4py"}
 
 
 def _module_name(root: Path, package: str, path: Path) -> str:
@@ -169,6 +185,27 @@ def test_the_continuation_imports_no_problem() -> None:
             assert outside <= allowed, f"{mod} imports {sorted(outside - allowed)}"
 
 
+@pytest.mark.parametrize(("package", "allowed"), [("core", set()),
+                                                  ("gears", {"numpy", "core"})])
+def test_bottom_packages_use_the_standard_library_and_numpy_only(package: str,
+                                                                 allowed: set[str]) -> None:
+    for path in sorted((ROOT / package).rglob("*.py")):
+        outside = {m for m in _imports(path) - {"__future__"} - allowed
+                   if m not in sys.stdlib_module_names}
+        assert not outside, f"{path.relative_to(ROOT)} imports {sorted(outside)}"
+
+
+def test_product_tests_import_no_benchmarks() -> None:
+    """The paper calibration and benchmark tools are not the product: their tests live
+    in benchmarks/tests/ (``make test`` runs both folders)."""
+    for path in sorted((ROOT / "tests").rglob("*.py")):
+        assert "benchmarks" not in _imports(path), (
+            f"{path.relative_to(ROOT)} imports benchmarks: move the test to benchmarks/tests/")
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert meta["tool"]["pytest"]["ini_options"]["testpaths"] == ["tests", "benchmarks/tests"]
+    assert "pytest -q tests benchmarks/tests" in (ROOT / "Makefile").read_text()
+
+
 def test_hbm_imports_without_the_fe_stack() -> None:
     code = (
         "import sys, hbm\n"
@@ -187,7 +224,7 @@ def test_hbm_imports_without_the_fe_stack() -> None:
 #: cut in pieces along a line count, whose pieces reach into each other, shows as such
 #: imports; a cut along concepts needs none.
 #: (reduction/rom.py still imports two helpers of reduction/coupled.py.)
-PRIVATE_PACKAGES = ["geometry", "fem", "hbm", "study"]
+PRIVATE_PACKAGES = ["core", "gears", "geometry", "fem", "hbm", "study"]
 
 
 def private_imports(root: Path, package: str) -> dict[str, list[str]]:

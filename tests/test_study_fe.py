@@ -72,6 +72,22 @@ def test_rotors_enter_the_fe_key_only_when_given(tmp_path):
 
 
 
+def test_rom_key_hashes_the_code_that_writes_the_rom_files(tmp_path, monkeypatch):
+    """The rom stage writes radiation.h5 and housing.h5 with fem.post: its key hashes
+    fem.post's sources (fem's own top-level modules reach it through the fe key; the hbm
+    key takes the rom key, so a change there reruns the continuation too)."""
+    import study.pipeline as pl
+    from study.scene import load_scene
+
+    asked: list[tuple[str, ...]] = []
+    real = pl.source_hash
+    monkeypatch.setattr(pl, "source_hash", lambda *m: asked.append(m) or real(*m))
+    pl.Pipeline(load_scene(PUMP), tmp_path).rom_key()
+    rom = next(m for m in asked if "reduction" in m)
+    assert {"reduction", "fem.post", "study.fe_stages"} <= set(rom)
+    assert any("fem" in m for m in asked)                            # via the fe key
+
+
 def _pump_groups_and_centres() -> tuple[dict, dict]:
     """Every group and centre name pump_spec asks for (values are not used)."""
     names = ["housing/feet"] + [f"{s}/{n}" for s in ("in", "out")
@@ -115,18 +131,30 @@ ACCELS = [{"name": "top", "position_mm": [50.0, 68.0, 80.0]},
           {"name": "side", "position_mm": [168.0, 0.0, 80.0], "direction": [1.0, 0.0, 0.0]}]
 
 
+#: The run of :func:`pump_runs`: housing fields at 620 rpm, accelerometers, NVH plots.
+R1 = {**FAST, "outputs.housing_field_rpm": [620.0],
+      "outputs.plots": ["campbell", "rom_error", "order_maps", "erp", "accelerometers"],
+      "outputs.accelerometer": ACCELS}
+
+
 @pytest.fixture(scope="module")
 def pump_runs(tmp_path_factory):
     import study
 
     tmp = tmp_path_factory.mktemp("pump")
     cache = tmp / "cache"
-    r1 = study.run(PUMP, tmp / "a", cache_dir=cache,
-                   overrides={**FAST, "outputs.housing_field_rpm": [620.0],
-                              "outputs.plots": ["campbell", "rom_error", "order_maps", "erp",
-                                                "accelerometers"],
-                              "outputs.accelerometer": ACCELS})
+    r1 = study.run(PUMP, tmp / "a", cache_dir=cache, overrides=R1)
     return tmp, cache, r1
+
+
+def _fe_model(pump_runs):
+    """The FE model of the run, rebuilt from the cached mesh (the independent checks; the
+    export itself needs neither the model nor the mesh)."""
+    from study import fe_stages
+    from study.pipeline import Pipeline
+
+    _, cache, r1 = pump_runs
+    return fe_stages.fe_stage(r1.scene, Pipeline(r1.scene, r1.out, cache_dir=cache).run_mesh())
 
 
 def test_stages_and_results(pump_runs):
@@ -193,13 +221,12 @@ def test_housing_fields_read_back(pump_runs):
     import meshio
 
     from reduction import load_basis
-    from study import fe_stages
     from study.export import nearest_point
 
     _, _, r1 = pump_runs
     i, pt = nearest_point(r1, 620.0)
     tag = f"{pt.rpm:.0f}rpm"
-    model = fe_stages.fe_stage(r1.scene, r1.mesh_dir)
+    model = _fe_model(pump_runs)
     T = load_basis(r1.rom.folder / "rom.h5", row_range=model.K.getOwnershipRange())
     qk = r1.problem.recover(pt)
     hs = r1.problem.harmonics
@@ -259,13 +286,78 @@ def test_housing_fields_read_back(pump_runs):
     assert centroid_rule == pytest.approx(erp, rel=0.25)
 
 
+def _h5_datasets(path: Path) -> dict[str, np.ndarray]:
+    out: dict[str, np.ndarray] = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda k, v: out.__setitem__(k, v[()]) if isinstance(v, h5py.Dataset)
+                     else None)
+    return out
+
+
+def test_export_needs_no_mesh_file(pump_runs, caplog):
+    """The housing fields come from the cached ROM alone (housing.h5, radiation.h5): with
+    the mesh stage's folder deleted from the cache, a run served from the cache writes the
+    same housing files and neither meshes nor builds the FE model."""
+    import shutil
+
+    import study
+
+    tmp, cache, r1 = pump_runs
+    cache2 = tmp / "cache_no_mesh"
+    shutil.copytree(cache, cache2)
+    shutil.rmtree(cache2 / "mesh")
+    caplog.set_level(logging.INFO)
+    r = study.run(PUMP, tmp / "no_mesh", cache_dir=cache2, overrides=R1)
+    assert r.stages["rom"] == "cached" and r.stages["hbm"] == "cached"
+    assert r.stages["mesh"].startswith("skipped") and r.stages["fe"].startswith("skipped")
+    assert not (cache2 / "mesh").exists()
+    assert "fem.mesh" not in caplog.text and "fem.model" not in caplog.text
+    names = sorted(p.name for p in r1.out.glob("housing*rpm.*"))
+    assert len(names) == 6 and names == sorted(p.name for p in r.out.glob("housing*rpm.*"))
+    for name in names:
+        if name.endswith(".xdmf"):
+            assert (r.out / name).read_text() == (r1.out / name).read_text(), name
+            continue
+        a, b = _h5_datasets(r1.out / name), _h5_datasets(r.out / name)
+        assert set(a) == set(b), name
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k], err_msg=f"{name}:{k}")
+
+
+def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):
+    """The export reads housing.h5 in blocks of nodes: with blocks of ~85 nodes (1 MiB)
+    instead of one block the files hold the same values (to round-off of the products)."""
+    from fem import post
+    from fem.post import fields as post_fields
+    from study import fields
+    from study.export import nearest_point
+
+    _, _, r1 = pump_runs
+    _, pt = nearest_point(r1, 620.0)
+    hd = post.read_housing(r1.rom.folder / post.HOUSING_FILE)
+    monkeypatch.setattr(post_fields, "BLOCK_BYTES", 1 << 20)
+    paths = fields.write_housing_fields(tmp_path, pt.rpm, hd, r1.rom.radiation,
+                                        r1.problem.recover(pt), r1.problem.harmonics,
+                                        pt.omega, r1.scene)
+    assert len(paths) == 3 and len(hd.points) > 80 * 85
+    for path in paths:
+        assert path.read_text() == (r1.out / path.name).read_text()
+        a = _h5_datasets(r1.out / path.with_suffix(".h5").name)
+        b = _h5_datasets(path.with_suffix(".h5"))
+        assert set(a) == set(b)
+        for k in a:
+            if k.endswith("phase_deg"):  # noise where the amplitude is round-off
+                continue
+            np.testing.assert_allclose(b[k], a[k], rtol=0, atol=1e-13 * np.abs(a[k]).max(),
+                                       err_msg=k)
+
+
 def test_accelerometers(pump_runs):
     """nvh/accelerometers: snapped to outer facet centres; velocity = i ω_k d·u(x) with u
     evaluated by DOLFINx at that point (Function.eval); level = rms over the orders."""
     from dolfinx import geometry as dgeo
 
     from reduction import load_basis, reconstruct
-    from study import fe_stages
     from study.export import point_at
 
     _, _, r1 = pump_runs
@@ -278,7 +370,7 @@ def test_accelerometers(pump_runs):
     assert names == ["top", "side"]
     assert pos[0, 1] == pytest.approx(0.068) and d[0] == pytest.approx([0, 1, 0])
     assert pos[1, 0] == pytest.approx(0.168, abs=1e-6) and d[1] == pytest.approx([1, 0, 0])
-    model = fe_stages.fe_stage(r1.scene, r1.mesh_dir)
+    model = _fe_model(pump_runs)
     T = load_basis(r1.rom.folder / "rom.h5", row_range=model.K.getOwnershipRange())
     mesh = model.fe_mesh.mesh
     tree = dgeo.BoundingBoxTree(mesh, 3)
@@ -311,7 +403,6 @@ def test_housing_files_pyvista(pump_runs):
 
     from dolfinx import fem as dfem
 
-    from study import fe_stages
     from study.export import nearest_point
 
     pytest.importorskip("pyvista")
@@ -329,7 +420,7 @@ def test_housing_files_pyvista(pump_runs):
                        text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]
     got = json.loads(p.stdout.strip().splitlines()[-1])
-    model = fe_stages.fe_stage(r1.scene, r1.mesh_dir)
+    model = _fe_model(pump_runs)
     import ufl
     dx = ufl.Measure("dx", domain=model.fe_mesh.mesh, subdomain_data=model.fe_mesh.cell_tags)
     vol = dfem.assemble_scalar(dfem.form(dfem.Constant(model.fe_mesh.mesh, 1.0)
@@ -391,15 +482,15 @@ def test_erp_matches_direct_surface_integral(pump_runs):
 
     from dolfinx import fem as dfem
 
+    from fem import post
     from reduction import load_basis, reconstruct
-    from study import acoustics, fe_stages
     from study.export import point_at
 
     _, _, r1 = pump_runs
-    model = fe_stages.fe_stage(r1.scene, r1.mesh_dir)
+    model = _fe_model(pump_runs)
     T = load_basis(r1.rom.folder / "rom.h5", row_range=model.K.getOwnershipRange())
-    facets = acoustics.outer_surface_facets(model.fe_mesh, "housing")
-    A = acoustics.normal_gram(model.V, facets)
+    facets = post.outer_surface_facets(model.fe_mesh, "housing")
+    A = post.normal_gram(model.V, facets)
     rho, c = 1.2, 343.0
     with h5py.File(r1.results, "r") as f:
         g = f["nvh"]
@@ -428,8 +519,8 @@ def test_erp_matches_direct_surface_integral(pump_runs):
             direct = 0.5 * rho * c * (h[j] * w0) ** 2 * val
             assert erp[i, j] == pytest.approx(direct, rel=1e-8)
         assert total_db[i] == pytest.approx(10 * np.log10(erp[i].sum() / 1e-12), abs=1e-9)
-    assert float(dfem.assemble_scalar(dfem.form(
-        dfem.Constant(model.fe_mesh.mesh, 1.0) * acoustics._ds(model.fe_mesh.mesh, facets)))) \
+    ds = post.surface_measure(model.fe_mesh.mesh, facets)
+    assert float(dfem.assemble_scalar(dfem.form(dfem.Constant(model.fe_mesh.mesh, 1.0) * ds))) \
         == pytest.approx(area, rel=1e-12)
     rows = list(csv.DictReader((r1.out / "curves.csv").open()))
     assert len(rows) == n

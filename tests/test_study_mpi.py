@@ -150,12 +150,13 @@ def test_two_ranks_results_equal_serial(runs, cmd):
         assert _rel(fs["nvh/radiation"].attrs["area"], fp["nvh/radiation"].attrs["area"]) < 1e-12
 
 
-def test_radiation_data_of_two_ranks_equals_serial(runs, tmp_path):
-    """radiation.h5 of the ROM reduced by two ranks (each rank its facets and basis rows,
-    no serial FE model) equals the serial computation on the same basis, dataset by
-    dataset, in the same facet order."""
+def test_rom_files_of_two_ranks_equal_serial(runs, tmp_path):
+    """radiation.h5 and housing.h5 of the ROM reduced by two ranks (each rank its facets,
+    housing cells and rows of the distributed P T, no serial FE model) equal the serial
+    computation on the same basis, dataset by dataset, in the same facet and node order."""
+    from fem import post
     from reduction import load_basis
-    from study import acoustics, fe_stages
+    from study import fe_stages
     from study.scene import load_scene
 
     tmp, _ = runs
@@ -165,15 +166,26 @@ def test_radiation_data_of_two_ranks_equals_serial(runs, tmp_path):
     assert model.comm.size == 1
     T = load_basis(entry / "rom.h5", row_range=model.K.getOwnershipRange(),
                    row_keys=model.row_keys())
-    acoustics.radiation_data(model, T, tmp_path / "radiation.h5")
-    with h5py.File(entry / acoustics.RADIATION_FILE, "r") as fp, \
-            h5py.File(tmp_path / "radiation.h5", "r") as fs:
+    PT = post.field_operator(model, T)
+    post.radiation_data(model, PT, tmp_path / post.RADIATION_FILE)
+    post.housing_data(model, PT, tmp_path / post.HOUSING_FILE)
+    PT.destroy()
+    with h5py.File(entry / post.RADIATION_FILE, "r") as fp, \
+            h5py.File(tmp_path / post.RADIATION_FILE, "r") as fs:
         assert set(fp) == set(fs) and fs.attrs["n_facets"] == fp.attrs["n_facets"] > 500
         for name in ("facet_nodes", "points", "facet_area", "facet_centroid", "facet_normal"):
             np.testing.assert_array_equal(fp[name][()], fs[name][()], err_msg=name)
         for name in ("W", "facet_rows", "facet_u_rows"):
             assert _rel(fs[name][()], fp[name][()]) < 1e-10, name
         assert _rel(fs.attrs["area"], fp.attrs["area"]) < 1e-12
+    with h5py.File(entry / post.HOUSING_FILE, "r") as fp, \
+            h5py.File(tmp_path / post.HOUSING_FILE, "r") as fs:
+        assert set(fp) == set(fs) == {"points", "node_ids", "cells", "u_rows"}
+        assert dict(fp.attrs) == dict(fs.attrs)
+        for name in ("points", "node_ids", "cells"):
+            np.testing.assert_array_equal(fp[name][()], fs[name][()], err_msg=name)
+        assert fs["u_rows"].shape == (fs["points"].shape[0], 3, 32)
+        assert _rel(fs["u_rows"][()], fp["u_rows"][()]) < 1e-10
 
 
 def _sorted_rows(*cols) -> np.ndarray:

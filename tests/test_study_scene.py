@@ -14,7 +14,6 @@ from study.scene import (
     SCHEMA,
     SceneError,
     apply_overrides,
-    estimate_mesh_stiffness,
     load_scene,
     parse_scene,
     parse_set_values,
@@ -77,11 +76,13 @@ def test_iso6336_estimate_table1():
     assert len(ms.amplitudes) == 3
     # rectangular wave between k1 and 2 k1: the truncated series stays within it
     assert ms.minimum() > 0
-    g = estimate_mesh_stiffness(s.gear, s.static_load, 0.8, 200)
     import numpy as np
+
+    from gears.excitation import rectangular_mesh_stiffness
+    mean, amplitudes, phases = rectangular_mesh_stiffness(k1, s.gear.contact_ratio, 200)
     t = np.linspace(0, 1, 2001)
-    k = g.mean + sum(a * np.cos(2 * np.pi * (j + 1) * t + p)
-                     for j, (a, p) in enumerate(zip(g.amplitudes, g.phases, strict=True)))
+    k = mean + sum(a * np.cos(2 * np.pi * (j + 1) * t + p)
+                   for j, (a, p) in enumerate(zip(amplitudes, phases, strict=True)))
     d = s.gear.contact_ratio - 1
     inside = np.abs(((t + 0.5) % 1) - 0.5) < d / 2 - 0.02
     outside = np.abs(((t + 0.5) % 1) - 0.5) > d / 2 + 0.02
@@ -89,11 +90,31 @@ def test_iso6336_estimate_table1():
     assert np.allclose(k[outside], k1, rtol=0.03)
 
 
+def test_estimates_are_those_of_the_code_before_gears_existed():
+    """The ISO 6336 and STE estimates now come from :mod:`gears`: the very same numbers
+    as the pre-redesign study/gears.py gave for Table 1 at 2.5 N·m (bitwise for k_m,
+    pure floating-point arithmetic; the STE goes through an FFT, whose last bits may
+    depend on the NumPy build: bitwise on the reference machine, 1e-13 asked here)."""
+    s = scene_from_dict({**MINIMAL, "mesh_stiffness": {"estimate": True},
+                         "transmission_error": {"estimate": True}})
+    ms, te = s.mesh_stiffness, s.transmission_error
+    assert s.gear.contact_ratio == 1.8189846220942514
+    assert (ms.mean, ms.amplitudes, ms.phases) == (
+        219722393.9190796, (41411899.28223002, 34894262.5327073, 25399244.20546496),
+        (0.0, math.pi, 0.0))
+    assert (te.mean, *te.amplitudes) == pytest.approx(
+        (2.552906613043164e-07, 6.6033098589778e-08, 5.613545966884067e-08,
+         4.2268283720798905e-08), rel=1e-13)
+    assert te.phases == pytest.approx((math.pi, 0.0, math.pi), abs=1e-13)
+
+
 def test_estimated_ste_is_static_deflection():
     s = scene_from_dict({**MINIMAL, "mesh_stiffness": {"estimate": True},
                          "transmission_error": {"estimate": True}})
     # mean of F_s/k_m(t) >= F_s/k̄ (Jensen), within the stiffness variation
     assert s.transmission_error.mean >= s.static_load / s.mesh_stiffness.mean
+    assert s.transmission_error.kind == "loaded" and s.transmission_error.estimated
+    assert len(s.transmission_error.amplitudes) == len(s.mesh_stiffness.amplitudes)
 
 
 def test_fourier_series_samples_its_coefficients():
@@ -112,11 +133,11 @@ def test_estimated_ste_times_mesh_stiffness_is_the_static_load():
     """q_s(t) k_m(t) = F_s pointwise once enough STE harmonics are kept."""
     import numpy as np
 
-    from study.scene import MeshStiffness, estimate_ste
+    from gears.excitation import perfect_teeth_ste
+    from study.scene import MeshStiffness, TransmissionError
 
     ms = MeshStiffness(2.0e8, (4.0e7, 2.0e7), (0.0, 1.0))
-    te = estimate_ste(ms, 1000.0, 40)
-    assert te.kind == "loaded" and te.estimated
+    te = TransmissionError(*perfect_teeth_ste((ms.mean, ms.amplitudes, ms.phases), 1000.0, 40))
     assert np.allclose(te.sample(128) * ms.sample(128), 1000.0, rtol=1e-9)
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from benchmarks import te_margin as tm
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
 #: the scene's TE (µm, deg): 20, 2, 0.5 at 0, 90, 0
 SDOF_TE = ([20.0, 2.0, 0.5], [0.0, 90.0, 0.0])

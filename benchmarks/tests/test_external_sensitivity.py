@@ -10,7 +10,7 @@ import pytest
 from benchmarks import external_sensitivity as es
 from study.scene_load import load_scene
 
-BASE = Path(__file__).resolve().parents[1] / "scenes" / "pump-paper.toml"
+BASE = Path(__file__).resolve().parents[2] / "scenes" / "pump-paper.toml"
 
 
 def test_band_length_clips_intervals_by_hand():

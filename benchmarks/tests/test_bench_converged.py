@@ -11,18 +11,15 @@ benchmarks/bench_converged.py (issue 13 item 4), on synthetic data (fast).
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks import bench_converged as bc
+from benchmarks import ti_reference as tr
 
-from benchmarks import bench_converged as bc  # noqa: E402
-from benchmarks import ti_reference as tr  # noqa: E402
-
+ROOT = Path(__file__).resolve().parents[2]
 PUMP = ROOT / "scenes" / "pump.toml"
 
 

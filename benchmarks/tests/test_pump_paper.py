@@ -16,7 +16,7 @@ import pytest
 
 pytestmark = pytest.mark.fem
 
-SCENE = Path(__file__).resolve().parents[1] / "scenes" / "pump-paper.toml"
+SCENE = Path(__file__).resolve().parents[2] / "scenes" / "pump-paper.toml"
 RANGE = {"hbm.stability": False, "continuation.speed_rpm": [900.0, 3300.0],
          "outputs.plots": [], "outputs.housing_field_rpm": [], "outputs.report": False}
 

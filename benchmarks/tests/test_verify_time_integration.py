@@ -8,15 +8,10 @@ single-sided and double-sided impacts; pump ROM: ``@pytest.mark.slow``.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks import bench_verify as bv  # noqa: E402
+from benchmarks import bench_verify as bv
 
 TARGET = 1e-3   # issue 8: relative error of the RMS (std) of the mesh load
 

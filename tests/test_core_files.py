@@ -1,4 +1,4 @@
-"""geometry.files.atomic_write: all or nothing, no temporary file left behind."""
+"""core.files.atomic_write: all or nothing, no temporary file left behind."""
 from __future__ import annotations
 
 import os
@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from geometry.files import atomic_write
+from core.files import atomic_write
 
 
 def _umask() -> int:

@@ -3,7 +3,8 @@
 Scene keys carry their unit as a suffix (``backlash_um``, ``torque_Nm``); the schema of
 :mod:`study.scene_schema` names each field's unit from :data:`TO_SI`, and the free FE
 sections (:mod:`study.fe_params`) accept the suffixes :data:`FE_SUFFIXES` on the
-FE packages' dataclass fields. Conversions happen here only (SI inside the code).
+FE packages' dataclass fields. The factors live here, in the bottom layer, so that every
+package converts with the same table (SI inside the code).
 """
 from __future__ import annotations
 

@@ -1,10 +1,9 @@
 """Atomic file writing: a temporary file in the target's folder, renamed onto the target.
 
-The helper lives here because ``geometry`` is the bottom of the one-way package chain
-(``geometry → fem → reduction → study``): every package that writes files (``geometry``
-itself for the mesh, ``fem`` for CalculiX decks, ``reduction`` for the ROM, ``study`` for
-results, plots and reports) may import it. Standard library only; importing it loads
-no gmsh (``geometry/__init__`` resolves its names lazily).
+The one helper every package that writes files uses (``geometry`` for the mesh, ``fem``
+for CalculiX decks, ``reduction`` for the ROM, ``study`` for results, plots and reports,
+``benchmarks``). It lives in :mod:`core`, the bottom layer that imports nothing of the
+project; standard library only.
 """
 from __future__ import annotations
 

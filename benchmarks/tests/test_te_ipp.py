@@ -11,7 +11,7 @@ import pytest
 from benchmarks import te_ipp
 from benchmarks import te_margin as tm
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
 OV = {"hbm.mesh_harmonics": 8, "hbm.stability": False}
 #: another TE than the scene's 20, 2, 0.5 µm at 0, 90, 0 deg

@@ -1,13 +1,16 @@
-"""Loaded tooth contact analysis (study/tooth_contact.py) against theory and ISO values."""
+"""Loaded tooth contact analysis (gears.ltca and the modules it uses) against theory and
+ISO values."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from study import tooth_contact as tc
-from study.scene import iso6336_single_tooth_stiffness, load_scene
+import gears as tc
+from gears.iso6336 import approximate_virtual_teeth, pair_stiffness, single_stiffness
+from study.scene import load_scene
 
 PUMP = "scenes/pump.toml"
 
@@ -19,7 +22,7 @@ def gear():
 
 @pytest.fixture(scope="module")
 def pair(gear):
-    return tc.spur_pair(gear)
+    return tc.SpurPair.from_pair(gear.pair())
 
 
 def test_pair_geometry_matches_the_scene(gear, pair):
@@ -54,8 +57,10 @@ def test_single_pair_stiffness_against_iso6336(gear, pair):
     # (a) ISO 6336-1 method B c' (C_M = 0.8, no low-load correction) against the
     # potential-energy single-pair stiffness at the pitch point: the methods differ by
     # 10-30 % (docs/theory.md §13.3); band ±30 %.
-    c_iso = iso6336_single_tooth_stiffness(gear, 1e5, 0.8)   # line load > 100 N/mm
-    assert tc.iso6336_stiffness(pair)[0] == pytest.approx(c_iso, rel=1e-12)
+    zn = approximate_virtual_teeth(gear.teeth, gear.helix_angle)
+    c_iso = single_stiffness((zn, zn), (0.0, 0.0), gear.helix_angle, gear.pressure_angle,
+                             gear.face_width, static_load=1e5)   # line load > 100 N/mm
+    assert pair_stiffness(pair.geometry)[0] == pytest.approx(c_iso, rel=1e-12)
     k_pe = tc.pitch_point_stiffness(pair)
     assert 0.7 < k_pe / c_iso < 1.3
     # the pair stiffness of a 1:1 pair is symmetric about the pitch point, maximal there
@@ -77,7 +82,7 @@ def test_mean_mesh_stiffness_against_iso_and_path_integral(pair):
     s = s_a + 0.5 * (x + 1) * (s_e - s_a)
     integral = 0.5 * (s_e - s_a) * np.sum(w * pair.face_width / tc.pair_compliance(pair, s))
     assert k_mean == pytest.approx(integral / pair.base_pitch, rel=2e-3)
-    c_gamma = tc.iso6336_stiffness(pair)[1]
+    c_gamma = pair_stiffness(pair.geometry)[1]
     assert 0.7 < k_mean / c_gamma < 1.3
 
 
@@ -89,8 +94,8 @@ def test_perfect_teeth_ste_is_load_over_stiffness(pair):
     r1 = tc.solve_ltca(pair, 10.0, n_positions=400)
     r2 = tc.solve_ltca(pair, 20.0, n_positions=400)
     np.testing.assert_allclose(r2.stiffness, r1.stiffness, rtol=1e-12)
-    # double contact centred on t = 0 (phase convention of study.scene.MeshStiffness)
-    k0, amp, ph = tc.harmonics(r1.stiffness, 3)
+    # double contact centred on t = 0 (phase convention of the scene's MeshStiffness)
+    k0, amp, ph = tc.fourier_harmonics(r1.stiffness, 3)
     assert np.degrees(ph[0]) == pytest.approx(0.0, abs=1e-6)
     assert abs(abs(np.degrees(ph[1])) - 180.0) < 1e-6
 
@@ -146,7 +151,7 @@ def test_iso1328_tolerances_by_hand():
 def test_harmonics_of_a_known_signal():
     t = np.arange(64) / 64
     x = 3.0 + 0.5 * np.cos(2 * np.pi * t + 0.4) + 0.2 * np.cos(6 * np.pi * t - 1.0)
-    mean, amp, ph = tc.harmonics(x, 3)
+    mean, amp, ph = tc.fourier_harmonics(x, 3)
     assert mean == pytest.approx(3.0)
     np.testing.assert_allclose(amp, [0.5, 0.0, 0.2], atol=1e-12)
     assert ph[0] == pytest.approx(0.4)
@@ -167,11 +172,14 @@ def test_scene_coefficients_load_in_the_scene(pair):
 def test_bad_input_is_refused(gear, pair):
     with pytest.raises(ValueError, match="load"):
         tc.solve_ltca(pair, 0.0)
+    geometry = gear.pair()
     with pytest.raises(ValueError, match="helix_angle"):
-        tc.spur_pair(type("G", (), {**{k: getattr(gear, k) for k in (
-            "teeth", "module", "pressure_angle", "face_width", "addendum_coef",
-            "dedendum_coef", "profile_shift")}, "helix_angle": 0.2})())
+        tc.SpurPair.from_pair(dataclasses.replace(geometry, helix_angle=0.2))
+    with pytest.raises(ValueError, match="profile_shift"):
+        tc.SpurPair.from_pair(dataclasses.replace(geometry, profile_shift=(0.1, 0.0)))
+    with pytest.raises(ValueError, match="teeth"):
+        tc.SpurPair.from_pair(dataclasses.replace(geometry, teeth=(76, 77)))
     with pytest.raises(ValueError, match="grade"):
         tc.iso1328_tolerances(1.0, 50.0, 10.0, 12)
     with pytest.raises(ValueError, match="bore_radius"):
-        tc.solve_ltca(tc.SpurPair(**{**pair.__dict__, "bore_radius": 0.06}), 70.0)
+        tc.solve_ltca(dataclasses.replace(pair, bore_radius=0.06), 70.0)

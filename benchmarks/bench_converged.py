@@ -147,7 +147,7 @@ def speed_error(problem, branch, ref: dict) -> dict:
             return None
         return {"std": load_metrics(hbm_load(problem, pt, ref["samples"]))["std"],
                 "vector": harmonic_vector(problem, pt),
-                "contact": int(point_stats(problem, pt).contact)}
+                "contact": int(point_stats(problem, pt)[0].contact)}
     sols = branch_solutions(branch.rpm, rpm, solve_from)
     row = attractor_error(ref, sols)
     row["contact"] = next(s["contact"] for s in sols if s["branch_index"] == row["branch_index"])

@@ -39,7 +39,7 @@ def max_point_shooting(pb: hbm.HBMProblem, br: hbm.Branch, method: str = "DOP853
                        n: int = 1) -> float:
     """Shooting error at the ``n`` points of largest dynamic mesh load."""
     errs = []
-    for i in np.argsort(br.mesh_load_std)[::-1][:n]:
+    for i in np.argsort(br.element(0).mesh_load_std)[::-1][:n]:
         pt = pb.point(br.unknowns[i], br.omega[i])
         errs.append(hbm.shooting_error(pb, pt, method=method).relative)
     return float(max(errs))
@@ -243,10 +243,11 @@ def case_rom(quick: bool) -> list:
                 errs = []
                 for i in np.linspace(0, len(br) - 1, 4).astype(int):
                     (h, d), _ = pb.scheme.receptance(br.omega[i])
+                    h, d, g = h[0, 0], d[0], pb.directions[0]
                     z, _ = pb.dynamic_stiffness(br.omega[i])
                     f, _ = pb.forcing(br.omega[i])
-                    x = np.linalg.solve(z, np.stack([np.broadcast_to(pb.G, f.shape), f], -1))
-                    hd, dd = x[..., 0] @ pb.G, x[..., 1] @ pb.G
+                    x = np.linalg.solve(z, np.stack([np.broadcast_to(g, f.shape), f], -1))
+                    hd, dd = x[..., 0] @ g, x[..., 1] @ g
                     errs.append(max(np.max(np.abs(h - hd)) / np.max(np.abs(hd)),
                                     np.max(np.abs(d - dd)) / np.max(np.abs(dd))))
                 return "dense solve of h_k, d_k", float(max(errs))
@@ -278,8 +279,8 @@ def case_units(quick: bool) -> list:
                 si = held["si"]
                 if len(br) != len(si):
                     return f"SI run ({len(si)} points)", float("inf")
-                e = np.max(np.abs(br.coefficients * ell - si.coefficients))
-                return "SI run", float(max(e / np.max(np.abs(si.coefficients)),
+                e = np.max(np.abs(br.element(0).coefficients * ell - si.element(0).coefficients))
+                return "SI run", float(max(e / np.max(np.abs(si.element(0).coefficients)),
                                            np.max(np.abs(br.rpm - si.rpm)) / br.rpm.max()))
 
             rows.append(branch_row(f"units, condensation {cond}", name, mdl.problem(), 0.6 * r,
@@ -336,16 +337,16 @@ def case_refusals(quick: bool) -> list:
             lambda: Geared3(n_time=40).problem())
 
     def free_rattle():
-        system = hbm.LinearSystem([[1.0]], [[0.0]], [[0.0]], [1.0])
-        mesh = hbm.GearMesh(1, {0: 1e8}, backlash=1e-5)
-        pb = hbm.HBMProblem(system, mesh, hbm.Excitation(1), hbm.HarmonicSet.build(1, 10))
+        system = hbm.LinearSystem([[1.0]], [[0.0]], [[0.0]])
+        mesh = hbm.GearMesh([1.0], 1, {0: 1e8}, backlash=1e-5)
+        pb = hbm.HBMProblem(system, [mesh], hbm.Excitation(1), hbm.HarmonicSet.build(1, 10))
         return pb.solve(100.0)
 
     t0 = time.perf_counter()
     pt = free_rattle()
     rows.append(_row("free pair, no load, no damping", "F = 0, C = 0", "solved", 1,
                      pt.residual, np.nan, "-", np.nan, np.nan, time.perf_counter() - t0,
-                     f"rest in the backlash, Delta = {pt.coefficients[0].real:.3g} m (one of "
+                     f"rest in the backlash, Delta = {pt.coefficients[0, 0].real:.3g} m (one of "
                      "the continuum |Delta| <= b; not unique)"))
     return rows
 

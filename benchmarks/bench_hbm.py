@@ -82,7 +82,7 @@ def ti_point_time(pb, rpm: float, prev, repeats: int) -> dict[str, Any]:
     mm = bv.modal_model(pb, rpm)
     y0 = bv.initial_state(pb, prev, bv.modal_model(pb, prev.rpm))
     t, ss = median_time(lambda: bv.steady_state(mm, y0, rtol=1e-7, tol_periodic=1e-5,
-                                                tol_state=1e-5, samples=256 * pb.mesh_step),
+                                                tol_state=1e-5, samples=256 * pb.steps[0]),
                         repeats=repeats, warmup=0)
     return {"seconds": t, "periods": ss.periods, "n_rhs": ss.n_rhs, "modes": mm.n_modes,
             "top_mode_hz": float(np.sqrt(mm.w2[-1]) / (2 * np.pi))}

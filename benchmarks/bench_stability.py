@@ -29,7 +29,7 @@ from scipy.integrate import solve_ivp
 
 from benchmarks.bench_verify import PUMP_SCENE, _state_norm, steady_state
 from benchmarks.common import machine, write_json
-from hbm.time_response import equations, initial_state, modal_model, state_atol
+from hbm.post.time_response import equations, initial_state, modal_model, state_atol
 
 logger = logging.getLogger("bench_stability")
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,16 +67,17 @@ def orbit_exponent(problem, point, n_steps: int | None = None) -> dict:
     """Largest real part (1/s) of (T.10) along the orbit the ROM settles on in time,
     from the HBM state (DOP853 to a periodic state), and how far that orbit is from
     the HBM one (max |gap difference| / half peak-to-peak of the HBM gap)."""
-    from hbm.monodromy import exponents_along, orbit_gap
+    from hbm.stability.monodromy import exponents_along, orbit_deltas
 
     n = int(n_steps or problem.harmonics.n_time)
     mm = modal_model(problem, point.rpm)
     ss = steady_state(mm, initial_state(problem, point, mm), rtol=1e-9, tol_periodic=1e-7,
                       max_periods=200, samples=n)
-    _, _, e = problem.fine_grid(n)
+    _, samples = problem.fine_grid(n)
+    e = samples[0].e
     gap = ss.delta - e
-    hbm_gap = orbit_gap(problem, point.unknowns, n)
-    lam = exponents_along(problem, gap, mm.period)
+    hbm_gap = orbit_deltas(problem, point.unknowns, n)[0] - e
+    lam = exponents_along(problem, ss.delta, mm.period)
     return {"max_real": float(lam[0].real), "periods": ss.periods,
             "orbit_difference": float(np.max(np.abs(gap - hbm_gap)) / (0.5 * np.ptp(hbm_gap)))}
 
@@ -126,9 +127,9 @@ def main(argv: list[str] | None = None) -> dict:
     down = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
     picks = {"1084 rpm": int(np.argmin(np.abs(br.rpm - 1084.0))),
              "between two folds": int(down[0]) if down.size else None,
-             "largest mesh load": int(np.argmax(br.mesh_load_std)),
-             "permanent contact": int(np.flatnonzero(br.contact == 0)[-1])
-             if np.any(br.contact == 0) else None}
+             "largest mesh load": int(np.argmax(br.element(0).mesh_load_std)),
+             "permanent contact": int(np.flatnonzero(br.element(0).contact == 0)[-1])
+             if np.any(br.element(0).contact == 0) else None}
     pd = np.flatnonzero(kinds == KINDS.index("period_doubling"))
     if pd.size:
         picks["period doubling"] = int(pd[0])
@@ -139,7 +140,8 @@ def main(argv: list[str] | None = None) -> dict:
         meas = measured_rate(problem, pts[i], args.periods)
         along = orbit_exponent(problem, pts[i])
         s = stab[i]
-        checks.append({"case": label, "rpm": float(br.rpm[i]), "contact": int(br.contact[i]),
+        checks.append({"case": label, "rpm": float(br.rpm[i]),
+                       "contact": int(br.element(0).contact[i]),
                        "floquet_max_real": s.max_real, "kind": s.kind,
                        "fold_parity": s.fold_parity, "consistent": s.consistent,
                        "variational_max_real": float(s.exponents[0].real) if s.consistent

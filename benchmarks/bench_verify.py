@@ -42,11 +42,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from benchmarks.common import RESULTS, median_time, peak_rss_mb, write_json
-from hbm.time_response import (
+from hbm.post.time_response import (
     ModalModel,
+    element_load,
     equations,
     initial_state,
-    mesh_load,
     modal_model,
     state_atol,
 )
@@ -64,8 +64,8 @@ CLASS_NAMES = {0: "permanent contact", 1: "single-sided impacts", 2: "double-sid
 
 
 # --------------------------------------------------------------------------- model
-# ModalModel, modal_model, mesh_load, initial_state, state_atol and the right-hand side
-# (equations) are hbm.time_response's (imported above).
+# ModalModel, modal_model, element_load, initial_state, state_atol and the right-hand side
+# (equations) are hbm.post.time_response's (imported above).
 
 
 @dataclass
@@ -149,7 +149,7 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
         change = float(np.linalg.norm(_state_norm(mm, y1 - y))
                        / max(np.linalg.norm(_state_norm(mm, y1)), 1e-300))
         y = y1
-        new = load_metrics(mesh_load(mm, mm.gamma @ sol.y[:m, :-1], t_eval))
+        new = load_metrics(element_load(mm, mm.gamma[0] @ sol.y[:m, :-1], t_eval))
         if metrics is not None:
             load_change = max(abs(new[k] - metrics[k]) / max(abs(new[k]), 1e-300)
                               for k in new)
@@ -165,8 +165,9 @@ def steady_state(mm: ModalModel, y0: np.ndarray, rtol: float = 1e-10,
                         load_change)
             break
     seconds = time.perf_counter() - t0
-    delta = mm.gamma @ sol.y[:m, :-1]
-    return SteadyState(t=t_eval, delta=delta, load=mesh_load(mm, delta, t_eval), periods=periods,
+    delta = mm.gamma[0] @ sol.y[:m, :-1]
+    return SteadyState(t=t_eval, delta=delta, load=element_load(mm, delta, t_eval),
+                       periods=periods,
                        change=change, load_change=load_change,
                        converged=bool(load_change < tol_periodic and change < tol_state),
                        seconds=seconds, n_rhs=int(n_rhs), state=y, load_changes=history)
@@ -182,8 +183,9 @@ def load_metrics(load: np.ndarray) -> dict[str, float]:
 
 def contact_class(mm: ModalModel, delta: np.ndarray, t: np.ndarray) -> int:
     """0 permanent contact, 1 single-sided, 2 double-sided impacts (as hbm.point_stats)."""
-    p = delta - mm.mesh.error_at(mm.mesh_rate * t)
-    act, rev = p > mm.backlash, p < -mm.backlash
+    mesh = mm.elements[0]
+    p = delta - mesh.error_at(mm.rates[0] * t)
+    act, rev = p > mesh.backlash, p < -mesh.backlash
     if np.all(act | rev):
         return 0
     return 2 if act.any() and rev.any() else 1
@@ -193,7 +195,7 @@ def hbm_load(problem, point, samples: int) -> np.ndarray:
     """HBM mesh load on ``samples`` equally spaced times of one period (N)."""
     import hbm
 
-    return hbm.time_series(problem, point, 1, samples).mesh_load
+    return hbm.time_series(problem, point, 1, samples).load
 
 
 def rel_errors(a: dict[str, float], ref: dict[str, float]) -> dict[str, float]:
@@ -211,7 +213,7 @@ def map_unknowns(problem, coefficients: dict[int, complex]) -> np.ndarray:
 
 
 def coefficient_dict(problem, point) -> dict[int, complex]:
-    return dict(zip(problem.harmonics.indices, point.coefficients, strict=True))
+    return dict(zip(problem.harmonics.indices, point.coefficients[0], strict=True))
 
 
 # --------------------------------------------------------------------------- scenes
@@ -228,11 +230,12 @@ class SceneCase:
 
 
 def _nearest(branch, problem, target: float, cls: int) -> dict | None:
-    ok = np.flatnonzero((branch.contact == cls) & np.asarray(branch.stable, dtype=bool))
+    mesh = branch.element(0)
+    ok = np.flatnonzero((mesh.contact == cls) & np.asarray(branch.stable, dtype=bool))
     if ok.size == 0:
         return None
     i = ok[np.argmin(np.abs(branch.rpm[ok] - target))]
-    return {"coefficients": dict(zip(problem.harmonics.indices, branch.coefficients[i],
+    return {"coefficients": dict(zip(problem.harmonics.indices, mesh.coefficients[i],
                                      strict=True)), "branch_rpm": float(branch.rpm[i])}
 
 
@@ -309,7 +312,7 @@ def verify_speed(case: SceneCase, spec: dict, eps: list[float], rtol_ref: float,
     ladder = hbm_ladder(case, rpm, spec["coefficients"])
     top = ladder[-1]
     mm = modal_model(top["problem"], rpm)
-    step = top["problem"].mesh_step
+    step = top["problem"].steps[0]
     samples = step * int(np.ceil(8192 / step))
     ref = steady_state(mm, initial_state(top["problem"], top["point"], mm), rtol=rtol_ref,
                        tol_periodic=1e-9, samples=samples, max_periods=max_periods)
@@ -327,7 +330,7 @@ def verify_speed(case: SceneCase, spec: dict, eps: list[float], rtol_ref: float,
              case.name, rpm, ref.periods, ref.seconds, ref.n_rhs, ref_m["std"], ti_cls)
     rows = []
     for r in ladder:
-        st = hbm.point_stats(r["problem"], r["point"])
+        st = hbm.point_stats(r["problem"], r["point"])[0]
         m = load_metrics(hbm_load(r["problem"], r["point"], samples))
         err = rel_errors(m, ref_m)
         r.update(errors=err, contact=st.contact)

@@ -51,11 +51,11 @@ def with_te(problem: HBMProblem, amps_um: ArrayLike, phases_deg: ArrayLike) -> H
     if not (np.all(np.isfinite(amps)) and np.all(amps >= 0) and np.all(np.isfinite(phs))):
         raise ValueError(f"amps_um = {amps.tolist()}, phases_deg = {phs.tolist()}: "
                          "amplitudes must be finite and >= 0, phases finite")
-    te = {k: c for k, c in problem.mesh.te.items() if k == 0 or k > amps.size}
+    te = {k: c for k, c in problem.elements[0].te.items() if k == 0 or k > amps.size}
     for k, (a, p) in enumerate(zip(amps, phs, strict=True), start=1):
         te[k] = complex(1e-6 * a * np.exp(1j * np.radians(p)))
-    mesh = dataclasses.replace(problem.mesh, te=te)
-    return HBMProblem(problem.system, mesh, problem.excitation, problem.harmonics,
+    mesh = dataclasses.replace(problem.elements[0], te=te)
+    return HBMProblem(problem.system, [mesh], problem.excitation, problem.harmonics,
                       condensation=problem.condensation,
                       linear_solver="krylov" if problem.matrix_free else "dense",
                       aft=problem.aft)
@@ -79,11 +79,9 @@ def gap_signal(problem: HBMProblem, unknowns: np.ndarray, n_time: int | None = N
     numpy.ndarray
         ``p - b`` (m); negative where the active flank is open.
     """
-    step = problem.mesh_step
-    n = 4 * problem.harmonics.n_time if n_time is None else int(n_time)
-    n = step * int(np.ceil(n / step))
-    synth, _, e = problem.fine_grid(n)
-    return synth @ problem.delta_real(unknowns) - e - problem.b
+    n = problem.fine_periods(n_time)
+    synth, samples = problem.fine_grid(n)
+    return (synth @ problem.delta_real(unknowns))[0] - samples[0].e - problem.elements[0].backlash
 
 
 class NonlinearIPP:
@@ -118,7 +116,7 @@ class NonlinearIPP:
                                  f"({n}), got shape {np.shape(u)}")
         self.problem, self.tol, self.keep, self.n_te = problem, float(tol), int(keep), n_te
         self.speeds = tuple(float(r) for r in starts)
-        te = problem.mesh.te
+        te = problem.elements[0].te
         ks = range(1, n_te + 1)
         x0 = [np.log(max(abs(te.get(k, 0.0)) * 1e6, 1e-6)) for k in ks]
         p0 = [np.degrees(np.angle(te.get(k, 0.0))) for k in ks]
@@ -305,12 +303,12 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
         prob, pts = sol
         gaps = {r: gap_signal(prob, pts[r].unknowns) for r in speeds}   # once per speed
         d = sum(targets.weights.get(r, 1.0) * 0.5 * float(np.abs(
-            tm.soft_ipp(gaps[r], prob.mesh_step, targets.scale) - c).sum())
+            tm.soft_ipp(gaps[r], prob.steps[0], targets.scale) - c).sum())
             for r, c in ref.items())
         for r, lo in low.items():        # 100 per unit of share below its bound, exact
             gap = gaps[r]                                # and smooth (for a slope)
-            exact = tm.ipp_fraction_vector(impacts_per_mesh_period(gap < 0.0, prob.mesh_step))
-            soft = tm.fractions_from_cumulative(tm.soft_ipp(gap, prob.mesh_step, targets.scale))
+            exact = tm.ipp_fraction_vector(impacts_per_mesh_period(gap < 0.0, prob.steps[0]))
+            soft = tm.fractions_from_cumulative(tm.soft_ipp(gap, prob.steps[0], targets.scale))
             d += 100.0 * float(np.maximum(lo - exact, 0.0).sum()
                                + np.maximum(lo - soft, 0.0).sum())
         return pen + d
@@ -333,7 +331,7 @@ def refine_nonlinear_ipp(model: tm.MarginModel, nl: NonlinearIPP, target: tuple[
         prob, pts = sol
         out["nonlinear"] = {}
         for rpm, pt in pts.items():
-            ipp = point_stats(prob, pt).ipp
+            ipp = point_stats(prob, pt)[0].ipp
             out["nonlinear"][str(rpm)] = {
                 "fractions": tm.ipp_fraction_vector(ipp).tolist(),
                 "ipp": ipp.tolist()}
@@ -370,7 +368,7 @@ def sensitivity(nl: NonlinearIPP, amps_um: ArrayLike, phases_deg: ArrayLike, rel
     for label, a, ph in cases:
         sol = nl.solve(a, ph)
         fr = None if sol is None else {
-            str(r): tm.ipp_fraction_vector(point_stats(sol[0], pt).ipp).tolist()
+            str(r): tm.ipp_fraction_vector(point_stats(sol[0], pt)[0].ipp).tolist()
             for r, pt in sol[1].items()}
         out.append({"change": label, "amplitudes_um": a.tolist(),
                     "phases_deg": ph.tolist(), "fractions": fr})

@@ -90,7 +90,8 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
     harmonic (real and imaginary), from the cached ROM; with ``case`` (``"internal"``,
     ``"external"``, ``"all"``) those of that excitation case of
     :func:`study.excitations.case_scenes`."""
-    from hbm.fixed_speed import RPM_TO_RAD_S, initial_guess
+    from hbm.problem.fixed_speed import initial_guess
+    from hbm.units import RPM_TO_RAD_S
     from study.excitations import case_scenes
     from study.pipeline import Pipeline
     from study.scene_load import load_scene
@@ -110,18 +111,19 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
     zero = [0.0] * n_te
     base = problem(zero, zero)
     n = base.harmonics.n_time if n_time is None else int(n_time)
-    synth, _, e0 = base.fine_grid(n)
-    phase = base.harmonics.time_grid(n) * base.mesh_step
+    synth, samples = base.fine_grid(n)
+    e0 = samples[0].e
+    phase = base.harmonics.time_grid(n) * base.steps[0]
 
     def deltas(prob):
         out = np.empty((len(rpm), n))
         for i, r in enumerate(rpm):
             u = initial_guess(prob, float(r) * RPM_TO_RAD_S)
-            out[i] = synth @ prob.delta_real(u)
+            out[i] = (synth @ prob.delta_real(u))[0]
         return out
 
     d0 = deltas(base)
-    p0 = d0 - e0[None, :] - base.b
+    p0 = d0 - e0[None, :] - base.elements[0].backlash
     dp = np.empty((n_te, 2, len(rpm), n))
     for k in range(n_te):
         for j, ph in enumerate((0.0, 90.0)):
@@ -129,7 +131,7 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
             amps[k], phs[k] = UNIT * 1e6, ph
             dp[k, j] = (deltas(problem(amps, phs)) - d0) / UNIT
             log.info("basis: TE harmonic %d at %g deg done", k + 1, ph)
-    return MarginBasis(np.asarray(rpm, dtype=float), p0, dp, phase, int(base.mesh_step))
+    return MarginBasis(np.asarray(rpm, dtype=float), p0, dp, phase, int(base.steps[0]))
 
 
 def crossings(rpm: np.ndarray, m: np.ndarray) -> list[float]:

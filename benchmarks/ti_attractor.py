@@ -34,8 +34,8 @@ import numpy as np
 from benchmarks.bench_verify import hbm_load, map_unknowns
 from benchmarks.common import RESULTS
 from core.files import atomic_write
-from hbm.time_response import SAMPLES_PER_MESH_PERIOD, fundamentals_per_turn
-from hbm.time_response import integrate as time_integrate
+from hbm.post.time_response import SAMPLES_PER_MESH_PERIOD, fundamentals_per_turn
+from hbm.post.time_response import integrate as time_integrate
 
 log = logging.getLogger("ti_attractor")
 ROOT = Path(__file__).resolve().parents[1]
@@ -82,7 +82,7 @@ def start_point(problem, near: dict, rpm: float):
 
 def orbit_std(problem, point) -> float:
     """Mesh-load std (N) of an HBM orbit, ``SAMPLES_PER_MESH_PERIOD`` per mesh period."""
-    return float(hbm_load(problem, point, problem.mesh_step * SAMPLES_PER_MESH_PERIOD).std())
+    return float(hbm_load(problem, point, problem.steps[0] * SAMPLES_PER_MESH_PERIOD).std())
 
 
 def integrate(problem, rpm: float, y0, turns: int, window: int
@@ -124,19 +124,19 @@ def trace_attractor(problem, scene, point, ends: tuple[float, float]) -> dict:
         br = hbm.trace(problem, point.rpm, end, step=c.step / span,
                        min_step=c.min_step / span, max_step=c.max_step / span,
                        tol=c.tolerance, max_points=c.max_points, start=point.unknowns)
-        i = int(np.argmax(br.mesh_load_std))
+        i = int(np.argmax(br.element(0).mesh_load_std))
         out[name] = {
             "status": br.status, "points": len(br),
             "rpm_range": [round(float(br.rpm.min()), 2), round(float(br.rpm.max()), 2)],
-            "max_std": round(float(br.mesh_load_std[i]), 4),
+            "max_std": round(float(br.element(0).mesh_load_std[i]), 4),
             "max_std_rpm": round(float(br.rpm[i]), 2), "stable_max_std": round(float(
-                np.max(br.mesh_load_std[br.stable.astype(bool)], initial=0.0)), 4),
+                np.max(br.element(0).mesh_load_std[br.stable.astype(bool)], initial=0.0)), 4),
             "folds": [round(float(f), 2) for f in br.folds],
             "unstable": [{"kind": u.kind, "rpm": [round(u.rpm[0], 2), round(u.rpm[1], 2)],
                           "points": u.points} for u in unstable_segments(
-                              br.rpm, br.mesh_load_std, br.stable, br.floquet_kind)],
+                              br.rpm, br.element(0).mesh_load_std, br.stable, br.floquet_kind)],
             "rpm": [round(float(r), 3) for r in br.rpm],
-            "std": [round(float(v), 4) for v in br.mesh_load_std],
+            "std": [round(float(v), 4) for v in br.element(0).mesh_load_std],
             "stable": [bool(v) for v in br.stable]}
         log.info("attractor branch %s from %.1f rpm: %s, %d points, %.1f-%.1f rpm, largest "
                  "std %.2f N at %.1f rpm (stable points: %.2f N), unstable %s", name,

@@ -317,8 +317,8 @@ def fourier_coefficients(x: np.ndarray, n_harmonics: int) -> np.ndarray:
 def harmonic_vector(problem, point) -> np.ndarray:
     """Delta coefficients of an HBM point on the shaft harmonics 0..max index."""
     hs = problem.harmonics
-    out = np.zeros(hs.max_index * hs.divisor + 1, complex)
-    out[np.asarray(hs.indices) * hs.divisor] = point.coefficients
+    out = np.zeros(hs.max_index * hs.integer_ratio + 1, complex)
+    out[np.asarray(hs.indices) * hs.integer_ratio] = point.coefficients[0]
     return out
 
 
@@ -370,7 +370,7 @@ def reference_speed(problem, branch: SavedBranch | None, rpm: float, n_harmonics
     cands = hbm_candidates(problem, branch, rpm)
     start = next((c for c in cands if c["stable"] in (True, None)), cands[0])
     mm = modal_model(problem, rpm)
-    step = problem.mesh_step
+    step = problem.steps[0]
     samples = step * int(np.ceil(8192 / step))
     ss = steady_state(mm, initial_state(problem, start["point"], mm), rtol=1e-10,
                       tol_periodic=1e-9, samples=samples, max_periods=max_periods,

@@ -1,35 +1,47 @@
-"""Harmonic balance for gear-mesh vibro-impacts (pure NumPy/SciPy).
+"""Harmonic balance for vibro-impact dynamics of geared machines (pure NumPy/SciPy).
 
-Solves ``M q'' + C q' + K q + G f_LoA(G^T q, t) = f_ex(t)`` (eq. 4, 13-14) for
-periodic responses over a speed range: AFT, exact condensation onto the line of
-action, Newton corrector, pseudo-arc-length continuation, grazing (eq. 30) and
-fold detection, Hill stability, time reconstruction.  See docs/hbm.md.
+Solves ``M q'' + C q' + K q + sum_e g_e f_e(g_e^T q, t) = f_ex(t)`` (eq. 4, 13-14) for
+periodic responses over a speed range: a linear system with any number of nonlinear
+elements (:mod:`hbm.elements`: the gear mesh's dead zone with TVMS and loaded TE, a
+cubic spring), each acting along its direction; a harmonic basis of any fundamental that
+divides the excitation and element frequencies (:mod:`hbm.basis`); AFT, exact
+condensation onto the elements' deflections, Newton corrector (dense or matrix-free),
+pseudo-arc-length continuation of any residual (:mod:`hbm.continuation`), grazing (eq. 30)
+and fold detection, stability (:mod:`hbm.stability`), post-processing and independent
+checks (:mod:`hbm.post`). See docs/hbm.md.
 """
 
-from .continuation import Branch, GrazingPoint, trace
-from .harmonics import HarmonicSet
-from .model import Excitation, GearMesh, LinearSystem
-from .postprocess import (
+from .basis import HarmonicSet, common_fundamental
+from .continuation import Branch, ElementCurve, GrazingPoint, continue_branch
+from .elements import CubicSpring, Element, GearMesh, make_element
+from .newton import ConvergenceError
+from .post import (
     MeshPeriodEnvelope,
-    PointStats,
+    ShootingCheck,
     TimeSeries,
+    full_residual,
     impacts_per_mesh_period,
     ipp_sequence,
     mesh_period_envelope,
     point_stats,
+    quasi_static_delta,
+    shooting_error,
     spectrum,
     time_series,
 )
-from .problem import RPM_TO_RAD_S, ConvergenceError, HBMProblem, Point
+from .problem import HBMProblem, Point
+from .records import Record
 from .stability import floquet_exponents
-from .verify import ShootingCheck, full_residual, quasi_static_delta, shooting_error
+from .sweep import PointMonitor, trace
+from .system import Excitation, LinearSystem
+from .units import RPM_TO_RAD_S
 
 __all__ = [
-    "Branch", "ConvergenceError", "Excitation", "GearMesh", "GrazingPoint", "HBMProblem",
-    "HarmonicSet", "LinearSystem", "MeshPeriodEnvelope", "Point", "PointStats", "RPM_TO_RAD_S",
-    "ShootingCheck", "TimeSeries",
-    "floquet_exponents", "full_residual", "impacts_per_mesh_period", "ipp_sequence",
-    "mesh_period_envelope", "point_stats", "quasi_static_delta",
-    "shooting_error",
+    "Branch", "ConvergenceError", "CubicSpring", "Element", "ElementCurve", "Excitation",
+    "GearMesh", "GrazingPoint", "HBMProblem", "HarmonicSet", "LinearSystem",
+    "MeshPeriodEnvelope", "Point", "PointMonitor", "RPM_TO_RAD_S", "Record", "ShootingCheck",
+    "TimeSeries", "common_fundamental", "continue_branch", "floquet_exponents",
+    "full_residual", "impacts_per_mesh_period", "ipp_sequence", "make_element",
+    "mesh_period_envelope", "point_stats", "quasi_static_delta", "shooting_error",
     "spectrum", "time_series", "trace",
 ]

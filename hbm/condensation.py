@@ -4,19 +4,23 @@ A condensation decides which real unknowns the Newton solver sees and how the
 physical coordinates are recovered from them (eq. 22-29):
 
 * :class:`FullCoordinates` (``"none"``): every DOF is an unknown (DOF-major real
-  layout, see harmonics.py); the residual is ``Z'_k q_k + G f'_k - F_k`` (N).
-* :class:`GearCondensation` (``"gear"``): Schur complement onto the DOF where
-  G != 0 (eq. 24-29); the residual is in N on those DOF.
-* :class:`LoaCondensation` (``"loa"``): exact condensation onto Delta = G^T q per
-  harmonic, ``Delta_k - d_k + h_k f'_k = 0`` (m), with ``h_k = G^T Z'_k^-1 G`` and
-  ``d_k = G^T Z'_k^-1 F_k``, by modal summation over the modes of eq. (17) when C
-  is diagonal in them (eq. 18-19), else by a dense complex solve per harmonic.
+  layout, see basis.py); the residual is ``Z'_k q_k + sum_e g_e f'_e,k - F_k`` (N).
+* :class:`GearCondensation` (``"gear"``): Schur complement onto the DOF where any
+  element direction g_e != 0 (eq. 24-29); the residual is in N on those DOF.
+* :class:`LoaCondensation` (``"loa"``): exact condensation onto the deflections of the
+  elements, ``Delta = G^T q`` (E per harmonic, ``G = [g_1 ... g_E]``):
+  ``Delta_k - d_k + H_k f'_k = 0`` (m), with the E x E receptance ``H_k = G^T Z'_k^-1 G``
+  and ``d_k = G^T Z'_k^-1 F_k``, by modal summation over the modes of eq. (17) when C
+  is diagonal in them (eq. 18-19), else by a dense complex solve per harmonic. The
+  unknowns are the elements' Deltas themselves (element-major), not an orthonormal
+  basis of their span: two elements may act along parallel directions. One element is
+  the line-of-action condensation of the paper.
 
 The contract (:class:`Condensation`) is what :class:`hbm.problem.HBMProblem`
 delegates to: ``n_unknowns``, ``x_scale`` and ``eq_scale`` (unknown and equation
 scales), ``delta_real(u)``, ``evaluate(u, omega, jacobian, law)`` (residual, dR/du,
 dR/dOmega) and ``recover(u, omega)`` (complex coefficients of every DOF).  Each
-class reads the shared linear data (Z'_k, F_k, modes, AFT force) from the problem
+class reads the shared linear data (Z'_k, F_k, modes, AFT forces) from the problem
 through its public methods.  The design follows one class per variant behind one
 small interface, as sfepy's linear-combination boundary conditions do
 (sfepy/discrete/fem/lcbc_operators.py).
@@ -29,7 +33,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .harmonics import HarmonicSet, complex_mul, mul_rows, real_blocks
+from .basis import HarmonicSet, complex_mul, mul_rows, real_blocks
 from .krylov import LoaJacobian, Preconditioners
 
 logger = logging.getLogger(__name__)
@@ -46,13 +50,15 @@ class LinearData(Protocol):
 
     harmonics: HarmonicSet
     n_dof: int
+    n_elements: int
     nS: int
     nr: int
     G: np.ndarray
+    directions: tuple
     Kp: np.ndarray
     dof_eq: np.ndarray
-    kbar: float
-    length_scale: float
+    kbar: np.ndarray
+    length_scales: np.ndarray
     modal: bool
     rigid: np.ndarray
     gj: np.ndarray
@@ -71,12 +77,12 @@ class LinearData(Protocol):
     def equilibrated_solve(self, z: np.ndarray, rhs: np.ndarray,
                            idx: np.ndarray | None = None) -> np.ndarray: ...
 
-    def mesh_force(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0): ...
+    def forces(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0): ...
 
-    def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
-                           law: float = 1.0): ...
+    def force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
+                      law: float = 1.0): ...
 
-    def contact_matrix(self, st) -> np.ndarray: ...
+    def stiffness_matrix(self, st) -> np.ndarray: ...
 
 
 class Condensation(Protocol):
@@ -99,7 +105,7 @@ class Condensation(Protocol):
     eq_scale: np.ndarray
 
     def delta_real(self, u: np.ndarray) -> np.ndarray:
-        """Real coefficients of Delta = G^T q from the unknowns."""
+        """Real coefficients of the Deltas ``G^T q`` from the unknowns, (E, n_real)."""
 
     def evaluate(self, u: np.ndarray, omega: float, jacobian: bool = True,
                  law: float = 1.0):
@@ -113,13 +119,28 @@ def _require_restrained(problem: LinearData) -> None:
     """A condensation that solves with Z'_k needs it regular or modal at k = 0."""
     if np.any(problem.rigid) and not problem.modal:
         raise ValueError(
-            "system: K + k_bar G G^T is singular and C is not modal; use a modal damping "
+            "system: K + sum k_bar g g^T is singular and C is not modal; use a modal damping "
             "or restrain the rigid-body modes")
 
 
+def _accumulate(terms):
+    """``t_0 + t_1 + ...`` left to right (one term: itself, no arithmetic)."""
+    it = iter(terms)
+    acc = next(it)
+    for t in it:
+        acc = acc + t
+    return acc
+
+
+def _stacked(blocks: list[np.ndarray]) -> np.ndarray:
+    """The element blocks one after the other (one block: itself)."""
+    return blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+
+
 class LoaCondensation:
-    """Condensation onto the line of action: the unknowns are the real coefficients
-    of Delta (m); the residual ``Delta_k - d_k + h_k f'_k`` is in m."""
+    """Condensation onto the elements' deflections: the unknowns are the real
+    coefficients of every Delta_e (m, element-major); the residual
+    ``Delta_k - d_k + H_k f'_k`` is in m."""
 
     name = "loa"
 
@@ -128,21 +149,23 @@ class LoaCondensation:
         if not problem.modal:
             logger.info("damping is not modal in the eq. (17) modes: dense solve per harmonic")
         self.problem = problem
-        L = problem.length_scale
-        self.x_scale = np.full(problem.nr, L)
-        self.eq_scale = np.full(problem.nr, L)
-        self.n_unknowns = problem.nr
+        L = problem.length_scales
+        self.x_scale = np.repeat(L, problem.nr)
+        self.eq_scale = np.repeat(L, problem.nr)
+        self.n_unknowns = problem.n_elements * problem.nr
         self._cache: tuple = (None, None)
-        self._gpf: tuple | None = None
+        self._gpf: list | None = None
 
     def delta_real(self, u: np.ndarray) -> np.ndarray:
-        """Real coefficients of Delta: the unknowns themselves."""
-        return np.asarray(u, dtype=float)
+        """Real coefficients of the Deltas: the unknowns themselves, (E, n_real)."""
+        pb = self.problem
+        return np.asarray(u, dtype=float).reshape(pb.n_elements, pb.nr)
 
     def receptance(self, omega: float):
-        """``(h, d), (dh/dOmega, dd/dOmega)``, each (nS,) complex (cached per Omega).
+        """``(H, d), (dH/dOmega, dd/dOmega)``: ``H`` (E, E, nS) and ``d`` (E, nS) complex
+        (cached per Omega).
 
-        ``h_k = G^T Z'_k^-1 G`` (m/N) and ``d_k = G^T Z'_k^-1 F_k`` (m).
+        ``H_k[e, f] = g_e^T Z'_k^-1 g_f`` (m/N) and ``d_k[e] = g_e^T Z'_k^-1 F_k`` (m).
         """
         key = float(omega)
         if self._cache[0] != key:
@@ -151,59 +174,79 @@ class LoaCondensation:
 
     def _compute(self, omega: float):
         pb = self.problem
+        ne, ns = pb.n_elements, pb.nS
+        h = np.empty((ne, ne, ns), dtype=complex)
+        dh = np.empty((ne, ne, ns), dtype=complex)
+        d = np.empty((ne, ns), dtype=complex)
+        dd = np.empty((ne, ns), dtype=complex)
         if pb.modal:
             inv, dinv = pb.modal_inverse(omega)
-            g = pb.gj
-            g2 = g * g
-            h = g2 @ inv
-            dh = g2 @ dinv
+            gj = pb.gj
+            for e in range(ne):
+                for f in range(ne):
+                    g2 = gj[e] * gj[f]
+                    h[e, f] = g2 @ inv
+                    dh[e, f] = g2 @ dinv
             if self._gpf is None:            # g_j times the modal forces (Omega-free)
-                self._gpf = (g[:, None] * pb.pfc, g[:, None] * pb.pfu)
-            gpfc, gpfu = self._gpf
-            gpf = gpfc + omega ** 2 * gpfu
-            d = np.einsum("jk,jk->k", gpf, inv)
-            dd = np.einsum("jk,jk->k", gpf, dinv) + 2.0 * omega * np.einsum("jk,jk->k", gpfu,
-                                                                            inv)
+                self._gpf = [(g[:, None] * pb.pfc, g[:, None] * pb.pfu) for g in gj]
+            for e, (gpfc, gpfu) in enumerate(self._gpf):
+                gpf = gpfc + omega ** 2 * gpfu
+                d[e] = np.einsum("jk,jk->k", gpf, inv)
+                dd[e] = np.einsum("jk,jk->k", gpf, dinv) + 2.0 * omega * np.einsum(
+                    "jk,jk->k", gpfu, inv)
             return (h, d), (dh, dd)
         z, dz = pb.dynamic_stiffness(omega)
         f, df = pb.forcing(omega)
-        g = pb.G.astype(complex)
-        rhs = np.stack([np.broadcast_to(g, f.shape), f, df], axis=-1)      # (nS, n, 3)
-        x = pb.equilibrated_solve(z, rhs)
-        gg = np.broadcast_to(g, f.shape)[..., None]
-        y = pb.equilibrated_solve(np.transpose(z, (0, 2, 1)), gg)[..., 0]
-        h = x[:, :, 0] @ g
-        d = x[:, :, 1] @ g
-        dh = -np.einsum("ki,kij,kj->k", y, dz, x[:, :, 0])
-        dd = -np.einsum("ki,kij,kj->k", y, dz, x[:, :, 1]) + x[:, :, 2] @ g
+        gs = [g.astype(complex) for g in pb.directions]
+        rhs = np.stack([*(np.broadcast_to(g, f.shape) for g in gs), f, df], axis=-1)
+        x = pb.equilibrated_solve(z, rhs)                                 # (nS, n, E + 2)
+        gg = np.stack([np.broadcast_to(g, f.shape) for g in gs], axis=-1)
+        y = pb.equilibrated_solve(np.transpose(z, (0, 2, 1)), gg)          # (nS, n, E)
+        for e, ge in enumerate(gs):
+            for k in range(ne):
+                h[e, k] = x[:, :, k] @ ge
+                dh[e, k] = -np.einsum("ki,kij,kj->k", y[..., e], dz, x[:, :, k])
+            d[e] = x[:, :, ne] @ ge
+            dd[e] = -np.einsum("ki,kij,kj->k", y[..., e], dz, x[:, :, ne]) + x[:, :, ne + 1] @ ge
         return (h, d), (dh, dd)
 
     def evaluate(self, u: np.ndarray, omega: float, jacobian: bool = True,
                  law: float = 1.0):
-        """Residual ``Delta_k - d_k + h_k f'_k`` (m) and, if asked, its Jacobians."""
+        """Residual ``Delta_k - d_k + H_k f'_k`` (m) and, if asked, its Jacobians."""
         pb = self.problem
+        hs = pb.harmonics
+        ne, nr = pb.n_elements, pb.nr
         (h, d), (dh, dd) = self.receptance(omega)
+        du = self.delta_real(u)
         if pb.matrix_free:
-            ft, sk = pb.mesh_force_samples(u, jacobian, law)
+            ft, sk = pb.force_samples(du, jacobian, law)
         else:
-            ft, jf = pb.mesh_force(u, jacobian, law)
-        r = u - pb.harmonics.to_real(d) + complex_mul(h, ft)
+            ft, jf = pb.forces(du, jacobian, law)
+        r = _stacked([du[e] - hs.to_real(d[e]) + _accumulate(complex_mul(h[e, f], ft[f])
+                                                             for f in range(ne))
+                      for e in range(ne)])
         if not jacobian:
             return r
         if pb.matrix_free:         # J = I + H S, applied by FFT (hbm/krylov.py)
-            ju = LoaJacobian(h, sk, pb.harmonics, pb.contact_matrix, pb.preconditioners)
+            ju = LoaJacobian(h, sk, hs, pb.stiffness_matrix, pb.preconditioners)
+        elif ne == 1:
+            ju = np.eye(nr) + mul_rows(h[0, 0], jf[0])
         else:
-            ju = np.eye(pb.nr) + mul_rows(h, jf)
-        jw = -pb.harmonics.to_real(dd) + complex_mul(dh, ft)
+            ju = np.eye(ne * nr) + np.block([[mul_rows(h[e, f], jf[f]) for f in range(ne)]
+                                             for e in range(ne)])
+        jw = _stacked([-hs.to_real(dd[e]) + _accumulate(complex_mul(dh[e, f], ft[f])
+                                                         for f in range(ne))
+                       for e in range(ne)])
         return r, ju, jw
 
     def recover(self, u: np.ndarray, omega: float) -> np.ndarray:
-        """Every DOF from Z'_k q_k = F_k - G f'_k, modally or by a dense solve."""
+        """Every DOF from Z'_k q_k = F_k - sum_e g_e f'_e,k, modally or by a dense solve."""
         pb = self.problem
-        ft, _ = pb.mesh_force(self.delta_real(u), jacobian=False)
-        fc = pb.harmonics.to_complex(ft)
+        ft, _ = pb.forces(self.delta_real(u), jacobian=False)
+        fc = pb.harmonics.to_complex(ft)                               # (E, nS)
         f, _ = pb.forcing(omega)
-        rhs = f - fc[:, None] * pb.G[None, :]                    # (nS, n)
+        rhs = f - _accumulate(fc[e][:, None] * g[None, :]
+                              for e, g in enumerate(pb.directions))   # (nS, n)
         if pb.modal:
             inv, _ = pb.modal_inverse(omega)
             eta = inv * (pb.phi.T @ rhs.T)
@@ -214,19 +257,24 @@ class LoaCondensation:
 
 class _DofCondensation:
     """Shared part of the DOF-based condensations: the unknowns are the real
-    coefficients of m coordinates (DOF-major), the residual is in N."""
+    coefficients of m coordinates (DOF-major), the residual is in N.
+
+    ``gs``: every element's direction on the retained coordinates."""
 
     name = ""
 
-    def __init__(self, problem: LinearData, g: np.ndarray, kr: np.ndarray,
+    def __init__(self, problem: LinearData, gs: list[np.ndarray], kr: np.ndarray,
                  dr: np.ndarray) -> None:
         self.problem = problem
-        self.g = g
+        self.gs = gs
         pb = problem
         m = kr.shape[0]
         # diagonal static compliance, from the equilibrated matrix (unit-independent)
         comp = dr ** 2 * np.abs(np.diag(np.linalg.pinv(kr * np.outer(dr, dr))))
-        sd = pb.length_scale * np.sqrt(pb.kbar * comp)
+        # the largest displacement of each DOF under any element's k_bar L
+        sd = pb.length_scales[0] * np.sqrt(pb.kbar[0] * comp)
+        for lsc, kb in zip(pb.length_scales[1:], pb.kbar[1:], strict=True):
+            sd = np.maximum(sd, lsc * np.sqrt(kb * comp))
         sd = np.maximum(sd, 1e-12 * np.max(sd))
         ed = np.abs(np.diag(kr)) * sd
         ed = np.maximum(ed, 1e-12 * np.max(ed))
@@ -239,27 +287,31 @@ class _DofCondensation:
         raise NotImplementedError
 
     def delta_real(self, u: np.ndarray) -> np.ndarray:
-        """Real coefficients of Delta = g^T u on the retained coordinates."""
-        g = self.g
-        return g @ np.asarray(u, dtype=float).reshape(g.size, self.problem.nr)
+        """Real coefficients of every Delta_e = g_e^T u on the retained coordinates,
+        (E, n_real)."""
+        uu = np.asarray(u, dtype=float).reshape(self.gs[0].size, self.problem.nr)
+        return np.stack([g @ uu for g in self.gs])
 
     def evaluate(self, u: np.ndarray, omega: float, jacobian: bool = True,
                  law: float = 1.0):
-        """Residual ``Z_r u_k + g f'_k - F_r`` (N) and, if asked, its Jacobians."""
+        """Residual ``Z_r u_k + sum_e g_e f'_e,k - F_r`` (N) and, if asked, its Jacobians."""
         pb = self.problem
         nr = pb.nr
         z, dz, f, df = self.linear(omega)
-        g = self.g
-        m = g.size
+        gs = self.gs
+        m = gs[0].size
         hs = pb.harmonics
         uu = u.reshape(m, nr)
         uc = hs.to_complex(uu)                                   # (m, nS)
-        ft, jf = pb.mesh_force(g @ uu, jacobian, law)
+        ft, jf = pb.forces(np.stack([g @ uu for g in gs]), jacobian, law)
         rc = np.einsum("kij,jk->ik", z, uc) - f.T
-        r = (hs.to_real(rc) + g[:, None] * ft[None, :]).ravel()
+        r = (hs.to_real(rc) + _accumulate(g[:, None] * ft[e][None, :]
+                                          for e, g in enumerate(gs))).ravel()
         if not jacobian:
             return r
-        ju = real_blocks(z, nr) + np.kron(np.outer(g, g), jf)
+        ju = real_blocks(z, nr)
+        for e, g in enumerate(gs):
+            ju = ju + np.kron(np.outer(g, g), jf[e])
         jw = hs.to_real(np.einsum("kij,jk->ik", dz, uc) - df.T).ravel()
         return r, ju, jw
 
@@ -270,7 +322,7 @@ class FullCoordinates(_DofCondensation):
     name = "none"
 
     def __init__(self, problem: LinearData) -> None:
-        super().__init__(problem, problem.G, problem.Kp, problem.dof_eq)
+        super().__init__(problem, list(problem.directions), problem.Kp, problem.dof_eq)
 
     def linear(self, omega: float):
         """Z'_k, F_k and their Omega-derivatives (not cached)."""
@@ -286,12 +338,12 @@ class FullCoordinates(_DofCondensation):
 
 
 class GearCondensation(_DofCondensation):
-    """Schur complement onto the DOF where G != 0 (eq. 24-29).
+    """Schur complement onto the DOF where any element direction g_e != 0 (eq. 24-29).
 
     Attributes
     ----------
     nl, ln
-        Indices of the retained (mesh) DOF and of the condensed ones.
+        Indices of the retained (element) DOF and of the condensed ones.
     """
 
     name = "gear"
@@ -299,18 +351,19 @@ class GearCondensation(_DofCondensation):
     def __init__(self, problem: LinearData) -> None:
         _require_restrained(problem)
         self.problem = pb = problem
-        self.nl = np.flatnonzero(pb.G != 0.0)
+        self.nl = np.flatnonzero(np.any(pb.G != 0.0, axis=1))
         self.ln = np.setdiff1d(np.arange(pb.n_dof), self.nl)
         if self.ln.size:
             d = pb.dof_eq
             kll = (pb.Kp * np.outer(d, d))[np.ix_(self.ln, self.ln)]
             if np.linalg.cond(kll) > 1e13:
                 raise ValueError(
-                    "problem.condensation = 'gear': the stiffness of the DOF off the mesh "
-                    "is singular (a rigid-body mode the mesh does not restrain); use 'loa' "
+                    "problem.condensation = 'gear': the stiffness of the DOF off the elements "
+                    "is singular (a rigid-body mode no element restrains); use 'loa' "
                     "with modal damping or 'none'")
         self._cache: tuple = (None, None)
-        super().__init__(problem, pb.G[self.nl], self._static_schur(), pb.dof_eq[self.nl])
+        super().__init__(problem, [g[self.nl] for g in pb.directions], self._static_schur(),
+                         pb.dof_eq[self.nl])
 
     def _static_schur(self) -> np.ndarray:
         pb = self.problem
@@ -356,7 +409,7 @@ class GearCondensation(_DofCondensation):
         return zr, dzr, fr, dfr
 
     def recover(self, u: np.ndarray, omega: float) -> np.ndarray:
-        """Mesh DOF from the unknowns, the others from Z_ll q_l = F_l - Z_ln q_n."""
+        """Element DOF from the unknowns, the others from Z_ll q_l = F_l - Z_ln q_n."""
         pb = self.problem
         hs = pb.harmonics
         f, _ = pb.forcing(omega)

@@ -16,9 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from .harmonics import HarmonicSet
-from .model import Excitation, GearMesh, LinearSystem
-from .problem import RPM_TO_RAD_S, HBMProblem
+from .basis import HarmonicSet
+from .elements import GearMesh
+from .problem import HBMProblem
+from .system import Excitation, LinearSystem
+from .units import RPM_TO_RAD_S
 
 __all__ = ["Geared3", "modal_damping", "synthetic_rom"]
 
@@ -70,13 +72,14 @@ class Geared3:
         d = np.array([1.0, 1.0, ell])                 # q = D q'
         s = np.outer(d, d) / (phi * ell)              # M' = D M D / (phi ell)
         f0 = np.array([self.torque, 0.0, 0.0]) * d / (phi * ell)
-        system = LinearSystem(m * s, c * s, k * s, g * d / ell)
+        system = LinearSystem(m * s, c * s, k * s)
         kk = self.km * ell / phi
-        mesh = GearMesh(Z, {0: kk, 1: self.k_ratio * kk} if self.k_ratio else {0: kk},
-                            te={1: 1j * self.te / ell} if self.te else {}, backlash=self.b / ell)
+        mesh = GearMesh(g * d / ell, Z, {0: kk, 1: self.k_ratio * kk} if self.k_ratio else
+                        {0: kk}, te={1: 1j * self.te / ell} if self.te else {},
+                        backlash=self.b / ell)
         exc = Excitation(3, constant={0: f0})
         hs = HarmonicSet.build(Z, self.harmonics, n_time=self.n_time)
-        return HBMProblem(system, mesh, exc, hs, self.condensation)
+        return HBMProblem(system, [mesh], exc, hs, self.condensation)
 
     def mesh_rpm(self) -> float:
         """Speed (rpm) whose mesh frequency is the mode of largest mesh energy."""
@@ -127,7 +130,7 @@ def synthetic_rom(n_cm: int, clustered: bool, zeta: float = 0.02, km: float = 5e
     f0 = np.zeros(n)
     f0[5] = 47.0                                          # torque on gear 1 (N m)
     f0[11] = 47.0 * RB2 / RB1                             # reaction torque on gear 2
-    mesh = GearMesh(Z, {0: km, 1: 0.1 * km}, te={1: 2e-6j}, backlash=10e-6)
+    mesh = GearMesh(g, Z, {0: km, 1: 0.1 * km}, te={1: 2e-6j}, backlash=10e-6)
     exc = Excitation(n, constant={0: f0})
-    return HBMProblem(LinearSystem(m, c, k, g), mesh, exc,
-                          HarmonicSet.build(Z, harmonics), "loa")
+    return HBMProblem(LinearSystem(m, c, k), [mesh], exc, HarmonicSet.build(Z, harmonics),
+                      "loa")

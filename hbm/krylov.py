@@ -1,12 +1,13 @@
-"""Matrix-free Newton matrices of the line-of-action condensation, solved by GMRES.
+"""Matrix-free Newton matrices of the condensation onto the elements, solved by GMRES.
 
 With the ``"loa"`` condensation the Newton matrix is ``J = I + H S`` (eq. 22-29 on the
-line of action): ``H`` multiplies harmonic k by the receptance ``h_k`` and ``S`` is
-the Galerkin product by the contact stiffness samples ``s(tau) - k_bar``
-(``A diag(s) E``, eq. 13 differentiated). A product ``J v`` costs two FFTs of the AFT
-grid, while forming ``J`` costs ``O(n_real^2)`` gathers and factorising it
-``O(n_real^3)``: at 12 mesh harmonics with a contiguous set (1849 unknowns) 67 ms and
-104 ms against 0.3 ms for a product.
+elements' deflections): ``H`` multiplies harmonic k by the E x E receptance ``H_k`` and
+``S`` is block-diagonal over the elements, each block the Galerkin product by the
+element's stiffness samples ``s_e(tau) - k_bar_e`` (``A diag(s_e) E``, eq. 13
+differentiated for a gear mesh). A product ``J v`` costs two FFTs of the AFT grid per
+element, while forming ``J`` costs ``O((E n_real)^2)`` gathers and factorising it
+``O((E n_real)^3)``: at 12 mesh harmonics with a contiguous set (1849 unknowns, one mesh)
+67 ms and 104 ms against 0.3 ms for a product.
 
 :class:`LoaJacobian` is that operator, :class:`BorderedOperator` the continuation's
 augmented matrix ``[[J, j_w], [row]]``. Both are solved by right-preconditioned GMRES
@@ -29,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .contact import ContactStiffness, KinkCorrection
-from .harmonics import HarmonicSet, complex_mul, mul_rows
+from .basis import HarmonicSet, complex_mul, mul_rows
+from .elements.base import ElementStiffness, KinkCorrection
 from .newton import ConvergenceError, factor_checked
 
 logger = logging.getLogger(__name__)
@@ -175,38 +176,90 @@ class _KrylovSolvable:
 
 @dataclass
 class LoaJacobian(_KrylovSolvable):
-    """``J v = v + h (.) Galerkin(s'(tau) E v)`` on the real layout (see the module).
+    """``J v = v + H (.) Galerkin(S (E v))`` on the real layout, element-major (see the
+    module).
 
-    ``h``: receptance per harmonic (complex, m/N); ``stiffness``: ``d f'/d Delta`` on
-    the AFT grid (:class:`hbm.contact.ContactStiffness`); ``contact_matrix``: the
-    problem's dense builder of ``S`` (for :meth:`dense`).
+    ``h``: receptances per element pair and harmonic (E, E, nS) (complex, m/N);
+    ``stiffness``: each element's ``d f'/d Delta`` on the AFT grid
+    (:class:`hbm.elements.ElementStiffness`); ``stiffness_matrix``: the problem's dense
+    builder of one element's ``S`` (for :meth:`dense`); ``scales``: the elements' length
+    scales when the unknowns of different elements are scaled differently (the operator
+    in scaled unknowns and equations, ``D^-1 J D``), else None.
     """
 
     h: np.ndarray
-    stiffness: ContactStiffness
+    stiffness: list
     harmonics: HarmonicSet
-    contact_matrix: Callable[[ContactStiffness], np.ndarray]
+    stiffness_matrix: Callable[[ElementStiffness], np.ndarray]
     store: Preconditioners
+    scales: np.ndarray | None = None
+
+    @property
+    def n_elements(self) -> int:
+        return self.h.shape[0]
 
     @property
     def size(self) -> int:
-        return self.harmonics.n_real
+        return self.n_elements * self.harmonics.n_real
+
+    def rescaled(self, lengths: np.ndarray) -> LoaJacobian:
+        """The operator in unknowns and equations scaled by each element's length
+        ``lengths`` (E,): itself when they are all equal (then ``D^-1 J D = J``)."""
+        lengths = np.asarray(lengths, dtype=float)
+        if np.all(lengths == lengths[0]):
+            return self
+        return LoaJacobian(self.h, self.stiffness, self.harmonics, self.stiffness_matrix,
+                           self.store, lengths)
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         hs = self.harmonics
-        return v + complex_mul(self.h, hs.analyse(self.stiffness.apply(hs.synthesize(v))))
+        ne, nr = self.n_elements, hs.n_real
+        vv = v.reshape(ne, nr)
+        if self.scales is not None:
+            vv = vv * self.scales[:, None]
+        x = hs.synthesize(vv)
+        ys = [st.apply(xe) for st, xe in zip(self.stiffness, x, strict=True)]
+        a = hs.analyse(ys[0][None] if ne == 1 else np.stack(ys))
+        if ne == 1 and self.scales is None:
+            return v + complex_mul(self.h[0, 0], a[0])
+        out = np.empty(ne * nr)
+        for e in range(ne):
+            acc = complex_mul(self.h[e, 0], a[0])
+            for f in range(1, ne):
+                acc = acc + complex_mul(self.h[e, f], a[f])
+            if self.scales is not None:
+                acc = acc / self.scales[e]
+            out[e * nr:(e + 1) * nr] = v[e * nr:(e + 1) * nr] + acc
+        return out
 
     def dense(self, kinks: bool = True) -> np.ndarray:
-        """The matrix itself (n_real, n_real); without the kink blocks of T.13a when
+        """The matrix itself (E n_real square); without the kink blocks of T.13a when
         ``kinks`` is False (the preconditioner: they are a rank-2m update costing
         ``O(n_real^2 m)`` for m crossings, GMRES takes them into account)."""
-        st = self.stiffness
         hs = self.harmonics
-        if not kinks:
-            if isinstance(hs._columns, slice) and 2 * hs.max_index < st.samples.size:
-                return contiguous_matrix(self.h, st.samples)
-            st = ContactStiffness(st.samples, KinkCorrection.none(st.samples.size))
-        return np.eye(self.size) + mul_rows(self.h, self.contact_matrix(st))
+        ne, nr = self.n_elements, hs.n_real
+        sts = self.stiffness
+        fast = not kinks and hs.contiguous and all(2 * hs.max_index < st.samples.size
+                                                   for st in sts)
+        if not fast:
+            if not kinks:
+                sts = [ElementStiffness(st.samples, KinkCorrection.none(st.samples.size))
+                       for st in sts]
+            mats = [self.stiffness_matrix(st) for st in sts]
+        if ne == 1:
+            j = contiguous_matrix(self.h[0, 0], sts[0].samples) if fast else \
+                np.eye(nr) + mul_rows(self.h[0, 0], mats[0])
+        else:
+            j = np.eye(ne * nr)
+            for e in range(ne):
+                for f in range(ne):
+                    block = contiguous_matrix(self.h[e, f], sts[f].samples, identity=False) \
+                        if fast else mul_rows(self.h[e, f], mats[f])
+                    j[e * nr:(e + 1) * nr, f * nr:(f + 1) * nr] += block
+        if self.scales is not None:
+            s = np.repeat(self.scales, nr)
+            j = j * (s[None, :] / s[:, None])
+        return j
 
 
 @dataclass
@@ -234,11 +287,13 @@ class BorderedOperator(_KrylovSolvable):
                           self.row[None, :]])
 
 
-def contiguous_matrix(h: np.ndarray, samples: np.ndarray) -> np.ndarray:
+def contiguous_matrix(h: np.ndarray, samples: np.ndarray, identity: bool = True) -> np.ndarray:
     """``I + H A diag(s) E`` (real layout) for the contiguous set ``0..K`` on ``N > 2K``
     samples ``s``: the matrix of :meth:`LoaJacobian.dense` without kink blocks, equal to
     it entry by entry, built from the DFT of ``s`` read as Toeplitz (``s_hat[k - l]``)
     and Hankel (``s_hat[k + l]``) strided views: no index arrays, a fifth of the time.
+    Without the identity when ``identity`` is False (an off-diagonal block of several
+    elements).
 
     With ``w_0 = 1``, ``w_k = 2`` and ``x_l = a_l + i b_l`` (eq. 13 linearised, Galerkin):
     ``y_k = h_k w_k (s_hat_k x_0 + 1/2 sum_l (s_hat_{k-l} + s_hat_{k+l}) a_l
@@ -268,7 +323,8 @@ def contiguous_matrix(h: np.ndarray, samples: np.ndarray) -> np.ndarray:
     j[0, 1::2], j[0, 2::2] = c[0].real, d[0].real
     j[1::2, 1::2], j[2::2, 1::2] = c[1:].real, c[1:].imag
     j[1::2, 2::2], j[2::2, 2::2] = d[1:].real, d[1:].imag
-    j[np.diag_indices(nr)] += 1.0
+    if identity:
+        j[np.diag_indices(nr)] += 1.0
     return j
 
 

@@ -1,9 +1,10 @@
-"""The modes of the eq. (17) operator and the length scale of an HBM problem.
+"""The modes of the eq. (17) operator and the static deflection along each element.
 
-``K' = K + k_bar G G^T`` and ``M`` give the mass-normalised modes; when the damping is
-diagonal in them the problem is *modal* (receptances of eq. 18-19). The length scale
-is the largest of the backlash, the transmission-error amplitude and the static mesh
-deflection: the scale of the loa unknowns (:mod:`hbm.condensation`).
+``K' = K + sum_e k_bar_e g_e g_e^T`` and ``M`` give the mass-normalised modes; when the
+damping is diagonal in them the problem is *modal* (receptances of eq. 18-19). The
+length scale of an element is the largest of its own (a backlash, a transmission-error
+amplitude, :meth:`hbm.elements.Element.scale`) and its static deflection: the scale of
+its unknowns (:mod:`hbm.condensation`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Modes", "length_scale", "modes"]
+__all__ = ["Modes", "modes", "static_deflection"]
 
 
 @dataclass(frozen=True)
@@ -29,11 +30,12 @@ class Modes:
         True when ``phi^T C phi`` is diagonal and ``K'`` symmetric.
     kp_symmetric
         ``K'`` is symmetric (equilibrated, to 1e-12 of its largest eigenvalue).
-    gj, pfc, pfu
-        Modal mesh vector ``phi^T G`` and modal forcing ``phi^T F_c``, ``phi^T F_u``
-        (n_modes, n_harmonics).
+    gj
+        Modal directions ``phi^T g_e`` of the elements, (n_elements, n_modes).
+    pfc, pfu
+        Modal forcing ``phi^T F_c``, ``phi^T F_u`` (n_modes, n_harmonics).
     rigid
-        Rigid-body modes that do not move the mesh (their static term is dropped).
+        Rigid-body modes that move no element (their static term is dropped).
     """
 
     w2: np.ndarray
@@ -47,12 +49,13 @@ class Modes:
     rigid: np.ndarray
 
 
-def modes(kp: np.ndarray, m: np.ndarray, c: np.ndarray, g: np.ndarray, fc: np.ndarray,
+def modes(kp: np.ndarray, m: np.ndarray, c: np.ndarray, directions, fc: np.ndarray,
           fu: np.ndarray, dof_eq: np.ndarray) -> Modes:
-    """Modes of ``K' = kp`` with mass ``m``, equilibrated by ``D = diag(dof_eq)``.
+    """Modes of ``K' = kp`` with mass ``m``, equilibrated by ``D = diag(dof_eq)``;
+    ``directions``: the elements' ``g_e``, each (n,).
 
     Raises ValueError if ``K'`` is not positive semi-definite, if a rigid-body mode moves
-    the mesh, or if the static load (``fc[0]``) drives a rigid-body mode.
+    an element, or if the static load (``fc[0]``) drives a rigid-body mode.
     """
     import scipy.linalg as sla
 
@@ -74,14 +77,15 @@ def modes(kp: np.ndarray, m: np.ndarray, c: np.ndarray, g: np.ndarray, fc: np.nd
     kp_symmetric = bool(np.allclose(kp * dd, (kp * dd).T, rtol=0, atol=1e-12 * top))
     if not kp_symmetric:
         modal = False
-    gj = phi.T @ g
+    gj = np.stack([phi.T @ g for g in directions])            # (n_elements, n_modes)
     pfc = phi.T @ fc.T        # (n_modes, nS)
     pfu = phi.T @ fu.T
-    gn = np.linalg.norm(gj)
     moving = w2 <= 1e-12 * top
-    rigid = moving & (np.abs(gj) <= 1e-12 * gn)
+    rigid = moving.copy()
+    for ge in gj:
+        rigid &= np.abs(ge) <= 1e-12 * np.linalg.norm(ge)
     if np.any(moving & ~rigid):
-        raise ValueError("system: a rigid-body mode of K + k_bar G G^T moves the mesh")
+        raise ValueError("system: a rigid-body mode of K + sum k_bar g g^T moves an element")
     if np.any(rigid):
         f0 = np.abs(pfc[rigid, 0]) + np.abs(pfu[rigid, 0])
         fscale = np.linalg.norm(fc[0]) + np.linalg.norm(fu[0]) + 1e-300
@@ -93,19 +97,17 @@ def modes(kp: np.ndarray, m: np.ndarray, c: np.ndarray, g: np.ndarray, fc: np.nd
                  pfc=pfc, pfu=pfu, rigid=rigid)
 
 
-def length_scale(backlash: float, te_samples: np.ndarray, static_load: float, kbar: float,
-                 md: Modes, kp: np.ndarray, g: np.ndarray, fc0: np.ndarray,
-                 dof_eq: np.ndarray) -> float:
-    """Largest of the backlash, the TE amplitude, the static load over ``k_bar`` and the
-    static mesh deflection ``G^T K'^+ F_c,0`` (modal sum when :attr:`Modes.modal`) (m)."""
-    te_amp = 0.5 * (np.max(te_samples) - np.min(te_samples)) if te_samples.size else 0.0
+def static_deflection(md: Modes, kp: np.ndarray, g: np.ndarray, gj: np.ndarray,
+                      fc0: np.ndarray, dof_eq: np.ndarray) -> float:
+    """Static deflection ``|g^T K'^+ F_c,0|`` (m) along the direction ``g`` (modal: ``gj``,
+    its modal components) under the mean load (modal sum when :attr:`Modes.modal`)."""
     keep = ~md.rigid
     static = 0.0
     if md.modal and np.any(keep):
-        static = abs(float(np.sum(md.gj[keep] * md.pfc[keep, 0].real / md.w2[keep])))
+        static = abs(float(np.sum(gj[keep] * md.pfc[keep, 0].real / md.w2[keep])))
     elif np.any(fc0 != 0):
         # static mesh deflection under the mean load, whatever the damping
         d = dof_eq
         x = d * np.linalg.lstsq(kp * np.outer(d, d), d * fc0.real, rcond=None)[0]
         static = abs(float(g @ x))
-    return float(max(backlash, te_amp, abs(static_load) / kbar, static))
+    return static

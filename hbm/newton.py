@@ -4,7 +4,8 @@
 refinement step, condition bookkeeping): :func:`newton` runs it on the equations at a
 fixed speed (:class:`NewtonSystem`; used by :class:`hbm.problem.HBMProblem`: plain and
 damped Newton, contact-law homotopy, and by :mod:`hbm.continuation` to land on a bound),
-the continuation corrector on its bordered system (:class:`hbm.corrector.Bordered`).
+the continuation corrector on its bordered system
+(:class:`hbm.continuation.corrector.Bordered`).
 ``solve_checked`` is the one dense solve of every Newton step in hbm/.
 """
 
@@ -131,9 +132,9 @@ class NewtonSystem:
     speed, ``fun(x) -> (r, J, ...)``, ``fun(x, False) -> r``.
 
     A subclass changes what differs (the continuation corrector,
-    :class:`hbm.corrector.Bordered`: the augmented unknowns, the bordered matrix, its
-    damping and divergence test); the iteration, the line search, the refinement step
-    and the condition bookkeeping are :func:`iterate`'s.
+    :class:`hbm.continuation.corrector.Bordered`: the augmented unknowns, the bordered
+    matrix, its damping and divergence test); the iteration, the line search, the
+    refinement step and the condition bookkeeping are :func:`iterate`'s.
     """
 
     #: ``solve_checked`` may log an ill-conditioned matrix (once per solve)

@@ -5,7 +5,7 @@ Python API (same as ``geardyn run``)::
 
     import study
     res = study.run("scenes/gear-pair-sdof.toml", "out/sdof")
-    res.branch.rpm, res.branch.mesh_load_std, res.stages
+    res.branch.rpm, res.branch.element(0).mesh_load_std, res.stages
 
 Importing this package loads neither dolfinx, gmsh nor petsc4py.
 """

@@ -1,6 +1,6 @@
 """What the machine does where the periodic orbit is unstable: time integration from the
 orbit at the most unstable point of each unstable segment (``[outputs]
-attractor_transient_turns``, :func:`hbm.time_response.integrate`), for report.md.
+attractor_transient_turns``, :func:`hbm.post.time_response.integrate`), for report.md.
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import h5py
 import numpy as np
 
 from core.files import atomic_write
-from hbm.time_response import TimeResponse, integrate
+from hbm.post.time_response import TimeResponse, integrate
 from study.curves import UnstableSegment, unstable_segments
 
 logger = logging.getLogger(__name__)
@@ -43,12 +43,12 @@ def _most_unstable(br, seg: UnstableSegment) -> int:
     first, last = seg.index
     rate = np.asarray(br.floquet_max_real[first:last + 1], dtype=float)
     if not np.isfinite(rate).any():      # rates not recorded: the most loaded point
-        rate = np.asarray(br.mesh_load_std[first:last + 1], dtype=float)
+        rate = np.asarray(br.element(0).mesh_load_std[first:last + 1], dtype=float)
     return first + int(np.argmax(np.where(np.isfinite(rate), rate, -np.inf)))
 
 
 def scene_time_response(result, point) -> TimeResponse | None:
-    """:func:`hbm.time_response.integrate` from ``point`` with the scene's turns
+    """:func:`hbm.post.time_response.integrate` from ``point`` with the scene's turns
     (``[outputs] attractor_transient_turns``, ``attractor_window_turns``), or None when
     the scene asks for no time responses (0 turns left out)."""
     o = result.scene.outputs
@@ -68,9 +68,10 @@ def attractors(result) -> list[Attractor]:
         return []
     problem = result.problem
     out = []
-    for seg in unstable_segments(br.rpm, br.mesh_load_std, br.stable, br.floquet_kind):
+    mesh_std = br.element(0).mesh_load_std
+    for seg in unstable_segments(br.rpm, mesh_std, br.stable, br.floquet_kind):
         i = _most_unstable(br, seg)
-        rpm, std = float(br.rpm[i]), float(br.mesh_load_std[i])
+        rpm, std = float(br.rpm[i]), float(mesh_std[i])
         try:
             tr = scene_time_response(result, problem.solve(rpm, x0=br.unknowns[i],
                                                            tol=1e-10))

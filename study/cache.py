@@ -63,7 +63,8 @@ def canonical(obj: Any) -> Any:
 
 @functools.cache
 def source_hash(*modules: str) -> str:
-    """SHA-256 of the source files of the given packages/modules (code version).
+    """SHA-256 of the source files of the given packages/modules (code version); a
+    package's subpackages included.
 
     Computed once per process: a process runs the code it imported, even if the
     files change on disk meanwhile.
@@ -77,9 +78,11 @@ def source_hash(*modules: str) -> str:
             h.update(f"missing:{name}".encode())
             continue
         origin = Path(spec.origin)
-        files = sorted(origin.parent.glob("*.py")) if origin.name == "__init__.py" else [origin]
+        root = origin.parent
+        files = sorted(root.rglob("*.py")) if origin.name == "__init__.py" else [origin]
         for f in files:
-            h.update(f.name.encode())
+            h.update((f.relative_to(root).as_posix() if f.is_relative_to(root) else
+                      f.name).encode())
             h.update(f.read_bytes())
     return h.hexdigest()
 

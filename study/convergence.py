@@ -197,7 +197,8 @@ def _compare(rows: list[Row], scene: Scene, slack: float) -> None:
         ref.housing = housing_field(ref.result, house_rpm)
     for r in ok:
         br = r.result.branch
-        r.curve_err = curve_error(rb.rpm, rb.mesh_load_std, br.rpm, br.mesh_load_std, slack)
+        r.curve_err = curve_error(rb.rpm, rb.element(0).mesh_load_std, br.rpm,
+                                  br.element(0).mesh_load_std, slack)
         r.grazing = grazing_error(list(rb.grazing), list(br.grazing))
         if fe:
             r.rom_freq_err = rom_frequency_error(ref.result.rom, r.result.rom, f_max)

@@ -381,8 +381,9 @@ def _point_kinds(stable, kind, n: int) -> list[str]:
 
 def summarize_branch(branch) -> CurveSummary:
     """:class:`CurveSummary` of an :class:`hbm.Branch`."""
-    return summarize_curve(branch.rpm, branch.mesh_load_std, branch.contact,
-                           [g.rpm for g in branch.grazing],
+    mesh = branch.element(0)
+    return summarize_curve(branch.rpm, mesh.mesh_load_std, mesh.contact,
+                           [g.rpm for g in mesh.grazing],
                            (branch.rpm_start, branch.rpm_end),
                            complete=branch.status == "completed",
                            fold_index=branch.fold_index, stable=branch.stable,

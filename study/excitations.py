@@ -220,7 +220,7 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
             inp.ipp[target] = _range_text(r)
             continue
         p, how, kind = solved[target]
-        inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p).ipp, how, kind)
+        inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p)[0].ipp, how, kind)
     for target in SPECTRUM_SPEEDS:
         if target not in solved:
             inp.spectra[target] = _range_text(r)

@@ -55,7 +55,7 @@ def velocity_level_db(v_amp: np.ndarray, axis: int = -1) -> np.ndarray:
 def field_orders(scene, harmonics) -> list[int]:
     """Shaft orders of the per-order fields: the scene's ``field_orders``, else the
     mesh orders kZ and the external orders present in the harmonic set."""
-    have = [int(i) * harmonics.divisor for i in harmonics.indices if i > 0]
+    have = [int(i) * harmonics.integer_ratio for i in harmonics.indices if i > 0]
     if scene.outputs.field_orders:
         return list(scene.outputs.field_orders)
     z = scene.gear.teeth
@@ -69,7 +69,7 @@ def frames_per_mesh_period(scene, harmonics) -> int:
     n = scene.outputs.housing_frames_per_mesh_period
     if n:
         return int(n)
-    max_order = harmonics.max_index * harmonics.divisor
+    max_order = harmonics.max_index * harmonics.integer_ratio
     return max(4, math.ceil(4 * max_order / scene.gear.teeth))
 
 
@@ -79,13 +79,13 @@ def check_outputs(scene, harmonics, rom=None) -> None:
 
     if scene.scene.kind != "fe":
         return
-    have = sorted(int(i) * harmonics.divisor for i in harmonics.indices if i > 0)
+    have = sorted(int(i) * harmonics.integer_ratio for i in harmonics.indices if i > 0)
     bad = [o for o in scene.outputs.field_orders if o not in have]
     if bad:
         raise SceneError(f"outputs.field_orders = {list(scene.outputs.field_orders)}: orders "
                          f"{bad} are not in the harmonic set (allowed: {have})")
     n = scene.outputs.housing_frames_per_mesh_period
-    max_order = harmonics.max_index * harmonics.divisor
+    max_order = harmonics.max_index * harmonics.integer_ratio
     need = math.ceil((2 * max_order + 1) / scene.gear.teeth)
     if n and n < need:
         raise SceneError(f"outputs.housing_frames_per_mesh_period = {n}: aliases the highest "
@@ -172,7 +172,7 @@ def write_housing_fields(out: Path, rpm: float, hd, rad: dict | None, qk: np.nda
     times = [j * t_mesh / nf for j in range(n_frames)]
     dyn = idx > 0                                        # the mean is removed
     q_t = (qk[:, dyn] @ np.exp(1j * np.outer(idx[dyn] * w0, times))).real  # (n_r, n_frames)
-    pos = {int(k) * harmonics.divisor: j for j, k in enumerate(idx)}
+    pos = {int(k) * harmonics.integer_ratio: j for j, k in enumerate(idx)}
     sel = [(o, pos[o]) for o in field_orders(scene, harmonics) if o in pos]
     paths = _write_volume_fields(out, tag, hd, times, q_t,
                                  {o: qk[:, j] for o, j in sel})

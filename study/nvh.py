@@ -39,7 +39,7 @@ class NVH:
     harmonics : (n_h,) int
         Harmonic indices of the set.
     orders : (n_h,) float
-        Shaft orders of those harmonics (index × divisor).
+        Shaft orders of those harmonics (index × w0 / Omega).
     mesh_load_amplitude : (n, n_h) float
         |f̃_k| of the mesh load at each harmonic [N].
     mesh_load_ptp : (n,) float
@@ -100,7 +100,7 @@ def compute_nvh(result) -> NVH:
     for i in range(n):
         pt = point_at(result, i)
         ts = time_series(pb, pt)
-        f = ts.mesh_load
+        f = ts.load
         c = np.fft.rfft(f) / f.size
         c[1:] *= 2.0
         amp[i] = np.abs(c[idx])
@@ -115,7 +115,7 @@ def compute_nvh(result) -> NVH:
     if erp is not None and n:
         logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
                     float(power_db(total).min()), float(power_db(total).max()))
-    out = NVH(idx, idx * hs.divisor, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+    out = NVH(idx, idx * hs.integer_ratio, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
     if accels:
         out.accel_names = tuple(a.name for a in accels)
         out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
@@ -175,10 +175,11 @@ def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
                 "mesh_load_peak_to_peak_N", "erp_dB_re_1pW", "contact_class", "contact",
                 "stable"])
     db = nvh.erp_total_db
+    mesh = branch.element(0)
     for i in range(len(branch)):
-        cls = int(branch.contact[i])
-        w.writerow([i, f"{branch.rpm[i]:.6f}", f"{branch.mesh_load_std[i]:.8g}",
-                    f"{branch.mesh_load_max[i]:.8g}", f"{nvh.mesh_load_ptp[i]:.8g}",
+        cls = int(mesh.contact[i])
+        w.writerow([i, f"{branch.rpm[i]:.6f}", f"{mesh.mesh_load_std[i]:.8g}",
+                    f"{mesh.mesh_load_max[i]:.8g}", f"{nvh.mesh_load_ptp[i]:.8g}",
                     "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
                     int(bool(branch.stable[i]))])
     path = Path(path)

@@ -41,7 +41,8 @@ def save_figure(fig, path: Path) -> Path:
 def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
     """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
     grazing speeds (:func:`study.curves.class_intervals`)."""
-    return class_intervals(branch.rpm, branch.contact, [g.rpm for g in branch.grazing])
+    mesh = branch.element(0)
+    return class_intervals(branch.rpm, mesh.contact, [g.rpm for g in mesh.grazing])
 
 
 def shade_impacts(ax, branch, alpha: tuple[float, float] = (0.18, 0.25)) -> None:
@@ -58,24 +59,26 @@ def grazing_values(branch) -> list[tuple[float, float, str, str]]:
     """(rpm, mesh-load std, kind, side) of each grazing point, std interpolated on the
     branch segment where the corresponding contact margin changes sign."""
     out = []
-    for g in branch.grazing:
-        m = branch.margin_active if g.side == "active" else branch.margin_reverse
+    mesh = branch.element(0)
+    std = mesh.mesh_load_std
+    for g in mesh.grazing:
+        m = mesh.margin_active if g.side == "active" else mesh.margin_reverse
         best = None
         for i in range(len(branch) - 1):
             if (m[i] > 0) != (m[i + 1] > 0):
                 a, b = branch.rpm[i], branch.rpm[i + 1]
                 if min(a, b) - 1e-6 <= g.rpm <= max(a, b) + 1e-6:
                     w = 0.0 if a == b else (g.rpm - a) / (b - a)
-                    val = (1 - w) * branch.mesh_load_std[i] + w * branch.mesh_load_std[i + 1]
+                    val = (1 - w) * std[i] + w * std[i + 1]
                     d = 0.0
                 else:
                     d = min(abs(a - g.rpm), abs(b - g.rpm))
-                    val = branch.mesh_load_std[i]
+                    val = std[i]
                 if best is None or d < best[0]:
                     best = (d, val)
         if best is None:
             i = int(np.argmin(np.abs(branch.rpm - g.rpm)))
-            best = (0.0, branch.mesh_load_std[i])
+            best = (0.0, std[i])
         out.append((g.rpm, float(best[1]), g.kind, g.side))
     return out
 

@@ -51,7 +51,7 @@ def draw_all(result) -> list[Path]:
         i, pt = nearest_point(result, rpm)
         tag = f"{pt.rpm:.0f}rpm"
         cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[
-            int(br.contact[i])]
+            int(br.element(0).contact[i])]
         if "time_series" in want:
             paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))

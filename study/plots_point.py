@@ -20,12 +20,13 @@ def time_series_plot(problem, point, path: Path, title: str = "") -> Path:
     hs = problem.harmonics
     mesh_fund = hs.fundamental == "mesh"
     ts = time_series(problem, point, n_periods=3 if mesh_fund else 1)
-    z = problem.mesh.n_teeth
+    z = problem.elements[0].n_teeth
     mesh_period = 2 * np.pi / (z * point.omega)
     t = ts.t / mesh_period  # in mesh periods
     nrows = 2 if mesh_fund else 3
     fig, axes = plt.subplots(nrows, 1, figsize=(8, 2.4 * nrows), sharex=False)
-    d, ga, gr = ts.delta * 1e6, ts.gap_active * 1e6, ts.gap_reverse * 1e6
+    d = ts.delta * 1e6
+    ga, gr = ts.signals["gap_active"] * 1e6, ts.signals["gap_reverse"] * 1e6
     reverse = bool(np.any(d < gr + 0.25 * (ga - gr).mean()))  # near the back flank
 
     def limits(ax, sel):
@@ -46,10 +47,10 @@ def time_series_plot(problem, point, path: Path, title: str = "") -> Path:
     ax.legend(fontsize=8, loc="upper right")
     ax.set_title(title or f"{point.rpm:.0f} rpm")
     ax = axes[1]
-    ax.plot(t, ts.mesh_load, "r", lw=1)
+    ax.plot(t, ts.load, "r", lw=1)
     ax.set_ylabel("mesh load (N)")
     if not mesh_fund:  # zoom on 3 mesh periods around the largest mesh load
-        tc = t[int(np.argmax(ts.mesh_load))]
+        tc = t[int(np.argmax(ts.load))]
         t0 = min(max(tc - 1.5, t[0]), max(t[-1] - 3.0, t[0]))
         m = (t >= t0) & (t <= t0 + 3.0)
         ax = axes[2]
@@ -90,8 +91,8 @@ def spectrum_plot(problem, point, path: Path, title: str = "", n_labels: int = 1
 
     sp = spectrum(problem, point)
     hs = problem.harmonics
-    z = problem.mesh.n_teeth
-    max_order = 1.1 * hs.max_index * hs.divisor + 1
+    z = problem.elements[0].n_teeth
+    max_order = 1.1 * hs.max_index * hs.integer_ratio + 1
     order, amp, floor = spectrum_lines(sp["shaft_order"], sp["amplitude"], max_order)
     fig, ax = plt.subplots(figsize=(9, 3.8))
     ax.vlines(order, floor, amp, color="tab:blue", lw=1.4)

@@ -22,7 +22,7 @@ __all__ = ["forced_response", "forced_response_overlay", "erp_plot", "accelerome
 
 
 def _curve(ax, branch, colour="k", label=None, shade=True):
-    rpm, std, stable = branch.rpm, branch.mesh_load_std, branch.stable.astype(bool)
+    rpm, std, stable = branch.rpm, branch.element(0).mesh_load_std, branch.stable.astype(bool)
     if shade:
         shade_impacts(ax, branch)
     # split into runs of equal stability; consecutive runs share their end point
@@ -50,8 +50,8 @@ def forced_response(branch, path: Path, title: str = "") -> Path:
     ax.plot([], [], "k--", label="unstable")
     ax.set_xlabel("shaft speed Ω (rpm)")
     ax.set_ylabel("std of dynamic mesh load (N)")
-    ax.set_yscale("log" if np.ptp(np.log10(np.maximum(branch.mesh_load_std, 1e-12))) > 2
-                  else "linear")
+    std = branch.element(0).mesh_load_std
+    ax.set_yscale("log" if np.ptp(np.log10(np.maximum(std, 1e-12))) > 2 else "linear")
     ax.set_xlim(branch.rpm_start, branch.rpm_end)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
@@ -73,7 +73,7 @@ def forced_response_overlay(branches: list, labels: list[str], path: Path,
             for a, b in iv:
                 ax.plot([a, b], [y, y], transform=ax.get_xaxis_transform(), color=col,
                         lw=3 if c == 1 else 6, solid_capstyle="butt")
-        logy |= np.ptp(np.log10(np.maximum(br.mesh_load_std, 1e-12))) > 2
+        logy |= np.ptp(np.log10(np.maximum(br.element(0).mesh_load_std, 1e-12))) > 2
     ax.plot([], [], "kD", mfc="white", label="grazing")
     ax.plot([], [], "k--", label="unstable")
     ax.set_yscale("log" if logy else "linear")

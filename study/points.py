@@ -16,10 +16,11 @@ def time_series_speeds(result) -> list[float]:
         return list(s)
     br = result.branch
     out = []
+    mesh = br.element(0)
     for cls in (0, 1, 2):
-        idx = np.flatnonzero((br.contact == cls) & br.stable)
+        idx = np.flatnonzero((mesh.contact == cls) & br.stable)
         if idx.size:
-            out.append(float(br.rpm[idx[np.argmax(br.mesh_load_std[idx])]]))
+            out.append(float(br.rpm[idx[np.argmax(mesh.mesh_load_std[idx])]]))
     return out
 
 
@@ -27,7 +28,7 @@ def point_at(result, i: int):
     """Point ``i`` of the branch as an :class:`hbm.Point`."""
     br = result.branch
     return Point(rpm=float(br.rpm[i]), omega=float(br.omega[i]), unknowns=br.unknowns[i],
-                 coefficients=br.coefficients[i], residual=float(br.residual[i]),
+                 coefficients=br.stats["coefficients"][i], residual=float(br.residual[i]),
                  iterations=int(br.newton_iterations[i]))
 
 

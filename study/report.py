@@ -21,18 +21,19 @@ _CLASS = ("permanent contact", "single-sided impacts", "double-sided impacts")
 def summary(result) -> dict:
     """Key numbers of a run (SI / rpm)."""
     br = result.branch
-    i = int(np.argmax(br.mesh_load_std))
+    mesh = br.element(0)
+    i = int(np.argmax(mesh.mesh_load_std))
     return {
         "points": len(br), "status": br.status, "max_residual": float(np.max(br.residual)),
-        "max_mesh_load_std": float(br.mesh_load_std[i]), "at_rpm": float(br.rpm[i]),
-        "grazing": [(g.rpm, g.kind, g.side) for g in br.grazing],
+        "max_mesh_load_std": float(mesh.mesh_load_std[i]), "at_rpm": float(br.rpm[i]),
+        "grazing": [(g.rpm, g.kind, g.side) for g in mesh.grazing],
         "folds": [float(f) for f in br.folds],
-        "classes": {int(c): int(np.sum(br.contact == c)) for c in np.unique(br.contact)},
+        "classes": {int(c): int(np.sum(mesh.contact == c)) for c in np.unique(mesh.contact)},
         "unstable_points": int(np.sum(~br.stable.astype(bool))),
         "unstable_kinds": {KINDS[k]: int(np.sum(br.floquet_kind == k))
                            for k in range(1, len(KINDS)) if np.any(br.floquet_kind == k)},
         "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
-        "unstable_segments": unstable_segments(br.rpm, br.mesh_load_std, br.stable,
+        "unstable_segments": unstable_segments(br.rpm, mesh.mesh_load_std, br.stable,
                                                br.floquet_kind),
         "intervals": contact_intervals(br),
         "max_std_kind": "" if br.stable[i] else kind_label(kind_name(int(br.floquet_kind[i]))),
@@ -45,8 +46,9 @@ def _largest_stable(br) -> tuple[float, float] | None:
     ok = np.flatnonzero(br.stable.astype(bool))
     if not ok.size:
         return None
-    j = ok[int(np.argmax(br.mesh_load_std[ok]))]
-    return float(br.mesh_load_std[j]), float(br.rpm[j])
+    std = br.element(0).mesh_load_std
+    j = ok[int(np.argmax(std[ok]))]
+    return float(std[j]), float(br.rpm[j])
 
 
 def _largest_line(s: dict, stability: bool) -> str:

@@ -15,6 +15,7 @@ half-written file. During the continuation the whole file is rewritten every
 """
 from __future__ import annotations
 
+import json
 import logging
 import platform
 from collections.abc import Callable
@@ -33,29 +34,43 @@ __all__ = ["FORMAT_VERSION", "write_results", "read_branch", "stored_key", "Chec
 #: Version of the results.h5 layout (attribute ``/format_version``).
 FORMAT_VERSION = 1
 
+#: The documented per-point datasets of /continuation: the branch's own arrays and the
+#: gear mesh's statistics (docs/results-format.md).
 _BRANCH_ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
                   "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
                   "contact_loss_fraction", "impacts_per_mesh_period", "margin_active",
                   "margin_reverse", "ipp", "tangents")
+# Branch fields that are not per-point datasets of /continuation
+_META = {"harmonics", "condensation", "rpm_start", "rpm_end", "omega_scale", "grazing",
+         "folds", "status", "message", "next_step", "stats", "element_names",
+         "element_statistics"}
 
 
 def _branch_array_fields() -> tuple[str, ...]:
-    """Per-point array fields of :class:`hbm.Branch` (all fields but the metadata)."""
+    """Per-point array fields and counters of :class:`hbm.Branch` (all fields but the
+    metadata and the per-element table)."""
     import dataclasses
 
     from hbm import Branch
 
-    meta = {"harmonics", "condensation", "rpm_start", "rpm_end", "omega_scale", "grazing",
-            "folds", "status", "message", "next_step"}
-    return tuple(f.name for f in dataclasses.fields(Branch) if f.name not in meta)
+    return tuple(f.name for f in dataclasses.fields(Branch) if f.name not in _META)
 
 
-def _branch_arrays(branch) -> tuple[str, ...]:
-    names = _branch_array_fields()
-    lost = set(_BRANCH_ARRAYS) - set(names)
+def _branch_datasets(branch) -> dict[str, np.ndarray]:
+    """The /continuation datasets of a branch: its arrays and counters, and its
+    per-element table, each statistic ``(n_points, ...)`` for one element (the element axis
+    dropped) and ``(n_points, n_elements, ...)`` for several."""
+    out = {k: np.asarray(getattr(branch, k)) for k in _branch_array_fields()}
+    single = branch.n_elements <= 1
+    for k, v in branch.stats.items():
+        out[k] = v[:, 0] if single and v.ndim >= 2 else v
+    lost = set(_BRANCH_ARRAYS) - set(out)
+    if "mesh_load_std" not in branch.stats:     # no gear mesh: its statistics are not due
+        lost -= {"mesh_load_std", "mesh_load_max", "contact", "contact_loss_fraction",
+                 "impacts_per_mesh_period", "margin_active", "margin_reverse", "ipp"}
     if lost:
         raise RuntimeError(f"hbm.Branch lost the documented datasets {sorted(lost)}")
-    return names
+    return out
 
 
 def versions() -> dict[str, str]:
@@ -88,8 +103,57 @@ def write_static(f: h5py.File, scene, problem, extra: Callable[[h5py.File], None
     for k, s in versions().items():
         v.attrs[k] = s
 
-    gm = f.create_group("gear_mesh")
-    mesh = problem.mesh
+    _write_elements(f, scene, problem)
+
+    sysg = f.create_group("system")
+    s = problem.system
+    sysg.attrs["n_dof"] = s.n_dof
+    sysg.attrs["source"] = "lumped" if scene.scene.kind == "lumped" else "rom"
+    if s.n_dof <= 4096:
+        for name in ("M", "C", "K"):
+            sysg[name] = getattr(s, name)
+        sysg["G"] = problem.directions[0] if problem.n_elements == 1 else problem.G
+
+    ex = f.create_group("excitation")
+    hs = problem.harmonics
+    ex["harmonics"] = np.asarray(hs.indices, dtype=np.int64)
+    ex["harmonics"].attrs["fundamental"] = hs.fundamental
+    if hs.ratio.denominator == 1:
+        ex["harmonics"].attrs["divisor"] = hs.integer_ratio
+    else:
+        ex["harmonics"].attrs["ratio"] = str(hs.ratio)
+    ex["harmonics"].attrs["n_time"] = hs.n_time
+    ex["harmonics"].attrs["aft"] = problem.aft
+    ex["forces"] = problem.Fc
+    ex["forces"].attrs["unit"] = "N"
+    ex["forces"].attrs["meaning"] = "constant forcing per harmonic index (rows) and DOF"
+    ex["forces_omega2"] = problem.Fu
+    ex["forces_omega2"].attrs["unit"] = "N s^2"
+    if extra is not None:
+        extra(f)
+
+
+def _write_elements(f: h5py.File, scene, problem) -> None:
+    """``/gear_mesh`` for a problem whose one element is a gear mesh; else one group
+    ``/elements/<i>`` per element (its kind and name, and a gear mesh's data)."""
+    from hbm import GearMesh
+
+    els = problem.elements
+    if len(els) == 1 and isinstance(els[0], GearMesh):
+        _write_gear_mesh(f.create_group("gear_mesh"), scene, els[0])
+        return
+    grp = f.create_group("elements")
+    for i, el in enumerate(els):
+        g = grp.create_group(str(i))
+        g.attrs["kind"] = el.kind
+        g.attrs["name"] = el.name
+        g["direction"] = el.direction
+        if isinstance(el, GearMesh):
+            _write_gear_mesh(g, scene, el)
+
+
+def _write_gear_mesh(gm, scene, mesh) -> None:
+    """A gear mesh's data (n_teeth, backlash, static load, stiffness and TE harmonics)."""
     gm.attrs["te_kind"] = mesh.te_kind
     gm["n_teeth"] = mesh.n_teeth
     gm["backlash"] = mesh.backlash
@@ -108,35 +172,11 @@ def write_static(f: h5py.File, scene, problem, extra: Callable[[h5py.File], None
         gm[name].attrs["unit"] = {"stiffness": "N/m"}.get(name, "N" if name == "static_load"
                                                           else "m")
 
-    sysg = f.create_group("system")
-    s = problem.system
-    sysg.attrs["n_dof"] = s.n_dof
-    sysg.attrs["source"] = "lumped" if scene.scene.kind == "lumped" else "rom"
-    if s.n_dof <= 4096:
-        for name in ("M", "C", "K", "G"):
-            sysg[name] = getattr(s, name)
-
-    ex = f.create_group("excitation")
-    hs = problem.harmonics
-    ex["harmonics"] = np.asarray(hs.indices, dtype=np.int64)
-    ex["harmonics"].attrs["fundamental"] = hs.fundamental
-    ex["harmonics"].attrs["divisor"] = hs.divisor
-    ex["harmonics"].attrs["n_time"] = hs.n_time
-    ex["harmonics"].attrs["aft"] = problem.aft
-    ex["forces"] = problem.Fc
-    ex["forces"].attrs["unit"] = "N"
-    ex["forces"].attrs["meaning"] = "constant forcing per harmonic index (rows) and DOF"
-    ex["forces_omega2"] = problem.Fu
-    ex["forces_omega2"].attrs["unit"] = "N s^2"
-    if extra is not None:
-        extra(f)
-
 
 def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
     """Write ``/continuation``, ``/grazing`` and ``/folds`` of a (partial) branch."""
     c = f.create_group("continuation")
-    for k in _branch_arrays(branch):
-        v = np.asarray(getattr(branch, k))
+    for k, v in _branch_datasets(branch).items():
         c.create_dataset(k, data=v.astype(np.int64).reshape(-1, 4) if k == "loops" else v)
     c["harmonics"] = np.asarray(branch.harmonics, dtype=np.int64)
     c.attrs["status"] = branch.status
@@ -147,17 +187,24 @@ def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
     c.attrs["rpm_end"] = branch.rpm_end
     c.attrs["condensation"] = branch.condensation
     c.attrs["n_points"] = len(branch)
+    if branch.n_elements > 1:
+        c.attrs["elements"] = list(branch.element_names)
+        c.attrs["element_statistics"] = json.dumps([list(s) for s in
+                                                    branch.element_statistics])
     for k, v in (settings or {}).items():
         c.attrs[k] = v
     units = {"rpm": "rpm", "omega": "rad/s", "coefficients": "m", "mesh_load_std": "N",
              "mesh_load_max": "N", "margin_active": "m", "margin_reverse": "m",
              "floquet_max_real": "1/s"}
     for k, u in units.items():
-        c[k].attrs["unit"] = u
+        if k in c:
+            c[k].attrs["unit"] = u
     g = f.create_group("grazing")
     g["rpm"] = np.array([p.rpm for p in branch.grazing], dtype=float)
     g["kind"] = np.array([p.kind for p in branch.grazing], dtype=h5py.string_dtype())
     g["side"] = np.array([p.side for p in branch.grazing], dtype=h5py.string_dtype())
+    if branch.n_elements > 1:
+        g["element"] = np.array([p.element for p in branch.grazing], dtype=np.int64)
     fo = f.create_group("folds")
     fo["rpm"] = np.array(branch.folds, dtype=float)
 
@@ -204,19 +251,31 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
                 logger.debug("%s: %s differs; not read", p, key_name)   # the caller says why
                 return None
             c = f["continuation"]
-            arrays = {k: c[k][()] for k in _branch_array_fields() if k in c}
-            missing = set(_branch_array_fields()) - set(arrays) - {"reversals", "leaps", "loop",
-                                                                 "loops"}
+            fields = _branch_array_fields()
+            arrays = {k: c[k][()] for k in fields if k in c}
+            missing = set(fields) - set(arrays) - {"reversals", "leaps", "loop", "loops"}
+            missing |= {"rpm", "omega", "unknowns", "coefficients"} - set(c)
             if missing:
                 raise KeyError(f"continuation datasets missing: {sorted(missing)}")
+            names = [str(x.decode() if isinstance(x, bytes) else x)
+                     for x in c.attrs.get("elements", [])]
+            single = len(names) <= 1
+            # the per-element table: every other dataset, its element axis restored
+            stats = {k: (c[k][()][:, None] if single and c[k].ndim >= 1 and len(c[k]) else
+                         c[k][()]) for k in c if k not in fields and k != "harmonics"}
+            elements = f["grazing/element"][()] if "grazing/element" in f else \
+                [0] * len(f["grazing/rpm"])
             grazing = [GrazingPoint(float(r), k.decode() if isinstance(k, bytes) else str(k),
-                                    s.decode() if isinstance(s, bytes) else str(s))
-                       for r, k, s in zip(f["grazing/rpm"][()], f["grazing/kind"][()],
-                                          f["grazing/side"][()], strict=True)]
+                                    s.decode() if isinstance(s, bytes) else str(s), int(e))
+                       for r, k, s, e in zip(f["grazing/rpm"][()], f["grazing/kind"][()],
+                                             f["grazing/side"][()], elements, strict=True)]
             br = Branch(harmonics=tuple(int(i) for i in c["harmonics"][()]),
                         condensation=str(c.attrs["condensation"]),
                         rpm_start=float(c.attrs["rpm_start"]), rpm_end=float(c.attrs["rpm_end"]),
-                        omega_scale=float(c.attrs["omega_scale"]), **arrays, grazing=grazing,
+                        omega_scale=float(c.attrs["omega_scale"]), **arrays, stats=stats,
+                        element_names=tuple(names) or (_element_name(f),),
+                        element_statistics=tuple(tuple(x) for x in json.loads(
+                            c.attrs.get("element_statistics", "[]"))), grazing=grazing,
                         folds=[float(x) for x in f["folds/rpm"][()]],
                         status=str(c.attrs["status"]), message=str(c.attrs["message"]),
                         next_step=float(c.attrs["next_step"]))
@@ -227,6 +286,12 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
         logger.warning("%s does not match this problem; starting over", p)
         return None
     return br
+
+
+def _element_name(f: h5py.File) -> str:
+    """The one element's label in a file without an ``elements`` attribute: a gear mesh's
+    default name when ``/gear_mesh`` holds it."""
+    return "gear mesh" if "gear_mesh" in f else "element 0"
 
 
 class Checkpointer:

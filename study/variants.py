@@ -25,7 +25,7 @@ def variants_table(results: list) -> str:
             "|---|---:|---:|---:|---|---|---|"]
     for ov, r in results:
         br = r.branch
-        i = int(np.argmax(br.mesh_load_std))
+        i = int(np.argmax(br.element(0).mesh_load_std))
         gz = ", ".join(f"{g.rpm:.1f}" for g in sorted(br.grazing, key=lambda g: g.rpm)) or "–"
         iv = contact_intervals(br)
         imp = "; ".join(f"{'SS' if c == 1 else 'DS'} {a:.0f}–{b:.0f}"
@@ -34,7 +34,7 @@ def variants_table(results: list) -> str:
                        if not v.startswith("skipped"))
         if br.status != "completed":
             st = f"stopped at {br.rpm[-1]:.0f} rpm ({br.status})"
-        rows.append(f"| {_label(ov)} | {len(br)} | {br.mesh_load_std[i]:.4g} | "
+        rows.append(f"| {_label(ov)} | {len(br)} | {br.element(0).mesh_load_std[i]:.4g} | "
                     f"{br.rpm[i]:.1f} | {gz} | {imp} | {st} |")
     return "\n".join(rows)
 

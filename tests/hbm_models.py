@@ -16,11 +16,12 @@ def sdof_problem(harmonics=30, zeta=0.05, fm=0.1, fa=0.05, alpha=0.2, b=1.0,
     Unit mass, unit mean stiffness (w_n = 1 rad/s), one tooth so that the mesh
     frequency equals Omega; k(t) = 1 + alpha cos(Omega t).
     """
-    system = hbm.LinearSystem(M=[[1.0]], C=[[2 * zeta]], K=[[0.0]], G=[1.0])
-    mesh = hbm.GearMesh(n_teeth=1, stiffness={0: 1.0, 1: alpha}, te=te or {}, backlash=b)
+    system = hbm.LinearSystem(M=[[1.0]], C=[[2 * zeta]], K=[[0.0]])
+    mesh = hbm.GearMesh(direction=[1.0], n_teeth=1, stiffness={0: 1.0, 1: alpha}, te=te or {},
+                        backlash=b)
     exc = hbm.Excitation(1, constant={0: [fm], 1: [fa]})
     hs = hbm.HarmonicSet.build(1, harmonics, n_time=n_time)
-    return hbm.HBMProblem(system, mesh, exc, hs, condensation)
+    return hbm.HBMProblem(system, [mesh], exc, hs, condensation)
 
 
 def random_modal_system(n=20, seed=0, zeta=0.03, kbar=2.0e3, n_gear=12):
@@ -46,7 +47,7 @@ def gear_and_stiff_mode_problem():
     m, k, g = np.eye(2), np.array([[0.0, 0.0], [0.0, 100.0]]), np.array([1.0, 0.3])
     w2, phi = sla.eigh(k + np.outer(g, g), m)
     c = m @ phi @ np.diag(0.1 * np.sqrt(w2)) @ phi.T @ m
-    return hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                          hbm.GearMesh(1, {0: 1.0, 1: 0.2}, backlash=1.0),
+    return hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                          [hbm.GearMesh(g, 1, {0: 1.0, 1: 0.2}, backlash=1.0)],
                           hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.05, 0.0]}),
                           hbm.HarmonicSet.build(1, 20))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import hbm
-from hbm.contact import dead_zone, dead_zone_stiffness, kink_correction
+from hbm.elements.contact_law import dead_zone, dead_zone_stiffness, kink_correction
 from hbm.examples import Geared3
 
 B = 0.3
@@ -73,7 +73,7 @@ def test_stiff_impacts_on_a_coarse_grid_match_the_dense_grid():
             br = hbm.trace(pb, 0.6 * r, 1.2 * r, stability=False)
             assert br.status == "completed"
             pt = pb.solve(1.2 * r, x0=br.unknowns[-1], tol=1e-12)
-            std[nt, aft] = hbm.point_stats(pb, pt).mesh_load_std
+            std[nt, aft] = hbm.point_stats(pb, pt)[0].mesh_load_std
     ref = std[8192, "corrected"]
     assert std[8192, "sampled"] == pytest.approx(ref, rel=3e-7)
     assert std[256, "corrected"] == pytest.approx(ref, rel=1e-6)

@@ -1,9 +1,10 @@
-"""The dead-zone law of eq. (13), hbm.contact, against the piecewise-linear law by hand."""
+"""The dead-zone law of eq. (13), hbm.elements.contact_law, against the piecewise-linear
+law by hand."""
 from __future__ import annotations
 
 import numpy as np
 
-from hbm.contact import dead_zone, dead_zone_stiffness
+from hbm.elements.contact_law import dead_zone, dead_zone_stiffness
 
 
 def test_dead_zone_by_hand():

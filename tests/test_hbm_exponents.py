@@ -13,14 +13,14 @@ import scipy.linalg as sla
 from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sdof_problem
 
 import hbm
-from hbm.exponents import (
+from hbm.basis import real_blocks
+from hbm.stability.exponents import (
     classify_exponent,
     det_sign,
     line_of_action_operator,
     positive_real_root,
     real_root_bound,
 )
-from hbm.stability import real_blocks
 
 
 def _dense_hill_eigenvalues(pb, pt):
@@ -29,8 +29,8 @@ def _dense_hill_eigenvalues(pb, pt):
     m, nr = keep.size, pb.nr
     w0 = pb.harmonics.fundamental_rad_s(pt.omega)
     w = pb.kS * w0
-    _, jf = pb.mesh_force(pb.delta_real(pt.unknowns))
-    cm, km, g = np.diag(pb.cj[keep]), np.diag(pb.w2[keep]), pb.gj[keep]
+    jf = pb.element_jacobian(pb.delta_real(pt.unknowns))
+    cm, km, g = np.diag(pb.cj[keep]), np.diag(pb.w2[keep]), pb.gj[0][keep]
     z0 = km[None] - (w ** 2)[:, None, None] * np.eye(m)[None] + 1j * w[:, None, None] * cm[None]
     z1 = cm[None] + 2j * w[:, None, None] * np.eye(m)[None]
     d0 = real_blocks(z0, nr) + np.kron(np.outer(g, g), jf)
@@ -48,8 +48,8 @@ def _two_dof():
 
 def _twelve_dof():
     m, c, k, g = random_modal_system(n=12, seed=1, zeta=0.02, kbar=2e3, n_gear=6)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(1, {0: 2e3, 1: 400}, backlash=1e-3),
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 400}, backlash=1e-3)],
                         hbm.Excitation(12, constant={0: 2.0 * g, 1: 1.0 * g}),
                         hbm.HarmonicSet.build(1, 8))
     w = np.sqrt(pb.w2[~pb.rigid])
@@ -60,8 +60,8 @@ def _sparse_set():
     """Shaft fundamental with external order 4 and sidebands (a sparse harmonic set, as
     the pump's): the eigenvector-weight selection alone misses fold exponents here."""
     m, c, k, g = random_modal_system(n=8, seed=1, zeta=0.02, kbar=2e3, n_gear=6)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(4, {0: 2e3, 1: 400}, backlash=1e-3),
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 4, {0: 2e3, 1: 400}, backlash=1e-3)],
                         hbm.Excitation(8, constant={0: 2.0 * g, 1: 0.3 * g, 4: 1.0 * g}),
                         hbm.HarmonicSet.build(4, 2, external_orders=(1,), sideband_order=1))
     w = np.sqrt(pb.w2[~pb.rigid])
@@ -143,7 +143,7 @@ def test_line_of_action_operator_is_the_newton_matrix():
     """T(0) is the Jacobian of the 'loa' residual, and dT/dlam its finite difference."""
     pb, r0, r1 = _twelve_dof()
     pt = pb.solve(0.5 * (r0 + r1))
-    _, jf = pb.mesh_force(pb.delta_real(pt.unknowns))
+    jf = pb.element_jacobian(pb.delta_real(pt.unknowns))
     w0 = pb.harmonics.fundamental_rad_s(pt.omega)
     ju, _ = pb.jacobian(pt.unknowns, pt.omega)
     np.testing.assert_allclose(line_of_action_operator(pb, jf, 0.0, w0), ju, atol=1e-12)

@@ -16,7 +16,7 @@ import pytest
 
 import hbm
 from hbm import HarmonicSet
-from hbm.harmonics import SET_KINDS, combination_offsets
+from hbm.basis import SET_KINDS, combination_offsets
 
 CASES = [(76, 3, (1, 2, 4), 1), (76, 12, (1, 2, 4), 3), (76, 2, (1, 2, 4), 5), (20, 3, (2, 5), 2),
          (9, 4, (3, 6), 3), (7, 2, (3,), 4), (50, 1, (4, 10), 2)]
@@ -46,7 +46,7 @@ def _brute_bands(z, h, orders, s):
 def test_combinations_are_every_index_the_excitation_creates(z, h, orders, s):
     hs = HarmonicSet.build(z, h, orders, s, kind="combinations")
     assert set(hs.indices) == _brute_combinations(z, h, orders, s)
-    assert hs.fundamental == "shaft" and hs.divisor == 1
+    assert hs.fundamental == "shaft" and hs.ratio == 1
 
 
 @pytest.mark.parametrize("z, h, orders, s", CASES)
@@ -83,7 +83,7 @@ def test_combination_offsets_small_case():
 @pytest.mark.parametrize("kind", SET_KINDS)
 def test_without_external_orders_every_kind_is_contiguous_in_the_mesh_fundamental(kind):
     hs = HarmonicSet.build(30, 7, (), 3, kind=kind)
-    assert hs.indices == tuple(range(8)) and hs.fundamental == "mesh" and hs.divisor == 30
+    assert hs.indices == tuple(range(8)) and hs.fundamental == "mesh" and hs.ratio == 30
 
 
 def test_bad_kind_is_refused_by_name():
@@ -101,16 +101,17 @@ RPM_LO, RPM_HI = 0.3 / Z / RPM, 0.06 / RPM      # mesh frequency 0.3 -> 1.2 w_n,
 
 def _pair(hs):
     """Unit-mass gear pair, Z teeth, mesh stiffness 1 +- 0.2, shaft orders 2 and 5."""
-    system = hbm.LinearSystem(M=[[1.0]], C=[[0.1]], K=[[0.0]], G=[1.0])
-    mesh = hbm.GearMesh(n_teeth=Z, stiffness={0: 1.0, 1: 0.2}, te={}, backlash=1.0)
+    system = hbm.LinearSystem(M=[[1.0]], C=[[0.1]], K=[[0.0]])
+    mesh = hbm.GearMesh(direction=[1.0], n_teeth=Z, stiffness={0: 1.0, 1: 0.2}, te={},
+                        backlash=1.0)
     exc = hbm.Excitation(1, constant={0: [0.1], 2: [0.04], 5: [0.06]})
-    return hbm.HBMProblem(system, mesh, exc, hs, "loa")
+    return hbm.HBMProblem(system, [mesh], exc, hs, "loa")
 
 
 def _std_at_end(hs):
     br = hbm.trace(_pair(hs), RPM_LO, RPM_HI, stability=False)
     assert br.status == "completed", br.message
-    return float(br.mesh_load_std[-1])
+    return float(br.element(0).mesh_load_std[-1])
 
 
 @pytest.fixture(scope="module")

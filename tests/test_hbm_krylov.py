@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import hbm
-from hbm.harmonics import HarmonicSet
+from hbm.basis import HarmonicSet
 from hbm.krylov import LoaJacobian, bordered, gmres
 from hbm.newton import solve_checked
 
@@ -15,10 +15,11 @@ RPM = hbm.RPM_TO_RAD_S
 
 def _pair(hs, solver):
     """Unit-mass gear pair with impacts (the pair of test_hbm_harmonic_sets.py)."""
-    system = hbm.LinearSystem(M=[[1.0]], C=[[0.1]], K=[[0.0]], G=[1.0])
-    mesh = hbm.GearMesh(n_teeth=Z, stiffness={0: 1.0, 1: 0.2}, te={}, backlash=1.0)
+    system = hbm.LinearSystem(M=[[1.0]], C=[[0.1]], K=[[0.0]])
+    mesh = hbm.GearMesh(direction=[1.0], n_teeth=Z, stiffness={0: 1.0, 1: 0.2}, te={},
+                        backlash=1.0)
     exc = hbm.Excitation(1, constant={0: [0.1], 2: [0.04], 5: [0.06]})
-    return hbm.HBMProblem(system, mesh, exc, hs, "loa", linear_solver=solver)
+    return hbm.HBMProblem(system, [mesh], exc, hs, "loa", linear_solver=solver)
 
 
 @pytest.fixture(scope="module")
@@ -26,8 +27,8 @@ def impact_point():
     hs = HarmonicSet(range(3 * Z + 11), fundamental="shaft")
     pb = _pair(hs, "krylov")
     br = hbm.trace(pb, 0.3 / Z / RPM, 0.06 / RPM, stability=False, max_points=60)
-    i = int(np.argmax(br.contact_loss_fraction))
-    assert br.contact_loss_fraction[i] > 0.05          # an orbit with impacts
+    i = int(np.argmax(br.element(0).contact_loss_fraction))
+    assert br.element(0).contact_loss_fraction[i] > 0.05          # an orbit with impacts
     return pb, br.unknowns[i], br.omega[i]
 
 
@@ -83,9 +84,10 @@ def test_krylov_and_dense_continuations_give_the_same_branch():
     assert bk.status == bd.status == "completed"
     # the step histories differ (the condition estimate is that of a stale factor, which
     # changes when a point is refined), the curve does not
-    assert bk.mesh_load_std[-1] == pytest.approx(bd.mesh_load_std[-1], rel=1e-9)
+    sk, sd = bk.element(0).mesh_load_std, bd.element(0).mesh_load_std
+    assert sk[-1] == pytest.approx(sd[-1], rel=1e-9)
     # (the peak as sampled by each branch's own points)
-    assert bk.mesh_load_std.max() == pytest.approx(bd.mesh_load_std.max(), rel=2e-3)
+    assert sk.max() == pytest.approx(sd.max(), rel=2e-3)
     assert len(bk.grazing) == len(bd.grazing) > 0
     assert [g.rpm for g in bk.grazing] == pytest.approx([g.rpm for g in bd.grazing],
                                                         rel=1e-9)
@@ -121,17 +123,17 @@ def test_fold_parity_from_the_tangent_equals_the_determinant():
 
 def test_contiguous_preconditioner_matrix_equals_the_gathered_build(impact_point):
     """The strided Toeplitz/Hankel build of I + H S (contiguous sets) against the general
-    index-gathering one (HBMProblem.contact_matrix), without kink blocks."""
-    from hbm.contact import ContactStiffness, KinkCorrection
-    from hbm.harmonics import mul_rows
+    index-gathering one (HBMProblem.stiffness_matrix), without kink blocks."""
+    from hbm.basis import mul_rows
+    from hbm.elements import ElementStiffness, KinkCorrection
     from hbm.krylov import contiguous_matrix
 
     pb, u, w = impact_point
     _, jop, _ = pb.scaled(u / pb.x_scale, w)
-    s = jop.stiffness.samples
-    ref = np.eye(jop.size) + mul_rows(jop.h, pb.contact_matrix(
-        ContactStiffness(s, KinkCorrection.none(s.size))))
-    fast = contiguous_matrix(jop.h, s)
+    s = jop.stiffness[0].samples
+    ref = np.eye(jop.size) + mul_rows(jop.h[0, 0], pb.stiffness_matrix(
+        ElementStiffness(s, KinkCorrection.none(s.size))))
+    fast = contiguous_matrix(jop.h[0, 0], s)
     assert np.allclose(fast, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
     assert np.array_equal(jop.dense(kinks=False), fast)
     # a non-contiguous set keeps the general build
@@ -140,7 +142,7 @@ def test_contiguous_preconditioner_matrix_equals_the_gathered_build(impact_point
     u2 = np.zeros(pb2.n_unknowns)
     u2[0] = 2.0
     _, j2, _ = pb2.scaled(u2 / pb2.x_scale, 0.01)
-    s2 = j2.stiffness.samples
-    ref2 = np.eye(j2.size) + mul_rows(j2.h, pb2.contact_matrix(
-        ContactStiffness(s2, KinkCorrection.none(s2.size))))
+    s2 = j2.stiffness[0].samples
+    ref2 = np.eye(j2.size) + mul_rows(j2.h[0, 0], pb2.stiffness_matrix(
+        ElementStiffness(s2, KinkCorrection.none(s2.size))))
     assert np.allclose(j2.dense(kinks=False), ref2, rtol=0, atol=1e-14 * np.abs(ref2).max())

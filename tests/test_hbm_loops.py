@@ -17,12 +17,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import hbm.continuation as cont
-import hbm.events as events
-from hbm.branch import _Recorder
-from hbm.events import TraceContext
-from hbm.loops import resume_point
-from hbm.problem import RPM_TO_RAD_S
+import hbm.continuation.revisits as revisits
+import hbm.continuation.tracer as cont
+from hbm.continuation import Measurement, Recorder, SpeedRange, TraceContext
+from hbm.continuation.loops import resume_point
+from hbm.units import RPM_TO_RAD_S
 
 W0, C, R = 1.5, 0.05, 0.1                     # circle (w - W0)^2 + (x1 - C)^2 = R^2
 W_B = W0 - np.sqrt(R ** 2 - C ** 2)           # first branch point (1.4134)
@@ -47,17 +46,29 @@ def _on_circle(y) -> float:
     return abs((y[2] - W0) ** 2 + (y[0] - C) ** 2 - R ** 2)
 
 
-def _record(rec, y, it, res, tangent):
-    """The recorder's ``record`` for the algebraic system: no statistics, no stability."""
-    rec.add(rpm=y[-1] / RPM_TO_RAD_S, omega=y[-1], coefficients=np.zeros(1),
-            unknowns=y[:-1].copy(), residual=res, newton_iterations=it, stable=True,
-            floquet_max_real=0.0, mesh_load_std=0.0, mesh_load_max=0.0, contact=0,
-            contact_loss_fraction=0.0, impacts_per_mesh_period=0.0, margin_active=1.0,
-            margin_reverse=-1.0, ipp=np.zeros(1), tangents=tangent, floquet_kind=0,
-            stability_consistent=True)
+class _Monitor:
+    """The monitor of the algebraic system: no statistics, no events, no stability."""
 
+    events = ()
+    asynchronous = False
 
-_record.worker = None
+    def branch_meta(self):
+        return {"harmonics": (0,), "condensation": "algebraic", "statistics": ()}
+
+    def measure(self, unknowns, omega, iterations, residual, tangent):
+        return Measurement(True, 0.0, 0, True, {})
+
+    def collect(self, wait):
+        return []
+
+    def auxiliary(self):
+        return self
+
+    def start(self):
+        pass
+
+    def stop(self):
+        pass
 
 
 def _circle_tangent():
@@ -69,11 +80,10 @@ def _circle_tangent():
 
 def _context():
     """The algebraic problem, the range w = 1 -> 2 and the trace context."""
-    stub = SimpleNamespace(harmonics=SimpleNamespace(indices=(0,)), condensation="algebraic",
-                           nr=1, x_scale=np.ones(2), n_unknowns=2,
+    stub = SimpleNamespace(x_scale=np.ones(2), n_unknowns=2, vibration=np.ones(2, dtype=bool),
                            scaled=lambda x, omega, j=True: _residual(np.append(x, omega), j))
-    bounds = cont._Range(1.0 / RPM_TO_RAD_S, 2.0 / RPM_TO_RAD_S, 0.25)
-    ctx = TraceContext(stub, _residual, bounds.wscale, TOL, 12, 1e-9, _record, STEP, 1e-6,
+    bounds = SpeedRange(1.0 / RPM_TO_RAD_S, 2.0 / RPM_TO_RAD_S, 0.25)
+    ctx = TraceContext(stub, _Monitor(), _residual, bounds.wscale, TOL, 12, 1e-9, STEP, 1e-6,
                        STEP)
     return stub, bounds, ctx
 
@@ -81,7 +91,7 @@ def _context():
 def _trace(monkeypatch, max_points=400):
     """Trace w = 1 -> 2 by the continuation's own PREDICT/CORRECT and ACCEPT, the tangent
     of the last point before W_B turned onto the circle."""
-    orig = cont._check_events
+    orig = cont.check_events
     turned = []
 
     def turn(ctx, rec, yn, tn, *args):
@@ -90,10 +100,11 @@ def _trace(monkeypatch, max_points=400):
             tn = _circle_tangent()
         return orig(ctx, rec, yn, tn, *args)
 
-    monkeypatch.setattr(cont, "_check_events", turn)
+    monkeypatch.setattr(cont, "check_events", turn)
     stub, bounds, ctx = _context()
-    rec = _Recorder(stub, bounds.rpm_start, bounds.rpm_end, bounds.wscale)
-    _record(rec, np.array([0.0, 0.0, 1.0]), 0, 0.0, np.array([0.0, 0.0, 1.0]))
+    rec = Recorder(_Monitor().branch_meta(), stub.x_scale, bounds.rpm_start, bounds.rpm_end,
+                   bounds.wscale)
+    ctx.record(rec, np.array([0.0, 0.0, 1.0]), 0, 0.0, np.array([0.0, 0.0, 1.0]))
     status, message, ds = "running", "", STEP
     while status == "running" and len(rec) < max_points:
         advanced = cont._advance(ctx, rec, ds)
@@ -104,7 +115,7 @@ def _trace(monkeypatch, max_points=400):
 
 
 def test_without_detection_the_trace_circles_the_loop(monkeypatch):
-    monkeypatch.setattr(cont, "_closed_loop", lambda *a: None)
+    monkeypatch.setattr(cont, "closed_loop", lambda *a: None)
     br = _trace(monkeypatch, max_points=300)
     assert br.status == "max_points"
     y = np.column_stack([br.unknowns, br.omega])
@@ -115,7 +126,7 @@ def test_without_detection_the_trace_circles_the_loop(monkeypatch):
 
 def test_closed_loop_is_kept_and_left_through_the_branch_point(monkeypatch):
     calls = []
-    orig = cont._closed_loop
+    orig = cont.closed_loop
 
     def spy(ctx, rec, yn, tn, *args):
         hit = orig(ctx, rec, yn, tn, *args)
@@ -123,7 +134,7 @@ def test_closed_loop_is_kept_and_left_through_the_branch_point(monkeypatch):
             calls.append(yn.copy())
         return hit
 
-    monkeypatch.setattr(cont, "_closed_loop", spy)
+    monkeypatch.setattr(cont, "closed_loop", spy)
     br = _trace(monkeypatch)
     assert br.status == "completed", br.message
     assert br.omega[-1] == pytest.approx(2.0, abs=1e-12)
@@ -153,7 +164,7 @@ def test_closed_loop_is_kept_and_left_through_the_branch_point(monkeypatch):
 def test_exits_exhausted_stop_cleanly_keeping_the_points(monkeypatch):
     """No exit leaves the loop (every one refused): the trace stops with status "loop",
     every point computed kept, the loop marked."""
-    monkeypatch.setattr("hbm.loops._on_loop", lambda *a: True)
+    monkeypatch.setattr("hbm.continuation.loops._on_loop", lambda *a: True)
     br = _trace(monkeypatch)
     assert br.status == "loop"
     assert "closed loop" in br.message
@@ -167,7 +178,7 @@ def test_resuming_a_branch_caught_in_a_loop_restarts_before_it(monkeypatch):
     the loop's speeds (resuming from its last point would repeat the trap), and the
     resumed trace reaches the end of the range along the line."""
     with monkeypatch.context() as m:
-        m.setattr("hbm.loops._on_loop", lambda *a: True)
+        m.setattr("hbm.continuation.loops._on_loop", lambda *a: True)
         stopped = _trace(monkeypatch)
     assert stopped.status == "loop"
     keep = resume_point(stopped.rpm, stopped.loops, stopped.status)
@@ -180,7 +191,8 @@ def test_resuming_a_branch_caught_in_a_loop_restarts_before_it(monkeypatch):
     assert lowest * RPM_TO_RAD_S == pytest.approx(W0 - R, abs=STEP ** 2 / R)  # sagitta
     assert stopped.omega[keep - 1] == pytest.approx(W0 - R, abs=STEP)
     stub, bounds, ctx = _context()
-    rec = _Recorder(stub, bounds.rpm_start, bounds.rpm_end, bounds.wscale, stopped)
+    rec = Recorder(_Monitor().branch_meta(), stub.x_scale, bounds.rpm_start, bounds.rpm_end,
+                   bounds.wscale, stopped)
     br = cont._run(ctx, rec, bounds, stopped, STEP, 1e-6, STEP, 400, None, False)
     assert br.status == "completed", br.message
     assert br.omega[-1] == pytest.approx(2.0, abs=1e-12)
@@ -236,9 +248,9 @@ def test_a_branch_coming_round_onto_its_path_is_a_closed_loop():
 
     poly = _Polyline(_states(_ROUND), line)
     yn, tn = np.array([0.0, 1.2]), np.array([0.0, 1.0])
-    assert events._closed_loop(poly, poly, yn, tn) == 2        # segment w = 1 -> 1.5
+    assert revisits.closed_loop(poly, poly, yn, tn) == 2        # segment w = 1 -> 1.5
     # going the other way along the old path: a walk back, not a loop
-    assert events._closed_loop(poly, poly, np.array([0.0, 0.8]), -tn) is None
+    assert revisits.closed_loop(poly, poly, np.array([0.0, 0.8]), -tn) is None
 
 
 def test_a_distinct_nearby_branch_is_not_a_closed_loop():
@@ -251,7 +263,7 @@ def test_a_distinct_nearby_branch_is_not_a_closed_loop():
         return (r, np.array([[2 * y[0] - eps]]), np.array([0.0])) if jacobian else r
 
     poly = _Polyline(_states(_ROUND), two)
-    assert events._closed_loop(poly, poly, np.array([eps, 1.2]), np.array([0.0, 1.0])) is None
+    assert revisits.closed_loop(poly, poly, np.array([eps, 1.2]), np.array([0.0, 1.0])) is None
 
 
 def test_crossing_the_old_path_once_is_not_a_closed_loop():
@@ -266,14 +278,14 @@ def test_crossing_the_old_path_once_is_not_a_closed_loop():
 
     poly = _Polyline(_states(_ROUND[:-1] + [(1.1, -0.1)]), cross)
     t = np.array([1.0, 1.0]) / np.sqrt(2)
-    assert events._closed_loop(poly, poly, np.array([0.0, 1.2]), t) is None
+    assert revisits.closed_loop(poly, poly, np.array([0.0, 1.2]), t) is None
 
 
 def test_a_walk_back_into_the_loop_just_left_is_a_failed_exit():
     """Within LOOP_EXIT_POINTS points of leaving the last loop, a walk back over it
     makes the trace try the next exit (not undo a reversal); later, or over an older
     loop or another part of the branch, it is an ordinary reversal."""
-    import hbm.loops as loops
+    import hbm.continuation.loops as loops
 
     class Rec:
         def __init__(self, n):
@@ -285,8 +297,8 @@ def test_a_walk_back_into_the_loop_just_left_is_a_failed_exit():
             return self.n
 
     near = Rec(81 + loops.LOOP_EXIT_POINTS)
-    assert loops._back_into_loop(near, 60)          # on the last loop, just after its exit
-    assert loops._back_into_loop(near, 49)          # its entry chord
-    assert not loops._back_into_loop(near, 20)      # the older loop
-    assert not loops._back_into_loop(near, 40)      # the branch between the loops
-    assert not loops._back_into_loop(Rec(82 + loops.LOOP_EXIT_POINTS), 60)   # too late
+    assert loops.back_into_loop(near, 60)          # on the last loop, just after its exit
+    assert loops.back_into_loop(near, 49)          # its entry chord
+    assert not loops.back_into_loop(near, 20)      # the older loop
+    assert not loops.back_into_loop(near, 40)      # the branch between the loops
+    assert not loops.back_into_loop(Rec(82 + loops.LOOP_EXIT_POINTS), 60)   # too late

@@ -1,5 +1,5 @@
-"""Floquet exponents from the variational equation (T.10, hbm.monodromy), against an
-independent integration of the same equation (scipy DOP853, physical coordinates)
+"""Floquet exponents from the variational equation (T.10, hbm.stability.monodromy),
+against an independent integration of the same equation (scipy DOP853, physical coordinates)
 and the parity of the harmonic balance's real exponents (T.9)."""
 
 import numpy as np
@@ -8,8 +8,8 @@ from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sd
 from scipy.integrate import solve_ivp
 
 import hbm
-from hbm.monodromy import monodromy_exponents
 from hbm.stability import KINDS, stability
+from hbm.stability.monodromy import monodromy_exponents
 
 
 def _reference_exponents(pb, pt):
@@ -20,16 +20,17 @@ def _reference_exponents(pb, pt):
     w0 = pb.harmonics.fundamental_rad_s(pt.omega)
     period = 2 * np.pi / w0
     minv = np.linalg.inv(s.M)
-    mk, mc, mg = minv @ s.K, minv @ s.C, minv @ pb.G
+    g, mesh = pb.directions[0], pb.elements[0]
+    mk, mc, mg = minv @ s.K, minv @ s.C, minv @ g
     kS = pb.kS * w0
 
     def rhs(t, y):
-        ph = np.array([pb.mesh_step * w0 * t])
-        delta = float((pt.coefficients * np.exp(1j * kS * t)).real.sum())
-        p = delta - pb.mesh.error_at(ph)[0]
-        km = pb.mesh.stiffness_at(ph)[0] if abs(p) > pb.b else 0.0
+        ph = np.array([pb.steps[0] * w0 * t])
+        delta = float((pt.coefficients[0] * np.exp(1j * kS * t)).real.sum())
+        p = delta - mesh.error_at(ph)[0]
+        km = mesh.stiffness_at(ph)[0] if abs(p) > mesh.backlash else 0.0
         x = y.reshape(2 * n, 2 * n)
-        acc = -mk @ x[:n] - mc @ x[n:] - km * np.outer(mg, pb.G @ x[:n])
+        acc = -mk @ x[:n] - mc @ x[n:] - km * np.outer(mg, g @ x[:n])
         return np.vstack([x[n:], acc]).ravel()
 
     sol = solve_ivp(rhs, (0.0, period), np.eye(2 * n).ravel(), method="DOP853",
@@ -43,8 +44,8 @@ def _twelve_dof(modal=True):
     m, c, k, g = random_modal_system(n=6, seed=1, zeta=0.02, kbar=2e3, n_gear=4)
     if not modal:
         c = c + 0.5 * np.diag(np.diag(c)) * np.linspace(0.0, 1.0, 6)   # non-proportional
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(1, {0: 2e3, 1: 400}, backlash=1e-3),
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 400}, backlash=1e-3)],
                         hbm.Excitation(6, constant={0: 2.0 * g, 1: 1.0 * g}),
                         hbm.HarmonicSet.build(1, 12))
     assert pb.modal == modal
@@ -64,7 +65,8 @@ def test_exponents_match_independent_integration(six_dof_branch):
     """Leading exponents at a contact, an impact and a fold-segment point, to 1e-3."""
     pb, br = six_dof_branch
     d = np.diff(br.rpm)
-    picks = [int(np.flatnonzero(br.contact == 0)[0]), int(np.argmax(br.contact_loss_fraction))]
+    mesh = br.element(0)
+    picks = [int(np.flatnonzero(mesh.contact == 0)[0]), int(np.argmax(mesh.contact_loss_fraction))]
     down = np.flatnonzero(np.r_[False, (d[:-1] < 0) & (d[1:] < 0), False])
     if down.size:
         picks.append(int(down[down.size // 2]))
@@ -81,7 +83,7 @@ def test_liouville_holds_exactly(six_dof_branch):
     """det Phi = exp(-T tr M^-1 C): the mesh kicks have determinant one (T.10)."""
     pb, br = six_dof_branch
     trace = np.trace(np.linalg.solve(pb.system.M, pb.system.C))
-    i = int(np.argmax(br.contact_loss_fraction))
+    i = int(np.argmax(br.element(0).contact_loss_fraction))
     res = monodromy_exponents(pb, pb.point(br.unknowns[i], br.omega[i]))
     assert np.sum(res.exponents.real) == pytest.approx(-trace, rel=1e-9)
 
@@ -91,7 +93,7 @@ def test_second_order_in_the_time_step():
     the imaginary part: the real parts of the SDOF's complex pair are exact, Liouville)."""
     pb = sdof_problem(harmonics=20, fa=0.01, b=1.0)
     pt = pb.solve(0.8 / RPM)
-    assert hbm.point_stats(pb, pt).contact == 0
+    assert hbm.point_stats(pb, pt)[0].contact == 0
     ref = abs(_reference_exponents(pb, pt)[0].imag)
     errs = [abs(abs(monodromy_exponents(pb, pt, n_steps=n, rtol=1.0, max_refine=0)
                     .exponents[0].imag) - ref) for n in (64, 128, 256)]
@@ -128,8 +130,8 @@ def test_converged_harmonic_set_agrees_with_fold_parity(make):
 def test_subspace_iteration_matches_full_monodromy():
     """Dominant exponents from a 4-column block equal those of the full monodromy."""
     m, c, k, g = random_modal_system(n=20, seed=3, zeta=0.03, kbar=2e3, n_gear=8)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(1, {0: 2e3, 1: 600}, backlash=1e-3),
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 600}, backlash=1e-3)],
                         hbm.Excitation(20, constant={0: 2.0 * g, 1: 1.0 * g}),
                         hbm.HarmonicSet.build(1, 10))
     w = np.sqrt(pb.w2)
@@ -143,24 +145,25 @@ def test_subspace_iteration_matches_full_monodromy():
 
 
 def test_chunked_period_equals_stepping():
-    """The chunked closed form (hbm.monodromy._ModalPeriod) is the product of the
+    """The chunked closed form (hbm.stability.monodromy.ModalPeriod) is the product of the
     steps E (I - kappa_i b c^T), E = expm(A dt) per step: same matrix to 1e-11,
     with a step count that leaves a partial last chunk."""
     import scipy.linalg as sla
 
-    from hbm.monodromy import _ModalPeriod, orbit_gap, step_stiffness
+    from hbm.stability.monodromy import ModalPeriod, orbit_deltas, step_stiffness
 
     pb, r0, r1 = _twelve_dof(True)
     pt = pb.solve(0.5 * (r0 + r1))
     n = 200
     period = 2 * np.pi / pb.harmonics.fundamental_rad_s(pt.omega)
-    jbar = step_stiffness(pb, orbit_gap(pb, pt.unknowns, n))
-    phi = _ModalPeriod(pb, jbar, period)(np.eye(2 * pb.w2.size))
+    jbar = step_stiffness(pb, orbit_deltas(pb, pt.unknowns, n))
+    phi = ModalPeriod(pb, jbar, period)(np.eye(2 * pb.w2.size))
+    jbar = jbar[0]
     m, dt = pb.w2.size, period / n
     a = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(pb.w2), -np.diag(pb.cj)]])
     e = sla.expm(a * dt)
-    b = np.r_[np.zeros(m), pb.gj]
-    c = np.r_[pb.gj, np.zeros(m)]
+    b = np.r_[np.zeros(m), pb.gj[0]]
+    c = np.r_[pb.gj[0], np.zeros(m)]
     ref = np.eye(2 * m)
     for i in range(n):
         ref = e @ (ref - dt * jbar[i] * np.outer(b, c @ ref))
@@ -185,13 +188,13 @@ def test_exponents_of_zero_multipliers_are_minus_infinity_without_warnings():
     gives -inf quietly, and the others are exact."""
     import warnings
 
-    from hbm.monodromy import _exponents
+    from hbm.stability.monodromy import floquet_from_multipliers
 
     period = 0.01
     mu = np.array([0.0, 0.4, -2.0, 0.3 + 0.4j])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        lam = _exponents(mu, period)
+        lam = floquet_from_multipliers(mu, period)
     assert lam[0] == pytest.approx(np.log(complex(-2.0)) / period, rel=1e-14)
     assert lam[1] == pytest.approx(np.log(0.3 + 0.4j) / period, rel=1e-14)
     assert lam[2] == pytest.approx(np.log(0.4) / period, rel=1e-14)

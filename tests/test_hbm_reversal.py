@@ -13,13 +13,15 @@ import pytest
 from hbm_models import RPM, sdof_problem
 
 import hbm
-import hbm.continuation as cont
+import hbm.continuation.revisits as revisits
+import hbm.continuation.tracer as cont
+from hbm.continuation.revisits import REVISIT_RATIO
 
 
 def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1, active=lambda: True) -> list:
     """Store the reversed tangent for the first ``times`` points accepted beyond rpm_flip
     (while ``active()``)."""
-    orig = cont._check_events
+    orig = cont.check_events
     done: list[float] = []
 
     def flipped(ctx, rec, yn, tn, *args):
@@ -29,7 +31,7 @@ def _flip_once_at(monkeypatch, rpm_flip: float, times: int = 1, active=lambda: T
             tn = -tn
         return orig(ctx, rec, yn, tn, *args)
 
-    monkeypatch.setattr(cont, "_check_events", flipped)
+    monkeypatch.setattr(cont, "check_events", flipped)
     return done
 
 
@@ -65,7 +67,7 @@ def test_reversal_is_detected_and_recovered(reference, monkeypatch):
     assert br.status == "completed", br.message
     assert br.reversals >= 1
     # never revisits a traced point (the undisturbed branch has no ratio below ~1)
-    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    assert _min_revisit_ratio(pb, br) > REVISIT_RATIO
     # monotone in speed where the reference is: up to its first fold
     first_fold = ref.fold_index[0] if ref.fold_index else len(ref) - 1
     lim = ref.rpm[first_fold]
@@ -75,8 +77,8 @@ def test_reversal_is_detected_and_recovered(reference, monkeypatch):
     # the same curve: mesh-load std interpolated on the monotone stretch
     sel = ref.rpm[:first_fold] <= seg[-1]
     np.testing.assert_allclose(np.interp(ref.rpm[:first_fold][sel], seg,
-                                         br.mesh_load_std[:seg.size]),
-                               ref.mesh_load_std[:first_fold][sel], rtol=2e-3)
+                                         br.element(0).mesh_load_std[:seg.size]),
+                               ref.element(0).mesh_load_std[:first_fold][sel], rtol=2e-3)
     np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
     assert len(br.grazing) == len(ref.grazing)
 
@@ -92,7 +94,7 @@ def test_repeated_reversals_stop_with_reason_and_keep_points(reference, monkeypa
     assert br.reversals == cont.MAX_REVERSALS + 1
     assert len(br) >= 2 and np.all(br.residual < 1e-8)
     assert br.rpm[-1] > 0.5 / RPM - 1e-9 and snapshots[-1].status == "reversal"
-    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    assert _min_revisit_ratio(pb, br) > REVISIT_RATIO
 
 
 def test_a_trace_caught_by_reversals_is_retried_from_before_the_trap(reference,
@@ -114,10 +116,11 @@ def test_a_trace_caught_by_reversals_is_retried_from_before_the_trap(reference,
     assert flips and len(runs) == 2
     assert runs[1] == pytest.approx(0.01 * cont.RETRY_STEPS[0])
     assert br.status == "completed", br.message
-    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    assert _min_revisit_ratio(pb, br) > REVISIT_RATIO
     np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
     assert len(br.grazing) == len(ref.grazing)
-    np.testing.assert_allclose(br.mesh_load_std.max(), ref.mesh_load_std.max(), rtol=1e-3)
+    np.testing.assert_allclose(br.element(0).mesh_load_std.max(),
+                               ref.element(0).mesh_load_std.max(), rtol=1e-3)
 
 
 def test_a_failed_step_is_retried_from_before_it(reference, monkeypatch):
@@ -145,7 +148,7 @@ def test_a_failed_step_is_retried_from_before_it(reference, monkeypatch):
     runs.clear()
     br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
     assert len(runs) == 2 and br.status == "completed", br.message
-    assert _min_revisit_ratio(pb, br) > cont.REVISIT_RATIO
+    assert _min_revisit_ratio(pb, br) > REVISIT_RATIO
     np.testing.assert_allclose(br.folds, ref.folds, rtol=1e-3)
     assert len(br.grazing) == len(ref.grazing)
 
@@ -161,8 +164,9 @@ def test_resume_after_a_step_change_continues_from_the_last_point(reference):
     np.testing.assert_array_equal(rest.rpm[:15], part.rpm)
     assert np.all(np.diff(rest.rpm[14:20]) > 0)
     assert rest.rpm[15] - rest.rpm[14] < ref.rpm[15] - ref.rpm[14]    # the new, smaller step
-    np.testing.assert_allclose(np.interp(ref.rpm[:20], rest.rpm, rest.mesh_load_std),
-                               ref.mesh_load_std[:20], rtol=1e-3)
+    np.testing.assert_allclose(
+        np.interp(ref.rpm[:20], rest.rpm, rest.element(0).mesh_load_std),
+        ref.element(0).mesh_load_std[:20], rtol=1e-3)
 
 
 # ------------------------------------------------ distinct pieces past a sharp fold (issue 13)
@@ -179,22 +183,22 @@ def _s_curve(y, jacobian=True):
 def test_a_near_point_on_another_piece_is_not_a_revisit():
     foot = np.array([0.05, 0.3])          # on the old polyline, near the piece x ~ 0
     other = np.array([np.sqrt(3.0), 0.0])      # the piece x = +sqrt(3) at w = 0
-    assert cont._distinct_solution(_s_curve, foot, other, 1e-12, 20)
+    assert revisits.distinct_solution(_s_curve, foot, other, 1e-12, 20)
     same = np.array([1e-9, 0.0])          # the old piece itself at w = 0 (x = -w/3 ~ 0)
-    assert not cont._distinct_solution(_s_curve, foot, same, 1e-12, 20)
+    assert not revisits.distinct_solution(_s_curve, foot, same, 1e-12, 20)
 
 
 def test_a_failed_check_keeps_the_revisit():
     def fails(y, jacobian=True):
         raise hbm.ConvergenceError("no solution")
-    assert not cont._distinct_solution(fails, np.array([0.05, 0.3]), np.array([1.7, 0.0]),
+    assert not revisits.distinct_solution(fails, np.array([0.05, 0.3]), np.array([1.7, 0.0]),
                                        1e-12, 20)
 
 
 def test_reversals_far_apart_do_not_add_up(reference, monkeypatch):
     """A reversal budget of one per place: two flips many points apart both recover."""
     pb, ref = reference
-    orig = cont._check_events
+    orig = cont.check_events
     at = [len(ref) // 4, len(ref) // 2]
     done: list[int] = []
 
@@ -204,7 +208,7 @@ def test_reversals_far_apart_do_not_add_up(reference, monkeypatch):
             tn = -tn
         return orig(ctx, rec, yn, tn, *args)
 
-    monkeypatch.setattr(cont, "_check_events", flipped)
+    monkeypatch.setattr(cont, "check_events", flipped)
     monkeypatch.setattr(cont, "MAX_REVERSALS", 1)
     br = hbm.trace(pb, 0.3 / RPM, 1.6 / RPM, stability=False)
     assert done == at
@@ -235,12 +239,11 @@ def test_a_walk_back_is_found_without_a_step_that_turned_back(monkeypatch):
     old segment it lies on, so it is a revisit of that segment (the pump at 0.6 x the
     shipped TE, 3/1 set, walked back from 1514 to 250 rpm this way). A step along an old
     segment in its own direction (a branch winding past its earlier loop) is not."""
-    import hbm.events
-    monkeypatch.setattr(hbm.events, "_distinct_solution", lambda *a: False)   # same solutions
+    monkeypatch.setattr(revisits, "distinct_solution", lambda *a: False)   # same solutions
     out = [(0, 0), (1, 0), (2, 0), (3, 0), (3.7, 0.3), (3.9, 0.9), (3.5, 1.2), (2.9, 0.7)]
     walk = _Polyline(out + [(2.3, 0.2), (1.9, 0.01)])
     yn = np.array([1.4, 0.005])
     assert (yn - walk.points[-1]) @ (walk.points[-1] - walk.points[-2]) > 0   # no turn back
-    assert cont._revisit(walk, walk, yn) == 1                 # segment (1, 0) -> (2, 0)
+    assert revisits.revisit(walk, walk, yn) == 1                 # segment (1, 0) -> (2, 0)
     wind = _Polyline(out + [(2.3, 1.2), (1.2, 1.05), (0.5, 0.6), (0.4, 0.1), (0.9, 0.01)])
-    assert cont._revisit(wind, wind, np.array([1.4, 0.005])) is None
+    assert revisits.revisit(wind, wind, np.array([1.4, 0.005])) is None

@@ -12,13 +12,13 @@ def _physical_pair(length_unit=1.0, kbar=1e8, mass=2.0, b=10e-6):
     s = 1.0 / length_unit            # numbers per metre
     fm, fa = 2e-6 * kbar, 0.5e-6 * kbar    # 2 um static deflection
     wn = np.sqrt(kbar / mass)
-    system = hbm.LinearSystem(M=[[mass / s]], C=[[2 * 0.05 * wn * mass / s]], K=[[0.0]],
-                              G=[1.0])
-    mesh = hbm.GearMesh(n_teeth=20, stiffness={0: kbar / s, 1: 0.15 * kbar / s},
+    system = hbm.LinearSystem(M=[[mass / s]], C=[[2 * 0.05 * wn * mass / s]], K=[[0.0]])
+    mesh = hbm.GearMesh(direction=[1.0], n_teeth=20,
+                        stiffness={0: kbar / s, 1: 0.15 * kbar / s},
                         te={1: 0.5e-6 * s * 1j}, backlash=b * s)
     exc = hbm.Excitation(1, constant={0: [fm], 20: [fa]})
     hs = hbm.HarmonicSet.build(20, 24)
-    return hbm.HBMProblem(system, mesh, exc, hs, "loa"), wn
+    return hbm.HBMProblem(system, [mesh], exc, hs, "loa"), wn
 
 
 @pytest.mark.parametrize("kbar", [1e6, 1e11])
@@ -34,9 +34,9 @@ def test_branch_is_independent_of_length_unit(kbar):
     assert len(si.grazing) >= 1
     assert len(si) == len(micro)
     assert np.max(np.abs(si.rpm - micro.rpm)) < 1e-9 * si.rpm.max()
-    assert np.max(np.abs(si.coefficients * 1e6 - micro.coefficients)) < 1e-8 * np.max(
-        np.abs(micro.coefficients))
-    assert np.allclose(si.mesh_load_std, micro.mesh_load_std, rtol=1e-8)
+    c_si, c_micro = si.element(0).coefficients, micro.element(0).coefficients
+    assert np.max(np.abs(c_si * 1e6 - c_micro)) < 1e-8 * np.max(np.abs(c_micro))
+    assert np.allclose(si.element(0).mesh_load_std, micro.element(0).mesh_load_std, rtol=1e-8)
     assert [g.rpm for g in si.grazing] == pytest.approx([g.rpm for g in micro.grazing],
                                                          rel=1e-8)
 
@@ -44,8 +44,8 @@ def test_branch_is_independent_of_length_unit(kbar):
 def test_shaft_fundamental_branch_with_sidebands():
     """6 DOF, Z = 4, external order 1: sparse set, Hill by eigenvector weight, IPP per tooth."""
     m, c, k, g = random_modal_system(n=6, seed=2, zeta=0.04, kbar=2e3, n_gear=4)
-    system = hbm.LinearSystem(m, c, k, g)
-    mesh = hbm.GearMesh(4, {0: 2e3, 1: 400}, te={1: 3e-3j}, backlash=2e-3)
+    system = hbm.LinearSystem(m, c, k)
+    mesh = [hbm.GearMesh(g, 4, {0: 2e3, 1: 400}, te={1: 3e-3j}, backlash=2e-3)]
     exc = hbm.Excitation(6, constant={0: 4 * g, 1: 0.5 * g})
     hs = hbm.HarmonicSet.build(4, 4, external_orders=(1,), sideband_order=1)
     assert hs.indices != tuple(range(hs.n_harmonics))
@@ -53,15 +53,15 @@ def test_shaft_fundamental_branch_with_sidebands():
     br = hbm.trace(pb, 20.0, 120.0, max_points=2000, max_step=0.1, stability=False)
     assert br.status == "completed"
     # Hill by eigenvector weight on a few points: permanent contact is stable
-    for i in np.flatnonzero(br.contact == 0)[::25]:
+    for i in np.flatnonzero(br.element(0).contact == 0)[::25]:
         lam, exps = hbm.floquet_exponents(pb, pb.point(br.unknowns[i], br.omega[i]))
         assert lam < 0 and exps.size == 12
     assert np.all(br.residual < 1e-8)
-    assert br.ipp.shape == (len(br), 4)
-    assert np.all(br.impacts_per_mesh_period == br.ipp.mean(axis=1))
-    assert set(np.unique(br.contact)) >= {0, 1}
+    assert br.element(0).ipp.shape == (len(br), 4)
+    assert np.all(br.element(0).impacts_per_mesh_period == br.element(0).ipp.mean(axis=1))
+    assert set(np.unique(br.element(0).contact)) >= {0, 1}
     # the gear-condensed and full solutions at a branch point coincide with loa
-    i = int(np.argmax(br.contact_loss_fraction))
+    i = int(np.argmax(br.element(0).contact_loss_fraction))
     q_loa = pb.recover(pb.point(br.unknowns[i], br.omega[i]))
     full = hbm.HBMProblem(system, mesh, exc, hs, "none")
     q_full = full.recover(full.solve(br.rpm[i], x0=hs.to_real(q_loa).ravel()))
@@ -70,8 +70,8 @@ def test_shaft_fundamental_branch_with_sidebands():
 
 def test_checkpoint_callback_sees_only_converged_points():
     m, c, k, g = random_modal_system(n=6, seed=2, zeta=0.04, kbar=2e3, n_gear=4)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k, g),
-                        hbm.GearMesh(4, {0: 2e3}, te={1: 3e-3j}, backlash=2e-3),
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 4, {0: 2e3}, te={1: 3e-3j}, backlash=2e-3)],
                         hbm.Excitation(6, constant={0: 4 * g}), hbm.HarmonicSet.build(4, 6))
     snapshots = []
     br = hbm.trace(pb, 10.0, 40.0, on_point=lambda b: snapshots.append(b), stability=False)

@@ -24,7 +24,7 @@ def _steady_mesh_load(point, fa, b, n_periods=60):
     """RMS and peak-to-peak of the mesh load at steady state by DOP853 (rtol 1e-10)."""
     w = point.omega
     T = 2 * np.pi / w
-    c = point.coefficients
+    c = point.coefficients[0]
     k = np.arange(c.size)
     y0 = [np.sum(c.real), np.sum((1j * k * w * c).real)]
     rhs = _rhs(fa, b, w)
@@ -66,17 +66,17 @@ def test_branch_points_converged(rattle_branch):
 def test_hbm_matches_time_integration(rattle_branch, contact):
     """Stable points in each contact regime: RMS and peak-to-peak of f_LoA to 1e-3."""
     pb, br = rattle_branch
-    candidates = np.flatnonzero((br.contact == contact) & br.stable)
+    candidates = np.flatnonzero((br.element(0).contact == contact) & br.stable)
     assert candidates.size > 3
     i = candidates[candidates.size // 2]
     pt = pb.point(br.unknowns[i], br.omega[i])
     ts = hbm.time_series(pb, pt)
-    rms_h, pp_h = np.sqrt(np.mean(ts.mesh_load**2)), np.ptp(ts.mesh_load)
+    rms_h, pp_h = np.sqrt(np.mean(ts.load**2)), np.ptp(ts.load)
     rms_t, pp_t = _steady_mesh_load(pt, 0.1, 0.2)
     assert abs(rms_h - rms_t) < 1e-3 * rms_t
     assert abs(pp_h - pp_t) < 1e-3 * pp_t
-    st = hbm.point_stats(pb, pt)
-    assert abs(st.mesh_load_std - np.std(ts.mesh_load)) < 1e-12 * rms_h
+    st = hbm.point_stats(pb, pt)[0]
+    assert abs(st.mesh_load_std - np.std(ts.load)) < 1e-12 * rms_h
 
 
 def test_softening_jump_has_two_folds_and_unstable_middle(softening_branch):
@@ -102,7 +102,7 @@ def test_hill_matches_monodromy(softening_branch):
     pt = pb.point(br.unknowns[i], br.omega[i])
     lam_max, _ = hbm.floquet_exponents(pb, pt)
     w, T, b = pt.omega, 2 * np.pi / pt.omega, 1.0
-    c = pt.coefficients
+    c = pt.coefficients[0]
     k = np.arange(c.size)
     y0 = [np.sum(c.real), np.sum((1j * k * w * c).real)]
 
@@ -152,18 +152,19 @@ def test_resume_gives_same_curve(softening_branch):
     assert rest.status == "completed"
     assert len(rest) == len(full)
     assert np.max(np.abs(rest.rpm - full.rpm)) < 1e-9 * full.rpm.max()
-    assert np.max(np.abs(rest.coefficients - full.coefficients)) < 1e-9
+    assert np.max(np.abs(rest.element(0).coefficients - full.element(0).coefficients)) < 1e-9
     assert [g.rpm for g in rest.grazing] == pytest.approx([g.rpm for g in full.grazing], rel=1e-9)
 
 
 def test_ipp_and_classification(rattle_branch):
     pb, br = rattle_branch
-    i = np.flatnonzero(br.contact == 2)[0]
-    seq = br.ipp_sequence(i)
+    mesh = br.element(0)
+    i = np.flatnonzero(mesh.contact == 2)[0]
+    seq = mesh.ipp[i]
     assert seq.shape == (1,) and seq[0] >= 2         # both flanks hit: >= 2 impacts
-    assert np.all(br.impacts_per_mesh_period[br.contact == 0] == 0)
-    assert np.all(br.contact_loss_fraction[br.contact == 0] == 0)
-    assert np.all(br.contact_loss_fraction[br.contact > 0] > 0)
+    assert np.all(mesh.impacts_per_mesh_period[mesh.contact == 0] == 0)
+    assert np.all(mesh.contact_loss_fraction[mesh.contact == 0] == 0)
+    assert np.all(mesh.contact_loss_fraction[mesh.contact > 0] > 0)
 
 
 def test_period_doubling_instability_matches_monodromy(rattle_branch):
@@ -176,7 +177,7 @@ def test_period_doubling_instability_matches_monodromy(rattle_branch):
         w, T = pt.omega, 2 * np.pi / pt.omega
         if lam_max < 0.02 or np.min(np.abs(np.abs(exps.imag) - w / 2)) > 1e-6 * w:
             continue
-        c = pt.coefficients
+        c = pt.coefficients[0]
         k = np.arange(c.size)
         y0 = [np.sum(c.real), np.sum((1j * k * w * c).real)]
 
@@ -212,14 +213,14 @@ def test_trace_from_a_given_start_follows_that_branch(softening_branch):
     s = 0.5 * (lo + hi)
     upper = np.arange(i2 + 1, len(full))             # after the second fold
     j = upper[np.argmin(np.abs(full.rpm[upper] - s))]
-    want = np.interp(s, full.rpm[upper], full.mesh_load_std[upper])
+    want = np.interp(s, full.rpm[upper], full.element(0).mesh_load_std[upper])
     low = np.arange(i1)                              # before the first fold
-    want_low = np.interp(s, full.rpm[low], full.mesh_load_std[low])
+    want_low = np.interp(s, full.rpm[low], full.element(0).mesh_load_std[low])
     assert want > 1.5 * want_low                      # two distinct orbits at s
     plain = hbm.trace(pb, s, 1.6 / RPM, max_points=3)
     given = hbm.trace(pb, s, 1.6 / RPM, max_points=3, start=full.unknowns[j])
-    assert plain.mesh_load_std[0] == pytest.approx(want_low, rel=1e-2)
-    assert given.mesh_load_std[0] == pytest.approx(want, rel=1e-2)
+    assert plain.element(0).mesh_load_std[0] == pytest.approx(want_low, rel=1e-2)
+    assert given.element(0).mesh_load_std[0] == pytest.approx(want, rel=1e-2)
     assert given.rpm[0] == pytest.approx(s, rel=1e-12) and given.stable[0]
     with pytest.raises(ValueError, match="start shape"):
         hbm.trace(pb, s, 1.6 / RPM, start=full.unknowns[j][:-1])
@@ -237,7 +238,7 @@ def test_a_wide_backlash_does_not_hide_the_softening_jump(softening_branch, guar
     (:data:`hbm.predictors.ORBIT_JUMP`) keeps the trace on its branch: both folds and the
     resonant peak as with the narrow backlash. Without it (guard off) the trace steps
     from the lower orbit over the hysteresis and reports a completed branch without it."""
-    import hbm.predictors as hp
+    import hbm.continuation.predictors as hp
 
     pb, ref = softening_branch
     if not guard:
@@ -246,7 +247,9 @@ def test_a_wide_backlash_does_not_hide_the_softening_jump(softening_branch, guar
     br = hbm.trace(wide, 0.3 / RPM, 1.6 / RPM, step=0.05, max_step=0.1, stability=False)
     assert br.status == "completed"
     if not guard:                                # the failure the guard is for
-        assert br.folds == [] and br.mesh_load_std.max() < 0.6 * ref.mesh_load_std.max()
+        assert br.folds == [] and br.element(0).mesh_load_std.max() < \
+            0.6 * ref.element(0).mesh_load_std.max()
         return
     assert sorted(br.folds) == pytest.approx(sorted(ref.folds), rel=2e-3)
-    assert br.mesh_load_std.max() == pytest.approx(ref.mesh_load_std.max(), rel=1e-3)
+    assert br.element(0).mesh_load_std.max() == pytest.approx(ref.element(0).mesh_load_std.max(),
+                                                               rel=1e-3)

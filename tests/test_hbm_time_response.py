@@ -1,12 +1,12 @@
-"""hbm.time_response: the problem's equations integrated in time, against the harmonic
-balance on the Kahraman–Singh softening pair (tests/hbm_models.py)."""
+"""hbm.post.time_response: the problem's equations integrated in time, against the
+harmonic balance on the Kahraman–Singh softening pair (tests/hbm_models.py)."""
 
 import numpy as np
 import pytest
 from hbm_models import RPM, sdof_problem
 
 import hbm
-from hbm.time_response import integrate
+from hbm.post.time_response import integrate
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +20,7 @@ def _std_at(pb, br, piece, rpm):
     from the piece's nearest point."""
     k = piece[np.argmin(np.abs(br.rpm[piece] - rpm))]
     point = pb.solve(rpm, x0=br.unknowns[k], tol=1e-12)
-    return float(hbm.time_series(pb, point, 1, 4096).mesh_load.std())
+    return float(hbm.time_series(pb, point, 1, 4096).load.std())
 
 
 def test_a_stable_orbit_is_its_own_time_response(softening):
@@ -32,12 +32,12 @@ def test_a_stable_orbit_is_its_own_time_response(softening):
     point = pb.solve(float(br.rpm[i]), x0=br.unknowns[i], tol=1e-12)
     tr = integrate(pb, float(br.rpm[i]), point, transient=20, window=20)
     assert tr.periodic and tr.lines[0][0] == pytest.approx(1.0)
-    assert tr.std == pytest.approx(float(br.mesh_load_std[i]), rel=1e-5)
+    assert tr.std == pytest.approx(float(br.element(0).mesh_load_std[i]), rel=1e-5)
     assert np.ptp(tr.std_per_turn) < 1e-6 * tr.std
     # its envelope, mesh period by mesh period (64 samples each, as the harmonic balance's
     # on the same instants), is the orbit's in every analysed turn
-    z = pb.mesh.n_teeth
-    ref = hbm.mesh_period_envelope(pb, point, n_time=64 * pb.mesh_step)
+    z = pb.elements[0].n_teeth
+    ref = hbm.mesh_period_envelope(pb, point, n_time=64 * pb.steps[0])
     assert tr.envelope.peak_load.shape == (z * 20,)
     reps = 20 * z // ref.peak_load.size
     assert tr.envelope.peak_load == pytest.approx(np.tile(ref.peak_load, reps), rel=1e-5)

@@ -174,6 +174,17 @@ def test_pyproject_declares_packages_and_entry_point() -> None:
     assert (ROOT / "docs" / "theory.md").is_file()
 
 
+def test_the_continuation_imports_no_problem() -> None:
+    """hbm/continuation follows any residual with its tangent (its protocols): it imports
+    no problem, element, stability or post-processing module, only linear algebra."""
+    graph = module_graph(ROOT, "hbm")
+    allowed = {"hbm.newton", "hbm.krylov", "hbm.units", "hbm.records"}
+    for mod, edges in graph.items():
+        if mod.startswith("hbm.continuation."):
+            outside = {m for m in edges if not m.startswith("hbm.continuation.")}
+            assert outside <= allowed, f"{mod} imports {sorted(outside - allowed)}"
+
+
 @pytest.mark.parametrize(("package", "allowed"), [("core", set()),
                                                   ("gears", {"numpy", "core"})])
 def test_bottom_packages_use_the_standard_library_and_numpy_only(package: str,
@@ -207,77 +218,51 @@ def test_hbm_imports_without_the_fe_stack() -> None:
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
 
 
-# --------------------------------------------------------------------------- sizes
+# ------------------------------------------------------------------ private names
 
-#: Packages whose modules and functions are held to :data:`MAX_MODULE_LINES` and
-#: :data:`MAX_FUNCTION_LINES` (issue 17: small modules, functions that do one thing).
-SIZE_PACKAGES = ["study", "hbm"]
-MAX_MODULE_LINES = 450
-MAX_FUNCTION_LINES = 100
-#: The exceptions, each with why: ``"pkg/module.py"`` for a module,
-#: ``"pkg/module.py:Class.function"`` for a function. An entry that is no longer needed
-#: fails :func:`test_size_exceptions_are_still_needed`: remove it.
-SIZE_EXCEPTIONS = {
-}
+#: Packages whose modules import no private (``_name``) name of another module: a module
+#: cut in pieces along a line count, whose pieces reach into each other, shows as such
+#: imports; a cut along concepts needs none.
+#: (reduction/rom.py still imports two helpers of reduction/coupled.py.)
+PRIVATE_PACKAGES = ["core", "gears", "geometry", "fem", "hbm", "study"]
 
 
-def function_lengths(node: ast.AST, prefix: str = "") -> dict[str, int]:
-    """Lines of every function under ``node`` (methods and nested functions included),
-    by qualified name (``Class.method.inner``)."""
-    out: dict[str, int] = {}
-    for child in ast.iter_child_nodes(node):
-        if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-            name = prefix + child.name
-            if not isinstance(child, ast.ClassDef):
-                out[name] = child.end_lineno - child.lineno + 1
-            out |= function_lengths(child, name + ".")
-        else:
-            out |= function_lengths(child, prefix)
-    return out
+def private_imports(root: Path, package: str) -> dict[str, list[str]]:
+    """Private names each module of ``package`` imports from another module, by module
+    path: ``from x import _y`` (any source, relative or absolute, function-local
+    included) and ``import x._y``; dunder names (``__version__``) are public."""
+    def private(name: str) -> bool:
+        return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
 
-
-def oversized(root: Path, package: str) -> dict[str, int]:
-    """Modules over :data:`MAX_MODULE_LINES` and functions over
-    :data:`MAX_FUNCTION_LINES` of ``package``: ``module`` or ``module:function`` -> lines."""
-    out: dict[str, int] = {}
+    out: dict[str, list[str]] = {}
     for path in sorted((root / package).rglob("*.py")):
-        rel = path.relative_to(root).as_posix()
-        text = path.read_text()
-        if len(text.splitlines()) > MAX_MODULE_LINES:
-            out[rel] = len(text.splitlines())
-        for name, n in function_lengths(ast.parse(text, filename=str(path))).items():
-            if n > MAX_FUNCTION_LINES:
-                out[f"{rel}:{name}"] = n
+        found = []
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.ImportFrom):
+                src = "." * node.level + (node.module or "")
+                found += [f"{src}:{a.name}" for a in node.names if private(a.name)]
+                if any(private(part) for part in (node.module or "").split(".")):
+                    found.append(src)
+            elif isinstance(node, ast.Import):
+                found += [a.name for a in node.names
+                          if any(private(part) for part in a.name.split("."))]
+        if found:
+            out[path.relative_to(root).as_posix()] = found
     return out
 
 
-@pytest.mark.parametrize("package", SIZE_PACKAGES)
-def test_no_oversized_module_or_function(package: str) -> None:
-    found = {k: n for k, n in oversized(ROOT, package).items() if k not in SIZE_EXCEPTIONS}
-    assert not found, (
-        f"over {MAX_MODULE_LINES} lines per module / {MAX_FUNCTION_LINES} per function "
-        f"(split it, or add it to SIZE_EXCEPTIONS with the reason): {found}")
+@pytest.mark.parametrize("package", PRIVATE_PACKAGES)
+def test_no_module_imports_private_names(package: str) -> None:
+    found = private_imports(ROOT, package)
+    assert not found, f"private names imported across modules: {found}"
 
 
-def test_size_exceptions_are_still_needed() -> None:
-    found: dict[str, int] = {}
-    for package in SIZE_PACKAGES:
-        found |= oversized(ROOT, package)
-    stale = sorted(set(SIZE_EXCEPTIONS) - set(found))
-    assert not stale, f"within the size limits now, remove from SIZE_EXCEPTIONS: {stale}"
-    assert all(reason.strip() for reason in SIZE_EXCEPTIONS.values())
-
-
-def test_size_finder_counts_modules_methods_and_nested_functions(tmp_path: Path) -> None:
+def test_private_import_finder(tmp_path: Path) -> None:
     pkg = tmp_path / "pkg"
     pkg.mkdir()
-    body = "\n".join(f"    x{i} = {i}" for i in range(MAX_FUNCTION_LINES - 1))
-    (pkg / "small.py").write_text(f"def f():\n{body}\n")  # exactly at the limit
-    (pkg / "big.py").write_text(
-        "class A:\n    def m(self):\n        def inner():\n"
-        + "\n".join(f"            y{i} = {i}" for i in range(MAX_FUNCTION_LINES)) + "\n"
-        + "\n" * MAX_MODULE_LINES)
-    found = oversized(tmp_path, "pkg")
-    assert found == {"pkg/big.py": MAX_FUNCTION_LINES + 3 + MAX_MODULE_LINES,
-                     "pkg/big.py:A.m": MAX_FUNCTION_LINES + 2,
-                     "pkg/big.py:A.m.inner": MAX_FUNCTION_LINES + 1}
+    (pkg / "a.py").write_text("from .b import _g, h\nfrom pkg import __version__\n")
+    (pkg / "b.py").write_text("def f():\n    from pkg.c import _x\n    import pkg._d\n")
+    (pkg / "c.py").write_text("from ._impl import y\nimport os._private_mod\n_x = 1\n")
+    assert private_imports(tmp_path, "pkg") == {
+        "pkg/a.py": [".b:_g"], "pkg/b.py": ["pkg.c:_x", "pkg._d"],
+        "pkg/c.py": ["._impl", "os._private_mod"]}

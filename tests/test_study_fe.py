@@ -262,7 +262,7 @@ def test_housing_fields_read_back(pump_runs):
                                    atol=1e-9 * np.abs(ref).max())
     # per-order complex amplitudes (order Z)
     om = meshio.read(r1.out / f"housing_orders_{tag}.xdmf")
-    j = int(np.flatnonzero(idx * hs.divisor == z)[0])
+    j = int(np.flatnonzero(idx * hs.integer_ratio == z)[0])
     _, ure = _dolfinx_field(model, T, qk[:, j].real.copy())
     _, uim = _dolfinx_field(model, T, qk[:, j].imag.copy())
     mo = _match(om.points, coords)

@@ -71,7 +71,7 @@ def test_check_outputs_against_the_harmonic_set():
     from hbm import HarmonicSet
     from study.fields import check_outputs, field_orders, frames_per_mesh_period
 
-    hs = HarmonicSet([0, 1, 2, 4, 74, 76, 78, 152, 228, 232], fundamental="shaft", divisor=1)
+    hs = HarmonicSet([0, 1, 2, 4, 74, 76, 78, 152, 228, 232], ratio=1, fundamental="shaft")
     base = _raw(PUMP)
     s = scene_from_dict(base)
     assert field_orders(s, hs) == [1, 2, 4, 76, 152, 228]

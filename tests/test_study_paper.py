@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hbm.postprocess import MeshPeriodEnvelope
+from hbm import MeshPeriodEnvelope
 from study.curves import (
     FoldPair,
     class_intervals,

@@ -15,7 +15,7 @@ import h5py
 import numpy as np
 import pytest
 
-from hbm.contact import kink_correction
+from hbm.elements.contact_law import kink_correction
 
 ROOT = Path(__file__).resolve().parents[1]
 SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
@@ -306,7 +306,7 @@ def test_lumped_external_torque_matches_linear_frf(tmp_path):
     r = study.run(SDOF, tmp_path / "o", overrides=ov, cache_dir=tmp_path / "c")
     sc, br = r.scene, r.branch
     assert r.problem.harmonics.fundamental == "shaft"
-    assert np.all(br.contact == 0)
+    assert np.all(br.element(0).contact == 0)
     m = equivalent_mass(sc)
     i1, _ = gear_inertias(sc)
     k = sc.mesh_stiffness.mean
@@ -316,10 +316,10 @@ def test_lumped_external_torque_matches_linear_frf(tmp_path):
         w = 2 * br.omega[j]
         expect = m * sc.gear.base_radius / i1 * 0.4 * np.exp(1j * np.pi / 6) / (
             k - m * w**2 + 1j * c * w)
-        assert br.coefficients[j, h] == pytest.approx(expect, rel=1e-9)
+        assert br.element(0).coefficients[j, h] == pytest.approx(expect, rel=1e-9)
     # mean: b + F_s/k̄ + mean of e = q_s − F_s/k̄ (loaded STE, eq. 12) = b + mean q_s
     assert sc.transmission_error.kind == "loaded"
-    assert br.coefficients[0, 0].real == pytest.approx(
+    assert br.element(0).coefficients[0, 0].real == pytest.approx(
         sc.gear.backlash + sc.transmission_error.mean, rel=1e-9)
 
 

@@ -43,8 +43,11 @@ def test_largest_std_on_an_unstable_orbit_names_the_largest_stable_one():
     rpm = np.linspace(2000.0, 3000.0, 11)
     std = 50.0 - np.abs(rpm - 2600.0) / 20.0          # top 50 N at 2600 rpm
     stable = np.abs(rpm - 2600.0) > 150.0              # 2500-2700 rpm unstable
-    br = SimpleNamespace(rpm=rpm, mesh_load_std=std, stable=stable)
-    best = _largest_stable(br)
+    def branch(stable):
+        mesh = SimpleNamespace(mesh_load_std=std)
+        return SimpleNamespace(rpm=rpm, stable=stable, element=lambda e=0: mesh)
+
+    best = _largest_stable(branch(stable))
     assert best == (40.0, 2400.0)                      # 2400 rpm: 50 - 200/20
     s = {"max_mesh_load_std": 50.0, "at_rpm": 2600.0, "max_std_kind": "Neimark–Sacker",
          "max_stable": best}
@@ -52,8 +55,7 @@ def test_largest_std_on_an_unstable_orbit_names_the_largest_stable_one():
         "- largest std of the dynamic mesh load 50 N at 2600.0 rpm, **an unstable orbit** "
         "(Neimark–Sacker): the largest stable one is 40 N at 2400.0 rpm")
     assert _largest_line({**s, "max_std_kind": ""}, True).endswith("at 2600.0 rpm")
-    assert _largest_stable(SimpleNamespace(rpm=rpm, mesh_load_std=std,
-                                           stable=np.zeros(11, bool))) is None
+    assert _largest_stable(branch(np.zeros(11, bool))) is None
     assert _largest_line({**s, "max_stable": None}, True).endswith(
         "no orbit of the curve is stable")
 

@@ -80,7 +80,7 @@ def _ipp_at(result, rpm):
 
     pt, how = solution_at(result, rpm)
     assert how != "nearest branch point"            # solved at that speed
-    return point_stats(result.problem, pt).ipp
+    return point_stats(result.problem, pt)[0].ipp
 
 
 def test_ipp_at_1700_rpm_is_the_calibrated_one(result):
@@ -121,7 +121,7 @@ def test_internal_only_impacts_reach_the_end_of_the_range(work):
     r = study.run(case_scenes(scene)["internal"], work / "internal", cache_dir=work / "cache")
     br = r.branch
     assert br.status == "completed" and br.rpm.max() == pytest.approx(7000.0)
-    assert np.all(br.contact > 0), br.rpm[br.contact == 0]
+    assert np.all(br.element(0).contact > 0), br.rpm[br.element(0).contact == 0]
 
 
 def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
@@ -133,7 +133,7 @@ def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
     mode (session 13: 119.6 against 104.6 N, 100 N at 201 Hz, order 4.125)."""
     import study
     from benchmarks.ti_attractor import orbit_std
-    from hbm.time_response import integrate
+    from hbm.post.time_response import integrate
     from study.excitations import case_scenes
     from study.scene_load import load_scene
 

@@ -44,7 +44,7 @@ def test_with_te_is_the_problem_of_the_scene_with_that_te(cache):
     w = RPM * np.pi / 30.0
     r, r_ref = prob.residual(u, w), ref.residual(u, w)
     assert np.abs(r - r_ref).max() <= 1e-12 * np.abs(r_ref).max()
-    assert prob.mesh.te == pytest.approx(ref.mesh.te, rel=1e-14)
+    assert prob.elements[0].te == pytest.approx(ref.elements[0].te, rel=1e-14)
 
 
 def test_with_te_refuses_bad_input(cache):
@@ -65,20 +65,20 @@ def test_homotopy_solve_is_a_fresh_solve_and_counts_like_point_stats(cache):
 
     base = _problem(cache)
     start = base.solve(RPM)
-    assert point_stats(base, start).contact == 1              # single-sided impacts
+    assert point_stats(base, start)[0].contact == 1              # single-sided impacts
     nl = te_ipp.NonlinearIPP(base, {RPM: start.unknowns}, tol=1e-10)
     prob, pts = nl.solve(*TE)
     fresh = _problem(cache, *TE).solve(RPM, tol=1e-10)        # its own initial guess
     u, v = pts[RPM].unknowns, fresh.unknowns
     assert np.abs(u - v).max() <= 1e-7 * np.abs(v).max()
-    st = point_stats(prob, pts[RPM])
+    st = point_stats(prob, pts[RPM])[0]
     assert st.contact == 1
     # impacts per mesh period of the sampled gap, as point_stats counts its loss samples
     gap = te_ipp.gap_signal(prob, u)
-    assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.mesh_step), st.ipp)
+    assert np.array_equal(impacts_per_mesh_period(gap < 0.0, prob.steps[0]), st.ipp)
     # the smooth shares tend to the exact ones (one loss interval per minimum here)
     exact = tm.cumulative(tm.ipp_fraction_vector(st.ipp))
-    assert tm.soft_ipp(gap, prob.mesh_step, 1e-13) == pytest.approx(exact, abs=1e-9)
+    assert tm.soft_ipp(gap, prob.steps[0], 1e-13) == pytest.approx(exact, abs=1e-9)
 
 
 def test_targets_refuse_shares_that_are_not_a_partition():
@@ -123,7 +123,7 @@ def test_sensitivity_changes_one_harmonic_at_a_time(cache):
     rows = te_ipp.sensitivity(nl, *TE, rel=0.02, deg=2.0)
     assert len(rows) == 1 + 2 * 3 + 2 * 3
     prob, pts = nl.solve(*TE)
-    exact = tm.ipp_fraction_vector(point_stats(prob, pts[RPM]).ipp).tolist()
+    exact = tm.ipp_fraction_vector(point_stats(prob, pts[RPM])[0].ipp).tolist()
     assert rows[0]["change"] == "TE" and rows[0]["fractions"][str(RPM)] == exact
     assert rows[2]["amplitudes_um"] == pytest.approx([17.0 * 1.02, 3.5, 1.2])
     assert rows[-1]["phases_deg"] == pytest.approx([25.0, 140.0, 302.0])

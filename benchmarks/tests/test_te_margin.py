@@ -19,16 +19,18 @@ OV = {"hbm.mesh_harmonics": 8, "hbm.stability": False}
 
 def _direct_margin(cache: Path, amps_um, phases_deg, rpm: float, n_time: int) -> float:
     """``min_t (p - b)`` of the permanent-contact solution solved with this TE."""
-    from hbm.fixed_speed import RPM_TO_RAD_S, initial_guess
+    from hbm.problem.fixed_speed import initial_guess
+    from hbm.units import RPM_TO_RAD_S
     from study.pipeline import Pipeline
     from study.scene_load import load_scene
 
     sc = load_scene(SDOF, {**OV, "transmission_error.amplitudes_um": list(amps_um),
                            "transmission_error.phases_deg": list(phases_deg)})
     prob = Pipeline(sc, cache / "direct", cache_dir=cache, progress=False).problem()[0]
-    synth, _, e = prob.fine_grid(n_time)
+    synth, samples = prob.fine_grid(n_time)
+    e = samples[0].e
     u = initial_guess(prob, rpm * RPM_TO_RAD_S)
-    return float(np.min(synth @ prob.delta_real(u) - e - prob.b))
+    return float(np.min((synth @ prob.delta_real(u))[0] - e - prob.elements[0].backlash))
 
 
 def test_margin_superposes_the_te_harmonics_like_a_direct_solve(tmp_path):

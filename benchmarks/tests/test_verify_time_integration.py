@@ -31,17 +31,18 @@ def test_modal_form_equals_physical_equations(sdof):
     rng = np.random.default_rng(1)
     s = pb.system
     for t in rng.uniform(0.0, mm.period, 5):
-        x = rng.normal(scale=pb.mesh.backlash * 2, size=s.n_dof)
+        x = rng.normal(scale=pb.elements[0].backlash * 2, size=s.n_dof)
         v = rng.normal(scale=1e-2, size=s.n_dof)
         proj = mm.phi.T @ s.M
         y = np.concatenate([proj @ x, proj @ v])
         acc_modal = bv.equations(mm)(t, y)[mm.n_modes:]
-        delta = pb.G @ x
-        f = bv.mesh_load(mm, np.array([delta]), np.array([t]))[0]
+        g = pb.directions[0]
+        delta = g @ x
+        f = bv.element_load(mm, np.array([delta]), np.array([t]))[0]
         w = pb.kS * pb.harmonics.fundamental_rad_s(rpm * 0.10471975511965977)
         fex = ((pb.Fc + (rpm * 0.10471975511965977) ** 2 * pb.Fu).T
                @ np.exp(1j * w * t)).real
-        acc_phys = np.linalg.solve(s.M, fex - s.C @ v - s.K @ x - pb.G * f)
+        acc_phys = np.linalg.solve(s.M, fex - s.C @ v - s.K @ x - g * f)
         np.testing.assert_allclose(mm.phi @ acc_modal, acc_phys, rtol=1e-9,
                                    atol=1e-9 * np.max(np.abs(acc_phys)))
 

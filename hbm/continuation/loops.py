@@ -1,6 +1,6 @@
 """Closed loops: the continuation going round a loop of solutions and arriving back on its
-own path in the same direction (:func:`hbm.events._closed_loop`), and the way out of it
-for :func:`hbm.continuation.trace` (docs/hbm.md, "Closed loops").
+own path in the same direction (:func:`hbm.continuation.revisits.closed_loop`), and the
+way out of it for :func:`hbm.continuation.continue_branch` (docs/hbm.md, "Closed loops").
 
 A loop joined to the branch at a branch point is entered by a step that turns onto it
 there; going round, the trace passes the branch point again along the loop and would
@@ -16,20 +16,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .branch import _Recorder
-from .corrector import _correct, _tangent
-from .events import (
-    LOOP_MIN_POINTS,
-    REVISIT_RATIO,
-    TraceContext,
-    _check_events,
-    _distinct_solution,
-    _nearest_segment,
-    _revisit,
-)
-from .newton import ConvergenceError
+from ..newton import ConvergenceError
+from .branch import Recorder
+from .context import TraceContext
+from .corrector import correct, tangent
+from .events import check_events
+from .revisits import LOOP_MIN_POINTS, REVISIT_RATIO, distinct_solution, nearest_segment, revisit
 
 logger = logging.getLogger("hbm.continuation")
+
+__all__ = ["MAX_LOOPS", "RETRIED", "TRAPPED", "back_into_loop", "leave_loop", "resume_point"]
 
 MAX_LOOPS = 8     # closed loops and re-entries handled before the trace stops
 # Going back from the segment the branch closed on, an old point belongs to the loop while
@@ -55,7 +51,7 @@ class _Exit:
     kind: str
 
 
-def _known_loop(rec: _Recorder, hit: int) -> int | None:
+def _known_loop(rec: Recorder, hit: int) -> int | None:
     """Number (0-based) of the recorded loop whose path holds the segment ``hit``."""
     for j, (_, last, entry, _) in enumerate(rec.loops):
         if entry <= hit <= last:
@@ -63,7 +59,7 @@ def _known_loop(rec: _Recorder, hit: int) -> int | None:
     return None
 
 
-def _entry(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray) -> int:
+def _entry(ctx: TraceContext, rec: Recorder, hit: int, yn: np.ndarray) -> int:
     """The last point before the loop: going back from the segment ``hit`` the branch
     closed on, the first old point farther than ``LOOP_ENTRY_RATIO`` of its chord from
     the path that came round (the points from ``hit + LOOP_MIN_POINTS`` to ``yn``)."""
@@ -76,7 +72,7 @@ def _entry(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray) -> int:
         chord = float(np.linalg.norm(ys[i] - ys[i - 1]))
         if i + 1 < len(ys):
             chord = min(chord, float(np.linalg.norm(ys[i + 1] - ys[i])))
-        d = _nearest_segment(arc, ys[i])[1]
+        d = nearest_segment(arc, ys[i])[1]
         logger.debug("loop entry: point %d lies %.3g chords from the path that came round",
                      i, d / chord)
         if not d < LOOP_ENTRY_RATIO * chord:
@@ -85,16 +81,16 @@ def _entry(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray) -> int:
     return i
 
 
-def _back_into_loop(rec: _Recorder, hit: int) -> bool:
+def back_into_loop(rec: Recorder, hit: int) -> bool:
     """True if a walk back over the segment ``hit`` goes back over the last closed loop
     within ``LOOP_EXIT_POINTS`` points of leaving it: that exit failed (the next is
-    tried, :func:`_leave_loop`), rather than a reversal to undo."""
+    tried, :func:`leave_loop`), rather than a reversal to undo."""
     j = _known_loop(rec, hit)
     return j is not None and j == len(rec.loops) - 1 and \
         len(rec) - rec.loops[j][3] <= LOOP_EXIT_POINTS
 
 
-def _exits(ctx: TraceContext, rec: _Recorder, entry: int) -> list[_Exit]:
+def _exits(ctx: TraceContext, rec: Recorder, entry: int) -> list[_Exit]:
     """The exits tried in turn: from the entry point, then from the point before it,
     along the arrival chord, then along the tangent, ``LOOP_EXIT_FACTORS`` chords."""
     out = []
@@ -114,19 +110,19 @@ def _exits(ctx: TraceContext, rec: _Recorder, entry: int) -> list[_Exit]:
     return out
 
 
-def _on_loop(ctx: TraceContext, rec: _Recorder, loop: tuple[int, int, int, int],
+def _on_loop(ctx: TraceContext, rec: Recorder, loop: tuple[int, int, int, int],
              yn: np.ndarray, step: float) -> bool:
     """True if ``yn`` lies on the loop's path (from its entry point round to its first
     point) and is the same solution there."""
     first, last, entry, _ = loop
     ys = ctx.states(rec)
     path = np.vstack([ys[entry:last + 1], ys[first]])
-    _, d, foot = _nearest_segment(path, yn)
-    return d < REVISIT_RATIO * step and not _distinct_solution(ctx.evaluate, foot, yn,
+    _, d, foot = nearest_segment(path, yn)
+    return d < REVISIT_RATIO * step and not distinct_solution(ctx.evaluate, foot, yn,
                                                                 ctx.tol, ctx.max_iter)
 
 
-def _copies_last(ctx: TraceContext, rec: _Recorder, j: int, base: int | None = None) -> bool:
+def _copies_last(ctx: TraceContext, rec: Recorder, j: int, base: int | None = None) -> bool:
     """True if the branch ends with the copies appended after loop ``j`` (of ``base``)."""
     restart = rec.loops[j][3]
     if len(rec) != restart + 2:
@@ -135,7 +131,7 @@ def _copies_last(ctx: TraceContext, rec: _Recorder, j: int, base: int | None = N
     return base is None or np.array_equal(ys[-1], ys[base])
 
 
-def _restart(ctx: TraceContext, rec: _Recorder, j: int, base: int) -> None:
+def _restart(ctx: TraceContext, rec: Recorder, j: int, base: int) -> None:
     """Drop what follows loop ``j`` and append copies of the point ``base`` and its
     predecessor, unless they are there already: the branch goes on from there (the
     segment from the loop's last point to the first copy was not traced)."""
@@ -147,7 +143,7 @@ def _restart(ctx: TraceContext, rec: _Recorder, j: int, base: int) -> None:
                    float(rec.lists["residual"][i]), np.asarray(rec.lists["tangents"][i]))
 
 
-def _try_exits(ctx: TraceContext, rec: _Recorder, j: int) -> float | None:
+def _try_exits(ctx: TraceContext, rec: Recorder, j: int) -> float | None:
     """Step out of loop ``j`` by the exits not tried yet (:func:`_exits`); record the
     first point that moves forward, off the loop and without walking back. Returns the
     step it took, or None when every exit failed."""
@@ -161,24 +157,24 @@ def _try_exits(ctx: TraceContext, rec: _Recorder, j: int) -> float | None:
         y = ctx.state(rec, -1)
         step = e.factor * e.chord
         try:
-            yn, it, res, jx, jw = _correct(ctx.evaluate, y + step * e.direction, e.direction,
+            yn, it, res, jx, jw = correct(ctx.evaluate, y + step * e.direction, e.direction,
                                            ctx.tol, ctx.max_iter)
-            tn = _tangent(jx, jw, e.direction)
+            tn = tangent(jx, jw, e.direction)
         except (ConvergenceError, np.linalg.LinAlgError) as exc:
             logger.debug("loop exit %d (%.2g chords) failed: %s", k, e.factor, exc)
             continue
         if (yn - y) @ e.direction <= 0 or _on_loop(ctx, rec, loop, yn, step) or \
-                _revisit(ctx, rec, yn) is not None:
+                revisit(ctx, rec, yn) is not None:
             logger.debug("loop exit %d (%.2g chords) landed back on the branch", k, e.factor)
             continue
-        _check_events(ctx, rec, yn, tn, it, res)
+        check_events(ctx, rec, yn, tn, it, res)
         logger.info("left the closed loop from rpm %.6g: %.2g chords along the %s, to rpm "
                     "%.6g", rec.lists["rpm"][e.base], e.factor, e.kind, rec.last("rpm"))
         return step
     return None
 
 
-def _leave_loop(ctx: TraceContext, rec: _Recorder, hit: int, yn: np.ndarray,
+def leave_loop(ctx: TraceContext, rec: Recorder, hit: int, yn: np.ndarray,
                 ds: float) -> tuple[float, str]:
     """The branch closed on itself at the old segment ``hit``: keep the loop's points
     (marked in ``rec.lists["loop"]``), go back to where it entered the loop and step out

@@ -1,24 +1,34 @@
-"""Harmonic sets and the real/complex Fourier layout of the HBM unknowns.
+"""The harmonic basis: a set of harmonics of a fundamental frequency, the AFT grid, and
+the real/complex Fourier layout of the HBM unknowns.
 
 Convention (docs/architecture.md, "Fourier convention"): a periodic signal is
 ``x(t) = Re sum_{k in S} x_k exp(i k w0 t)`` with ``S`` a sorted set of
 non-negative integer indices containing 0 and ``x_0`` real (eq. 20).  The real
 unknown layout of one signal is ``[x_0, Re x_k1, Im x_k1, Re x_k2, Im x_k2, ...]``.
+
+The fundamental is ``w0 = r Omega``, ``r`` a positive rational number (a
+:class:`fractions.Fraction`) of the reference speed Omega: 1 for the shaft, Z for the
+mesh of a gear with Z teeth on that shaft, 1/2 for a period-2 response, the common
+submultiple of several shafts' and meshes' frequencies for a train
+(:func:`common_fundamental`). A frequency ``p Omega`` (an excitation's order, an
+element's base frequency) is the harmonic index ``p / r`` when that is an integer.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import numbers
 from dataclasses import dataclass, field
+from fractions import Fraction
 from functools import cached_property
 
 import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SET_KINDS", "HarmonicSet", "combination_offsets", "complex_mul", "default_n_time",
-           "mul_rows", "real_blocks"]
+__all__ = ["SET_KINDS", "HarmonicSet", "as_ratio", "combination_offsets", "common_fundamental",
+           "complex_mul", "default_n_time", "mul_rows", "real_blocks"]
 
 # How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
 SET_KINDS = ("combinations", "bands", "contiguous")
@@ -56,30 +66,74 @@ def default_n_time(max_index: int) -> int:
     return int(2 ** int(np.ceil(np.log2(need))))
 
 
+def as_ratio(value, name: str, positive: bool = True) -> Fraction:
+    """``value`` as an exact frequency ratio (:class:`fractions.Fraction`).
+
+    Integers and fractions are exact; a float is accepted when it is an integer (a
+    non-integer float such as 0.1 has no exact ratio: give a ``Fraction``); a string
+    such as ``"1/2"`` is parsed. Refused, naming ``name``: booleans, negative values
+    (or zero when ``positive``), anything else.
+    """
+    if isinstance(value, bool):
+        raise ValueError(f"{name} = {value!r}: must be a frequency ratio, not a boolean")
+    if isinstance(value, numbers.Rational):
+        r = Fraction(value)
+    elif isinstance(value, str):
+        try:
+            r = Fraction(value)
+        except ValueError as exc:
+            raise ValueError(f"{name} = {value!r}: must be a ratio such as 3 or '1/2'") \
+                from exc
+    elif isinstance(value, numbers.Real) and math.isfinite(value) and int(value) == value:
+        r = Fraction(int(value))
+    else:
+        raise ValueError(f"{name} = {value!r}: must be an integer or a fractions.Fraction "
+                         "(an exact frequency ratio)")
+    if r < 0 or (positive and r == 0):
+        raise ValueError(f"{name} = {value!r}: must be {'> 0' if positive else '>= 0'}")
+    return r
+
+
+def common_fundamental(*ratios) -> Fraction:
+    """The largest ratio ``r`` of which every one of ``ratios`` (> 0) is an integer multiple:
+    the fundamental ``w0 = r Omega`` of a basis that holds all those frequencies
+    (e.g. 2 and 3: 1; 6 and 9/2: 3/2; a pair of 23:61 teeth at Omega: ``Z1 = 23`` and the
+    shaft orders 1 and 23/61 give 1/61)."""
+    rs = [as_ratio(r, "common_fundamental ratio") for r in ratios]
+    if not rs:
+        raise ValueError("common_fundamental: needs at least one ratio")
+    den = math.lcm(*(r.denominator for r in rs))
+    num = math.gcd(*(r.numerator * (den // r.denominator) for r in rs))
+    return Fraction(num, den)
+
+
 @dataclass(frozen=True)
 class HarmonicSet:
-    """Explicit set of harmonic indices of the fundamental ``w0 = divisor * Omega``.
+    """Explicit set of harmonic indices of the fundamental ``w0 = ratio * Omega``.
 
     Parameters
     ----------
     indices
         Sorted unique non-negative integers containing 0.
+    ratio
+        The fundamental as a ratio of the reference speed, ``w0 / Omega`` (> 0, exact:
+        int, :class:`fractions.Fraction` or a string such as ``"1/2"``). A frequency
+        ``p Omega`` is index ``p / ratio`` when that is an integer
+        (:meth:`index_of`).
     fundamental
-        ``"shaft"`` (``w0 = Omega``, divisor 1) or ``"mesh"`` (``w0 = Z Omega``,
-        divisor Z).
-    divisor
-        Integer ratio ``w0 / Omega`` (1 or the tooth count Z). A shaft order k is
-        harmonic index ``k / divisor``; mesh harmonic m is index ``m Z / divisor``.
+        What the fundamental is, in words (``"shaft"``, ``"mesh"``, ...); default
+        ``"shaft"`` for ratio 1, else ``"mesh"`` for an integer ratio, else
+        ``"subharmonic"``.
     n_time
         AFT samples per fundamental period (default :func:`default_n_time`).
     """
 
     indices: tuple[int, ...]
-    fundamental: str = "mesh"
-    divisor: int = 1
+    ratio: Fraction = Fraction(1)
+    fundamental: str = "shaft"
     n_time: int = field(default=0)
 
-    def __init__(self, indices, fundamental: str = "mesh", divisor: int = 1,
+    def __init__(self, indices, ratio=1, fundamental: str | None = None,
                  n_time: int | None = None) -> None:
         try:
             arr = [int(i) for i in indices]
@@ -93,18 +147,21 @@ class HarmonicSet:
             raise ValueError(f"harmonics.indices = {list(arr)}: must be >= 0")
         if arr != sorted(set(arr)):
             raise ValueError(f"harmonics.indices = {list(arr)}: must be sorted and unique")
-        if fundamental not in ("shaft", "mesh"):
-            raise ValueError(f"harmonics.fundamental = {fundamental!r}: must be 'shaft' or 'mesh'")
-        if int(divisor) != divisor or divisor < 1:
-            raise ValueError(f"harmonics.divisor = {divisor!r}: must be an integer >= 1")
+        r = as_ratio(ratio, "harmonics.ratio")
+        if fundamental is None:
+            fundamental = "shaft" if r == 1 else "mesh" if r.denominator == 1 else \
+                "subharmonic"
+        if not isinstance(fundamental, str) or not fundamental:
+            raise ValueError(f"harmonics.fundamental = {fundamental!r}: must be a name "
+                             "(e.g. 'shaft', 'mesh')")
         hmax = max(arr)
         n = default_n_time(hmax) if n_time is None else int(n_time)
         if n <= 2 * hmax:
             raise ValueError(
                 f"harmonics.n_time = {n}: must be > 2 * max index = {2 * hmax}")
         object.__setattr__(self, "indices", tuple(arr))
+        object.__setattr__(self, "ratio", r)
         object.__setattr__(self, "fundamental", fundamental)
-        object.__setattr__(self, "divisor", int(divisor))
         object.__setattr__(self, "n_time", n)
 
     # ------------------------------------------------------------------ builders
@@ -157,7 +214,7 @@ class HarmonicSet:
         z, h, s = int(n_teeth), int(mesh_harmonics), int(sideband_order)
         if not ext:
             idx = set(range(h + 1))
-            fundamental, divisor = "mesh", z
+            fundamental, ratio = "mesh", z
         else:
             ext = sorted(set(ext))
             if kind == "combinations":
@@ -174,12 +231,12 @@ class HarmonicSet:
                     idx.add(abs(k * z - c))
             if kind == "contiguous":
                 idx = set(range(max(idx) + 1))
-            fundamental, divisor = "shaft", 1
+            fundamental, ratio = "shaft", 1
         if max_index is not None:
             if int(max_index) != max_index or max_index < 0:
                 raise ValueError(f"harmonics.max_index = {max_index!r}: must be an integer >= 0")
             idx = {i for i in idx if i <= max_index}
-        return cls(sorted(idx), fundamental=fundamental, divisor=divisor, n_time=n_time)
+        return cls(sorted(idx), ratio=ratio, fundamental=fundamental, n_time=n_time)
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -196,16 +253,50 @@ class HarmonicSet:
     def max_index(self) -> int:
         return self.indices[-1]
 
-    def index_of_shaft_order(self, order: int) -> int | None:
-        """Harmonic index of shaft order ``order`` or None if not representable."""
-        if order % self.divisor:
+    @property
+    def contiguous(self) -> bool:
+        """True for the contiguous set ``{0, 1, ..., K}``."""
+        return self.indices[-1] == len(self.indices) - 1
+
+    def index_of(self, ratio) -> int | None:
+        """Harmonic index of the frequency ``ratio * Omega`` (``ratio / self.ratio``), or
+        None if that is not an integer or not in the set."""
+        q = as_ratio(ratio, "frequency ratio", positive=False) / self.ratio
+        if q.denominator != 1:
             return None
-        i = order // self.divisor
-        return i if i in self.indices else None
+        return int(q) if int(q) in self.indices else None
+
+    def step_of(self, ratio, name: str) -> int:
+        """Harmonic index of the base frequency ``ratio * Omega`` of ``name`` (whether or
+        not the set holds it): ``ratio / self.ratio``, refused unless a positive integer
+        (the fundamental must divide every base frequency)."""
+        q = as_ratio(ratio, f"{name} base frequency ratio") / self.ratio
+        if q.denominator != 1:
+            raise ValueError(
+                f"harmonics.ratio = {self.ratio}: the fundamental w0 = {self.ratio} Omega "
+                f"does not divide the base frequency {ratio} Omega of {name} (ratio {q}); "
+                f"use a common submultiple (hbm.common_fundamental)")
+        return int(q)
 
     def fundamental_rad_s(self, omega: float) -> float:
-        """Fundamental angular frequency ``w0 = divisor * Omega`` (rad/s)."""
-        return self.divisor * omega
+        """Fundamental angular frequency ``w0 = ratio * Omega`` (rad/s)."""
+        return self.rate * omega
+
+    @property
+    def integer_ratio(self) -> int:
+        """``w0 / Omega`` as an int (shaft orders per harmonic index); refused when the
+        fundamental is not a whole multiple of the reference speed."""
+        r = self.ratio
+        if r.denominator != 1:
+            raise ValueError(f"harmonics.ratio = {r}: the fundamental is not a whole "
+                             "multiple of the reference speed")
+        return r.numerator
+
+    @property
+    def rate(self) -> float:
+        """``w0 / Omega`` as a float (for an integer ratio, the integer itself)."""
+        r = self.ratio
+        return float(r.numerator) if r.denominator == 1 else float(r)
 
     def to_real(self, xc: np.ndarray) -> np.ndarray:
         """Complex coefficients (..., n_harmonics) -> real layout (..., n_real)."""
@@ -264,7 +355,7 @@ class HarmonicSet:
         """Where the indices 1.. sit in a half spectrum: a slice for a contiguous set
         (no gather), else the index array."""
         k = self.index_array
-        return slice(1, k.size) if k[-1] == k.size - 1 else k[1:]
+        return slice(1, k.size) if self.contiguous else k[1:]
 
     def synthesize(self, xr: np.ndarray, n_time: int | None = None) -> np.ndarray:
         """Samples ``x(tau_j)`` on ``tau_j = 2 pi j / N`` from the real layout, by FFT.

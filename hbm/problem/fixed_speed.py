@@ -3,7 +3,7 @@ guess and Newton at a fixed speed with its fallbacks (contact-law homotopy, damp
 Newton), for :meth:`hbm.problem.HBMProblem.solve`.
 
 The functions take the problem (:class:`hbm.problem.HBMProblem`) as their first
-argument; this module does not import it (problem.py delegates here).
+argument; this module does not import it (residual.py delegates here).
 """
 
 from __future__ import annotations
@@ -13,13 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .newton import ConvergenceError, newton, solve_checked
+from ..newton import ConvergenceError, newton, solve_checked
+from ..units import RPM_TO_RAD_S
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RPM_TO_RAD_S", "Point", "initial_guess", "solve"]
-
-RPM_TO_RAD_S = 2.0 * np.pi / 60.0
+__all__ = ["Point", "contact_homotopy", "initial_guess", "solve"]
 
 
 @dataclass
@@ -33,7 +32,8 @@ class Point:
     unknowns
         Real unknown vector of the problem's condensation (physical units).
     coefficients
-        Complex Fourier coefficients of Delta = G^T q (m), one per index.
+        Complex Fourier coefficients of every element's ``Delta_e = g_e^T q`` (m),
+        (n_elements, n_harmonics).
     residual
         Relative residual norm ``||R_hat|| / max(||x_hat||, 1)`` (scaled).
     iterations
@@ -49,7 +49,8 @@ class Point:
 
 
 def initial_guess(problem, omega: float) -> np.ndarray:
-    """Linear response in permanent contact on the active flank (one Newton step)."""
+    """Linear response with every element's linear law (a gear mesh: permanent contact on
+    the active flank), one Newton step."""
     u0 = np.zeros(problem.n_unknowns)
     r, ju, _ = problem.evaluate(u0, omega, law=0.0)
     dx = solve_checked(problem.scaled_jacobian(ju), r / problem.eq_scale,
@@ -87,7 +88,8 @@ def solve(problem, rpm: float, x0: np.ndarray | None = None, tol: float = 1e-8,
 
 
 def contact_homotopy(problem, omega: float, tol: float, max_iter: int):
-    """Natural continuation in lam from the linear contact law (0) to the dead zone (1).
+    """Natural continuation in lam from the elements' linear laws (0) to their own (1)
+    (a gear mesh: from the linear contact law to the dead zone).
 
     Returns (scaled unknowns, total iterations, relative residual); raises
     ConvergenceError when the step in lam falls below 1e-4.

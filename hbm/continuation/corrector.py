@@ -9,26 +9,30 @@ from __future__ import annotations
 
 import numpy as np
 
-from .krylov import bordered
-from .newton import ConvergenceError, NewtonSystem, iterate, solve_checked
-from .problem import HBMProblem
+from ..krylov import bordered
+from ..newton import ConvergenceError, NewtonSystem, iterate, solve_checked
+from .protocol import ContinuationModel
+
+__all__ = ["CORNER_RADIUS", "CORNER_STEP", "Bordered", "StepRejected", "augmented",
+           "corner_step", "correct", "tangent"]
 
 CORNER_STEP = 1e-4      # steps below this may turn sharply (corners of the branch)
 CORNER_RADIUS = 1e-3    # largest sphere of a corner step (no room for another branch)
 
 
-class _StepRejected(Exception):
-    pass
+class StepRejected(Exception):
+    """A corrected point refused by a predictor's checks (a jump, a turn back)."""
 
 
-def _augmented(problem: HBMProblem, omega_scale: float):
+def augmented(model: ContinuationModel, omega_scale: float):
+    """``y -> (R_hat, J_x, J_w)`` (or ``R_hat``) of the model on ``y = (x_hat, w_hat)``."""
     def evaluate(y, jacobian=True):
         omega = y[-1] * omega_scale
         if not omega > 0:
             raise ConvergenceError(f"corrector reached Omega = {omega:.3g} <= 0")
         if not jacobian:
-            return problem.scaled(y[:-1], omega, False)
-        r, jx, jw = problem.scaled(y[:-1], omega)
+            return model.scaled(y[:-1], omega, False)
+        r, jx, jw = model.scaled(y[:-1], omega)
         return r, jx, jw * omega_scale
     return evaluate
 
@@ -54,7 +58,7 @@ class Bordered(NewtonSystem):
         return float(np.linalg.norm(ev[0]) / max(np.linalg.norm(y[:-1]), 1.0))
 
     def trial(self, y) -> float:
-        return _relative_residual(self.evaluate_y, y)
+        return relative_residual(self.evaluate_y, y)
 
     def matrix(self, y, ev):
         r, jx, jw = ev
@@ -80,7 +84,7 @@ class Bordered(NewtonSystem):
                 f"iterations (condition estimate {cond:.2g})")
 
 
-def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None):
+def correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None):
     """Newton on R_hat(y) = 0, direction . (y - y_pred) = 0 (:class:`Bordered`).
 
     ``conds``, if given, collects the condition estimates of the Newton matrices.
@@ -94,7 +98,7 @@ def _correct(evaluate, y_pred, direction, tol, max_iter, conds=None, sphere=None
     return y, it, res, jx, jw
 
 
-def _relative_residual(evaluate, y) -> float:
+def relative_residual(evaluate, y) -> float:
     """``||R_hat(y)|| / max(||x_hat||, 1)``, inf where the residual cannot be evaluated."""
     try:
         r = evaluate(y, False)
@@ -110,7 +114,8 @@ def _constraint(y, y_pred, direction, sphere):
     return v / sphere[1], 0.5 * (v @ v / sphere[1] - sphere[1])
 
 
-def _tangent(jx, jw, previous):
+def tangent(jx, jw, previous):
+    """Unit null vector of ``[J_x, J_w]`` oriented along ``previous`` (bordered by it)."""
     j = bordered(jx, jw, previous)
     rhs = np.zeros(jw.size + 1)
     rhs[-1] = 1.0
@@ -120,7 +125,7 @@ def _tangent(jx, jw, previous):
 
 
 
-def _corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
+def corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
     """Step past a corner of the piecewise-linear branch (an AFT sample switching
     contact, possibly a fold of the branch there).
 
@@ -133,7 +138,7 @@ def _corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
     dirs = []
     try:
         _, jx, jw = evaluate(y + ds * t)
-        tb = _tangent(jx, jw, t)
+        tb = tangent(jx, jw, t)
         dirs += [tb, -tb]
     except (ConvergenceError, np.linalg.LinAlgError):
         pass
@@ -142,14 +147,14 @@ def _corner_step(evaluate, y, t, travel, ds, tol, max_iter, conds):
     nb = np.linalg.norm(travel)
     for d in dirs:
         try:
-            yn, it, res, jx, jw = _correct(evaluate, y + ds * d, d, tol, max_iter, conds,
+            yn, it, res, jx, jw = correct(evaluate, y + ds * d, d, tol, max_iter, conds,
                                            sphere=(y, ds))
         except (ConvergenceError, np.linalg.LinAlgError) as exc:
             last = exc
             continue
         chord = yn - y
         if nb > 0 and chord @ travel < -0.9 * np.linalg.norm(chord) * nb:
-            last = _StepRejected("spherical corrector went back along the branch")
+            last = StepRejected("spherical corrector went back along the branch")
             continue
         return yn, it, res, jx, jw
     raise last

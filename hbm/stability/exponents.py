@@ -1,22 +1,23 @@
-"""Floquet exponents on the line of action, exact for every mode of a modal ROM (T.9).
+"""Floquet exponents on the elements' deflections, exact for every mode of a modal ROM
+(T.9).
 
 With the modal damping of eq. (17)-(19) the Hill operator of (T.8), in the eq. (17)
-modes, is block-diagonal but for the mesh coupling:
+modes, is block-diagonal but for the coupling through the elements:
 
-    Q(lam) = B(lam) + (g (x) I) J_f (g^T (x) I),
+    Q(lam) = B(lam) + (G (x) I) J_f (G^T (x) I),
 
 ``B`` holding one 2x2 real block per mode j and harmonic k (the real form of
-``w_j^2 + c_j mu + mu^2`` at ``mu = lam +- i k w0``) and ``J_f`` the AFT
-linearisation of the contact force (n_real x n_real).  By the matrix determinant
-lemma
+``w_j^2 + c_j mu + mu^2`` at ``mu = lam +- i k w0``), ``G`` the elements' modal
+directions and ``J_f`` the AFT linearisation of the elements' forces (block-diagonal,
+E n_real square).  By the matrix determinant lemma
 
     det Q(lam) = det B(lam) * det T(lam),   T(lam) = I + R(lam) J_f,          (T.9)
 
-with ``R(lam) = sum_j g_j^2 B_j(lam)^-1`` one block ``x_k I + y_k J`` per harmonic
-(``J = [[0, -1], [1, 0]]``).  ``det B`` has no zero with ``Re lam >= 0`` (damped
-modes), so the exponents in the right half-plane are exactly the zeros of the
-n_real-sized ``det T``.  At ``lam = 0``, ``T`` is the Newton matrix of the "loa"
-condensation; for real ``lam -> +inf``, ``T -> I``.  Hence:
+with ``R(lam)`` E x E blocks ``R_ef = sum_j g_ej g_fj B_j(lam)^-1``, each one block
+``x_k I + y_k J`` per harmonic (``J = [[0, -1], [1, 0]]``).  ``det B`` has no zero with
+``Re lam >= 0`` (damped modes), so the exponents in the right half-plane are exactly the
+zeros of the E n_real-sized ``det T``.  At ``lam = 0``, ``T`` is the Newton matrix of
+the "loa" condensation; for real ``lam -> +inf``, ``T -> I``.  Hence:
 
 * the sign of ``det T(0)`` gives the parity of the number of real positive
   exponents (an odd number: the point lies between two folds) at no cost beyond
@@ -24,6 +25,8 @@ condensation; for real ``lam -> +inf``, ``T -> I``.  Hence:
 * a real positive exponent is then located by bisection on the sign of ``det T``
   and refined to machine precision by Newton's method on ``T(lam) v = 0``
   (bordered system), with every mode of the ROM.
+
+With one element (a gear mesh) ``T`` is n_real square, the line of action of the paper.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ import logging
 import numpy as np
 import scipy.linalg as sla
 
-from .problem import HBMProblem
+from ..problem import HBMProblem
 
 logger = logging.getLogger(__name__)
 
@@ -54,25 +57,35 @@ def _blocks_times(x: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
 
 def _receptance_blocks(problem: HBMProblem, lam: complex, w0: float,
                        derivative: bool = False):
-    """``(x_k, y_k)`` of R(lam) per harmonic (m/N) and, if asked, of dR/dlam (m s/N)."""
+    """``(x_k, y_k)`` of R(lam) per element pair and harmonic, (E, E, nS) (m/N), and, if
+    asked, of dR/dlam (m s/N)."""
     keep = ~problem.rigid
-    g2 = problem.gj[keep] ** 2
+    gj = [g[keep] for g in problem.gj]
     c = problem.cj[keep][:, None]
     w2 = problem.w2[keep][:, None]
     kw = problem.kS[None, :] * w0
     u = lam * lam + lam * c + w2 - kw * kw              # real part of w^2 + c mu + mu^2
     v = kw * (c + 2.0 * lam)                             # its J part
     den = u * u + v * v
-    x = g2 @ (u / den)
-    y = -(g2 @ (v / den))
-    if not derivative:
-        return x, y
-    du = 2.0 * lam + c
-    dv = 2.0 * kw
-    s = u * u - v * v
-    dx = -(g2 @ ((du * s + 2.0 * u * v * dv) / den ** 2))
-    dy = -(g2 @ ((dv * s - 2.0 * u * v * du) / den ** 2))
-    return x, y, dx, dy
+    ne = len(gj)
+    ud, vd = u / den, v / den
+    if derivative:
+        du = 2.0 * lam + c
+        dv = 2.0 * kw
+        s = u * u - v * v
+        dxa = (du * s + 2.0 * u * v * dv) / den ** 2
+        dya = (dv * s - 2.0 * u * v * du) / den ** 2
+    out = [np.empty((ne, ne, kw.size), dtype=np.result_type(lam, float))
+           for _ in range(4 if derivative else 2)]
+    for e in range(ne):
+        for f in range(ne):
+            g2 = gj[e] ** 2 if e == f else gj[e] * gj[f]
+            out[0][e, f] = g2 @ ud
+            out[1][e, f] = -(g2 @ vd)
+            if derivative:
+                out[2][e, f] = -(g2 @ dxa)
+                out[3][e, f] = -(g2 @ dya)
+    return tuple(out)
 
 
 def line_of_action_operator(problem: HBMProblem, jf: np.ndarray, lam: complex, w0: float,
@@ -84,7 +97,8 @@ def line_of_action_operator(problem: HBMProblem, jf: np.ndarray, lam: complex, w
     problem
         A problem with modal damping (``problem.modal``).
     jf
-        ``d f'/d Delta`` from :meth:`HBMProblem.mesh_force` (n_real x n_real, N/m).
+        ``J_f`` from :meth:`HBMProblem.element_jacobian` (block-diagonal over the
+        elements, E n_real square, N/m).
     lam
         Exponent (1/s), real or complex.
     w0
@@ -93,11 +107,25 @@ def line_of_action_operator(problem: HBMProblem, jf: np.ndarray, lam: complex, w
     if not problem.modal:
         raise ValueError("line_of_action_operator: needs a modal damping (eq. 17-19)")
     blocks = _receptance_blocks(problem, lam, w0, derivative)
-    t = _blocks_times(blocks[0], blocks[1], jf)
-    t[np.diag_indices_from(t)] += 1.0
-    if not derivative:
-        return t
-    return t, _blocks_times(blocks[2], blocks[3], jf)
+    ne = blocks[0].shape[0]
+    if ne == 1:
+        t = _blocks_times(blocks[0][0, 0], blocks[1][0, 0], jf)
+        t[np.diag_indices_from(t)] += 1.0
+        if not derivative:
+            return t
+        return t, _blocks_times(blocks[2][0, 0], blocks[3][0, 0], jf)
+    nr = jf.shape[0] // ne
+    out = []
+    for x, y in zip(blocks[0::2], blocks[1::2], strict=True):
+        t = np.zeros(jf.shape, dtype=np.result_type(x, y, jf))
+        for e in range(ne):
+            for f in range(ne):
+                jff = jf[f * nr:(f + 1) * nr, f * nr:(f + 1) * nr]
+                t[e * nr:(e + 1) * nr, f * nr:(f + 1) * nr] = _blocks_times(x[e, f], y[e, f],
+                                                                             jff)
+        out.append(t)
+    out[0][np.diag_indices_from(out[0])] += 1.0
+    return out[0] if not derivative else (out[0], out[1])
 
 
 def det_sign(t: np.ndarray) -> float:
@@ -114,10 +142,11 @@ def real_root_bound(problem: HBMProblem, jf: np.ndarray) -> float:
     """A real ``lam_b`` above which ``det T(lam) > 0`` for every ``lam`` with ``Re lam >= lam_b``.
 
     ``|w^2 + c mu + mu^2| >= (Re mu)^2`` for a damped mode, so ``||R(lam)||_2 <=
-    sum_j g_j^2 / (Re lam)^2``; with ``||J_f||_2 <= ||J_f||_F``, ``||R J_f|| < 1`` above
-    ``sqrt(sum g_j^2 ||J_f||_F)`` (1/s).
+    sum_j |g_j|^2 / (Re lam)^2`` (``g_j`` the mode's components along the elements); with
+    ``||J_f||_2 <= ||J_f||_F``, ``||R J_f|| < 1`` above ``sqrt(sum |g_j|^2 ||J_f||_F)``
+    (1/s).
     """
-    g2 = float(np.sum(problem.gj[~problem.rigid] ** 2))
+    g2 = sum(float(np.sum(g[~problem.rigid] ** 2)) for g in problem.gj)
     return 1.01 * float(np.sqrt(g2 * np.linalg.norm(jf))) + 1e-300
 
 

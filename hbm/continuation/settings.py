@@ -1,4 +1,5 @@
-"""Refusals of :func:`hbm.trace` arguments out of range, each naming the argument."""
+"""Refusals of :func:`hbm.continuation.continue_branch` arguments out of range, each naming
+the argument."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .branch import Branch
-    from .problem import HBMProblem
+    from .protocol import ContinuationModel
 
 
 def check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points,
@@ -30,7 +31,7 @@ def check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points
         raise ValueError(f"trace.overshoot = {overshoot!r}: must be >= 0")
 
 
-def check_resume(problem: HBMProblem, resume: Branch) -> None:
+def check_resume(problem: ContinuationModel, resume: Branch) -> None:
     """Refuse a branch to resume that has no point or other unknowns than ``problem``."""
     if len(resume) == 0:
         raise ValueError("trace.resume: the branch has no point to resume from")
@@ -38,7 +39,7 @@ def check_resume(problem: HBMProblem, resume: Branch) -> None:
         raise ValueError("trace.resume: branch does not match this problem's unknowns")
 
 
-def check_start(problem: HBMProblem, start: np.ndarray | None,
+def check_start(problem: ContinuationModel, start: np.ndarray | None,
                 resume: Branch | None) -> np.ndarray | None:
     """``start`` as floats of the problem's unknowns (None stays None); refused with
     ``resume`` (a resumed trace starts from its branch)."""

@@ -1,28 +1,36 @@
 """Pseudo-arc-length continuation in Omega with grazing, fold and stability tracking.
 
 Unknowns and equations are scaled (``x_hat = u / x_scale``, ``R_hat = R /
-eq_scale``, see problem.py) and the speed by the speed range,
+eq_scale``, the model's scales) and the speed by the speed range,
 ``w_hat = Omega / |Omega_end - Omega_start|``, so the arc length ``s`` is
 dimensionless: a step of 0.01 moves the speed by at most 1 % of the range.
 
-Every step of :func:`trace` reads PREDICT / CORRECT / ACCEPT:
+Every step of :func:`continue_branch` reads PREDICT / CORRECT / ACCEPT:
 
 - PREDICT and CORRECT (:func:`_advance`): the strategies of :data:`PREDICTORS` in turn,
   the step halved after each failure: the unit tangent of the branch (null vector of
   ``[J_x, J_w]``), a corner step (spherical corrector past a kink of the
   piecewise-linear branch), the secant through the last two points, a patient
   corrector (docs/hbm.md); then a corner leap. Corrector: Newton on the augmented
-  system ``R_hat = 0, t . (y - y_pred) = 0`` (pseudo-arc-length, :mod:`hbm.corrector`).
+  system ``R_hat = 0, t . (y - y_pred) = 0`` (pseudo-arc-length,
+  :mod:`hbm.continuation.corrector`).
 - ACCEPT: a point walking back over the branch is undone (:func:`_undo_reversal`), a
-  closed loop kept and left through its entry point (:mod:`hbm.loops`), a point past a
-  bound of the range is landed on it (:func:`_land`); otherwise the grazing and
-  fold events since the last point are located and the point recorded
-  (:func:`hbm.events._check_events`), and the step adapted to the corrector's effort.
+  closed loop kept and left through its entry point (:mod:`hbm.continuation.loops`), a
+  point past a bound of the range is landed on it (:func:`_land`); otherwise the events
+  since the last point (an element's test function crossing zero, folds) are located and
+  the point recorded (:func:`hbm.continuation.events.check_events`), and the step adapted
+  to the corrector's effort.
 
 A trace stopped by a walk back, a closed loop or a failed step is resumed from before
-where it was caught with another initial step (``retry_steps``, :mod:`hbm.loops`).
+where it was caught with another initial step (``retry_steps``,
+:mod:`hbm.continuation.loops`).
 
-The branch and its recorder live in :mod:`hbm.branch`, the events in :mod:`hbm.events`.
+The tracer knows only a residual and its tangent (:class:`~hbm.continuation.protocol.
+ContinuationModel`) and what measures a converged point (:class:`~hbm.continuation.
+protocol.Monitor`), as NLvib's ``solve_and_continue``: :func:`hbm.trace` gives it an HBM
+problem and its monitor. The branch and its recorder live in
+:mod:`hbm.continuation.branch`, the events in :mod:`hbm.continuation.events`, the walk
+back over the branch in :mod:`hbm.continuation.revisits`.
 """
 
 from __future__ import annotations
@@ -30,34 +38,26 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
-from .branch import Branch, GrazingPoint, _Measure, _note_condition, _Recorder
-from .corrector import _augmented, _StepRejected, _tangent
-from .events import (  # noqa: F401  (REVISIT_RATIO, _distinct_solution: used by the tests)
-    REVISIT_RATIO,
-    TraceContext,
-    _branch_gaps,
-    _check_events,
-    _closed_loop,
-    _distinct_solution,
-    _leap,
-    _past_fold,
-    _Range,
-    _reversal_point,
-    _revisit,
-)
-from .loops import RETRIED, TRAPPED, _back_into_loop, _leave_loop, resume_point
-from .newton import ConvergenceError, newton, solve_checked
-from .predictors import PREDICTORS
-from .problem import RPM_TO_RAD_S, HBMProblem
-from .stability_process import StabilityProcess, wanted
-from .trace_inputs import check_resume, check_settings, check_start
+from ..newton import ConvergenceError, newton, solve_checked
+from ..units import RPM_TO_RAD_S
+from .branch import Branch, Recorder, note_condition
+from .context import SpeedRange, TraceContext
+from .corrector import StepRejected, augmented, tangent
+from .events import check_events
+from .loops import RETRIED, TRAPPED, back_into_loop, leave_loop, resume_point
+from .predictors import PREDICTORS, leap
+from .protocol import ContinuationModel, Monitor
+from .revisits import branch_gaps, closed_loop, past_fold, reversal_point, revisit
+from .settings import check_resume, check_settings, check_start
 
-logger = logging.getLogger(__name__)
+# the tracer's log: one name for the continuation and its modules
+logger = logging.getLogger("hbm.continuation")
 
-__all__ = ["Branch", "GrazingPoint", "PREDICTORS", "trace"]
+__all__ = ["MAX_REVERSALS", "RETRY_STEPS", "continue_branch"]
 
 MAX_REVERSALS = 8       # roll-backs without progress before the trace gives up
 # progress: the branch has grown by more than this many points past its length at the
@@ -75,7 +75,7 @@ class _Step:
     message: str = ""           # why no step converged
 
 
-def _advance(ctx: TraceContext, rec: _Recorder, ds: float) -> _Step:
+def _advance(ctx: TraceContext, rec: Recorder, ds: float) -> _Step:
     """PREDICT and CORRECT: a new point from the last one by the :data:`PREDICTORS` in
     turn, halving the step after each failure; a corner leap when all failed."""
     y = ctx.state(rec, -1)
@@ -88,15 +88,15 @@ def _advance(ctx: TraceContext, rec: _Recorder, ds: float) -> _Step:
         # the trace came back to the same turn twice: the steps from it keep landing
         # on the piece traced (a fold sharper than the step); leap across the fold
         rec.releap = None
-        accepted = _leap(ctx, rec)
+        accepted = leap(ctx, rec)
         predictor = "leap after repeated reversals"
     while accepted is None:
         predictor, strategy = PREDICTORS[fails % len(PREDICTORS)]
         conds: list[float] = []
         try:
             accepted = strategy(ctx, rec, y, t, ds, conds)
-        except (ConvergenceError, _StepRejected, np.linalg.LinAlgError) as exc:
-            _note_condition(rec, conds)
+        except (ConvergenceError, StepRejected, np.linalg.LinAlgError) as exc:
+            note_condition(rec, conds)
             fails += 1
             rec.counters["step_cuts"] += 1
             ds *= 0.5
@@ -111,7 +111,7 @@ def _advance(ctx: TraceContext, rec: _Recorder, ds: float) -> _Step:
                 break
     if accepted is None and len(rec) >= 2:
         # corner leap: past a non-smooth point along the direction of travel
-        accepted = _leap(ctx, rec)
+        accepted = leap(ctx, rec)
         if accepted is not None:
             message = ""
             ds = max(ctx.min_step, min(ctx.step, ctx.max_step))
@@ -122,15 +122,15 @@ def _advance(ctx: TraceContext, rec: _Recorder, ds: float) -> _Step:
 
 
 # ------------------------------------------------------------------------------ accepting
-def _undo_reversal(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, hit: int,
+def _undo_reversal(ctx: TraceContext, rec: Recorder, yn: np.ndarray, hit: int,
                    ds: float) -> tuple[float, str]:
     """The new point ``yn`` revisits segment ``hit``: drop the points after the turn and
     re-predict from it with the old orientation and a smaller step. Returns the step and,
     after ``MAX_REVERSALS`` reversals without progress, why the trace stops ("" else)."""
     # past a genuine fold, the step from its far side jumped back onto the piece
     # that led to the fold: keep the fold and retry from the last point, shorter
-    past_fold = _past_fold(ctx, rec, hit)
-    k = len(rec) - 1 if past_fold else _reversal_point(ctx, rec, yn, hit)
+    beyond = past_fold(ctx, rec, hit)
+    k = len(rec) - 1 if beyond else reversal_point(ctx, rec, yn, hit)
     rec.counters["reversals"] += 1
     # reversals count until the branch grows well past its length at the last one
     if len(rec) > rec.stuck_at + REVERSAL_PROGRESS:
@@ -148,7 +148,7 @@ def _undo_reversal(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, hit: int,
                    "branch near rpm %.6g; back to %s at rpm %.6g (point %d of %d) "
                    "with the old orientation (%d without progress)",
                    yn[-1] * ctx.wscale / RPM_TO_RAD_S, rec.lists["rpm"][hit],
-                   "the last point past the fold" if past_fold else "the turn",
+                   "the last point past the fold" if beyond else "the turn",
                    rec.lists["rpm"][k], k, len(rec), rec.stuck)
     rec.releap = k if rec.last_turn == k else None
     rec.last_turn = k
@@ -158,32 +158,32 @@ def _undo_reversal(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, hit: int,
     tk = rec.lists["tangents"][k]
     if tk @ travel < 0:      # re-predict with the orientation the branch came in
         rec.lists["tangents"][k] = -tk
-    ds = max(ctx.min_step, (0.25 if past_fold else 0.5) * min(ds, float(np.linalg.norm(travel))))
+    ds = max(ctx.min_step, (0.25 if beyond else 0.5) * min(ds, float(np.linalg.norm(travel))))
     return ds, ""
 
 
-def _land(ctx: TraceContext, rec: _Recorder, yn: np.ndarray, tn: np.ndarray,
+def _land(ctx: TraceContext, rec: Recorder, yn: np.ndarray, tn: np.ndarray,
           wb: float) -> str:
     """The step from the last point crossed the bound ``wb`` (rad/s): record the point
     on it (Newton at that speed from the chord). Returns "" or why there is none."""
-    problem, wscale = ctx.problem, ctx.wscale
+    model, wscale = ctx.model, ctx.wscale
     y = ctx.state(rec, -1)
     lam = (wb - y[-1] * wscale) / (yn[-1] * wscale - y[-1] * wscale)
     guess = y[:-1] + lam * (yn[:-1] - y[:-1])
     try:
-        xb, itb, resb = newton(lambda x, j=True, wb=wb: problem.scaled(x, wb, j), guess,
+        xb, itb, resb = newton(lambda x, j=True, wb=wb: model.scaled(x, wb, j), guess,
                                ctx.tol, 30)
         yb = np.concatenate([xb, [wb / wscale]])
         _, jx, jw = ctx.evaluate(yb)
-        tb = _tangent(jx, jw, tn)
-        _check_events(ctx, rec, yb, tb, itb, resb)
+        tb = tangent(jx, jw, tn)
+        check_events(ctx, rec, yb, tb, itb, resb)
         return ""
     except (ConvergenceError, np.linalg.LinAlgError) as exc:
         logger.warning("could not land on the bound %.6g rpm: %s", wb / RPM_TO_RAD_S, exc)
         return f" (no converged point exactly on the bound: {exc})"
 
 
-def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
+def _accept(ctx: TraceContext, rec: Recorder, advanced: _Step, bounds: SpeedRange,
             ds: float) -> tuple[str, str, float]:
     """ACCEPT the corrected point: undo a reversal, land on a bound crossed, or record
     the point with its events and adapt the step. Returns (status, message, step)."""
@@ -191,21 +191,21 @@ def _accept(ctx: TraceContext, rec: _Recorder, advanced: _Step, bounds: _Range,
     logger.debug("accepted rpm %.6g from rpm %.6g (%s, step %.3g, %d iterations)",
                  yn[-1] * ctx.wscale / RPM_TO_RAD_S, rec.last("rpm"), advanced.predictor, ds,
                  it)
-    gaps = _branch_gaps(ctx, rec, yn)
-    hit = _revisit(ctx, rec, yn, gaps)
-    if hit is not None and not _back_into_loop(rec, hit):
+    gaps = branch_gaps(ctx, rec, yn)
+    hit = revisit(ctx, rec, yn, gaps)
+    if hit is not None and not back_into_loop(rec, hit):
         ds, message = _undo_reversal(ctx, rec, yn, hit, ds)
         return ("reversal" if message else "running"), message, ds
     if hit is None:
-        hit = _closed_loop(ctx, rec, yn, tn, gaps)
+        hit = closed_loop(ctx, rec, yn, tn, gaps)
     if hit is not None:     # closed a loop, or walked back into the one just left
-        ds, message = _leave_loop(ctx, rec, hit, yn, ds)
+        ds, message = leave_loop(ctx, rec, hit, yn, ds)
         return ("loop" if message else "running"), message, ds
     crossed = bounds.crossed(yn[-1] * ctx.wscale)
     if crossed is not None:
         status, message, wb = crossed
         return status, message + _land(ctx, rec, yn, tn, wb), ds
-    _check_events(ctx, rec, yn, tn, it, res)
+    check_events(ctx, rec, yn, tn, it, res)
     if it <= 3:
         ds = min(ds * 1.5, ctx.max_step)
     elif it >= 7:
@@ -220,21 +220,26 @@ RETRY_STEPS = (0.75, 1.25)
 
 
 # ---------------------------------------------------------------------------- the trace
-def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float = 0.01,
-          min_step: float = 1e-6, max_step: float = 0.05, tol: float = 1e-8,
-          max_points: int = 2000, max_iter: int = 12,
-          on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
-          stability: bool = True, overshoot: float = 0.25,
-          grazing_tol_rpm: float | None = None, start_fallback: bool = True,
-          stability_process: bool | None = None,
-          retry_steps: tuple[float, ...] = RETRY_STEPS,
-          start: np.ndarray | None = None) -> Branch:
-    """Follow the periodic solutions from ``rpm_start`` to ``rpm_end``.
+def continue_branch(model: ContinuationModel, monitor: Monitor, rpm_start: float,
+                    rpm_end: float, *, step: float = 0.01, min_step: float = 1e-6,
+                    max_step: float = 0.05, tol: float = 1e-8, max_points: int = 2000,
+                    max_iter: int = 12, on_point: Callable[[Branch], None] | None = None,
+                    resume: Branch | None = None, overshoot: float = 0.25,
+                    grazing_tol_rpm: float | None = None, start_fallback: bool = True,
+                    retry_steps: tuple[float, ...] = RETRY_STEPS,
+                    start: np.ndarray | None = None) -> Branch:
+    """Follow the solutions of ``model`` from ``rpm_start`` to ``rpm_end``, measuring every
+    point by ``monitor``.
 
     Parameters
     ----------
-    problem
-        The HBM problem.
+    model
+        The equations: scaled residual and Jacobians in the unknowns and the speed, the
+        unknowns' scales, a fixed-speed solve (:class:`~hbm.continuation.protocol.
+        ContinuationModel`).
+    monitor
+        Measures every converged point (statistics, stability) and names the event test
+        functions located on the branch (:class:`~hbm.continuation.protocol.Monitor`).
     rpm_start, rpm_end
         Speed bounds (rpm, > 0, different); the sweep direction is start -> end.
     step, min_step, max_step
@@ -245,40 +250,32 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     max_points
         Total number of points (including resumed ones).
     on_point
-        Called with the branch so far after every accepted point (checkpoint).
+        Called with the branch so far after every accepted point (checkpoint); with an
+        asynchronous monitor, for each point once the next one is corrected.
     resume
         A previous Branch of the same problem and bounds: continue from its
         last point, tangent and step, giving the same curve as one run.
-    stability
-        Compute the stability of every point (:func:`hbm.stability.stability`).
     grazing_tol_rpm
-        Tolerance on located grazing speeds (default 1e-9 of rpm_end).
+        Tolerance on located event speeds (default 1e-9 of rpm_end).
     start_fallback
-        If Newton (with its homotopy and damped fallbacks) fails at
-        ``rpm_start``, approach ``rpm_start`` by a continuation from
-        ``rpm_start / 4`` (closer to the quasi-static limit, where Newton
-        converges) and start from its point at ``rpm_start``.
+        If the fixed-speed solve fails at ``rpm_start``, approach ``rpm_start`` by a
+        continuation from ``rpm_start / 4`` (closer to the quasi-static limit, where
+        Newton converges) and start from its point at ``rpm_start``.
     overshoot
         A branch that folds back may go past ``rpm_start`` by this fraction of
         the range (never below half of rpm_start when sweeping up) before the
         trace stops with ``"left_range"``; those points are kept.
-    stability_process
-        Measure the stability in a second process while the corrector looks for
-        the next point (:mod:`hbm.stability_process`; bitwise the same verdicts).
-        None: when ``stability`` is on, the Newton matrices are matrix-free (large
-        harmonic sets), the machine has more than one core and ``fork`` exists.
-        ``on_point`` is then called for each point once the next one is corrected.
     retry_steps
         A trace stopped by a walk back, a closed loop it could not leave or a failed step
         (status ``"reversal"``, ``"loop"``, ``"step_failed"``) is resumed from before the
-        speeds where it was caught (:func:`hbm.loops.resume_point`) with ``step`` times
-        each factor in turn, until one gets through; ``()`` stops at the first failure.
+        speeds where it was caught (:func:`hbm.continuation.loops.resume_point`) with
+        ``step`` times each factor in turn, until one gets through; ``()`` stops at the
+        first failure.
     start
         Unknowns from which Newton finds the first point at ``rpm_start`` (a point of
-        another, coexisting branch, e.g. from a time integration); without it Newton
-        starts from the linear response. With ``start`` there is no fallback: if Newton
-        fails from it the trace stops (status ``"start_failed"``) rather than follow
-        another branch.
+        another, coexisting branch, e.g. from a time integration); without it the model's
+        own guess. With ``start`` there is no fallback: if Newton fails from it the trace
+        stops (status ``"start_failed"``) rather than follow another branch.
 
     Returns
     -------
@@ -286,21 +283,20 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
         Never holds an unconverged point; ``status``/``message`` say why it stopped.
     """
     check_settings(rpm_start, rpm_end, step, min_step, max_step, tol, max_points, overshoot)
-    start = check_start(problem, start, resume)
-    bounds = _Range(rpm_start, rpm_end, overshoot)
+    start = check_start(model, start, resume)
+    bounds = SpeedRange(rpm_start, rpm_end, overshoot)
     if resume is not None:
-        check_resume(problem, resume)
+        check_resume(model, resume)
         if resume.status == "completed":
             return resume
     wscale = bounds.wscale if resume is None else resume.omega_scale
-    measure = _Measure(problem, wscale, stability)
     ctx = TraceContext(
-        problem, _augmented(problem, wscale), wscale, tol, max_iter,
+        model, monitor, augmented(model, wscale), wscale, tol, max_iter,
         1e-9 * rpm_end if grazing_tol_rpm is None else float(grazing_tol_rpm),
-        measure, step, min_step, max_step)
-    rec = _Recorder(problem, rpm_start, rpm_end, wscale, resume)
-    if wanted(problem, stability, stability_process):
-        measure.worker = StabilityProcess(problem)
+        step, min_step, max_step)
+    meta = monitor.branch_meta()
+    rec = Recorder(meta, model.x_scale, rpm_start, rpm_end, wscale, resume)
+    monitor.start()
     try:
         branch = _run(ctx, rec, bounds, resume, step, min_step, max_step, max_points,
                       on_point, start_fallback, start=start)
@@ -309,17 +305,16 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
                 break
             logger.warning("retrying the trace from before the speeds where it was caught, "
                            "initial step x %g", factor)
-            rec = _Recorder(problem, rpm_start, rpm_end, wscale, branch)
+            rec = Recorder(meta, model.x_scale, rpm_start, rpm_end, wscale, branch)
             branch = _run(ctx, rec, bounds, branch, min(max(step * factor, min_step),
                                                         max_step),
                           min_step, max_step, max_points, on_point, start_fallback, RETRIED)
         return branch
     finally:
-        if measure.worker is not None:
-            measure.worker.close()
+        monitor.stop()
 
 
-def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | None,
+def _run(ctx: TraceContext, rec: Recorder, bounds: SpeedRange, resume: Branch | None,
          step: float, min_step: float, max_step: float, max_points: int,
          on_point: Callable[[Branch], None] | None, start_fallback: bool,
          trapped: tuple[str, ...] = TRAPPED, start: np.ndarray | None = None) -> Branch:
@@ -347,7 +342,7 @@ def _run(ctx: TraceContext, rec: _Recorder, bounds: _Range, resume: Branch | Non
     # with a stability process the branch of a point is handed to on_point once the next
     # point is corrected (its verdict computed meanwhile): (step, counters) until then
     deferred = None
-    asynchronous = ctx.record.worker is not None
+    asynchronous = ctx.monitor.asynchronous
 
     def flush():
         nonlocal deferred
@@ -392,25 +387,24 @@ def _resumed_step(resume: Branch, step: float, min_step: float, max_step: float)
     return min(max(ds, min_step), max_step)
 
 
-def _first_point(ctx: TraceContext, rec: _Recorder, rpm_start: float, dirn: float,
+def _first_point(ctx: TraceContext, rec: Recorder, rpm_start: float, dirn: float,
                  start_fallback: bool, max_points: int, start: np.ndarray | None = None
                  ) -> str:
     """Record the solution at ``rpm_start`` (Newton from ``start`` if given) with its
     tangent; "" or why there is none."""
-    problem = ctx.problem
+    model = ctx.model
     fallback = start_fallback and start is None      # a given start allows no other branch
     try:
-        p0 = problem.solve(rpm_start, x0=start, tol=ctx.tol)
+        p0 = model.solve(rpm_start, x0=start, tol=ctx.tol)
     except ConvergenceError as exc:
-        p0 = _approach_start(problem, rpm_start, ctx.tol, ctx.max_iter, max_points) if (
-            fallback) else None
+        p0 = _approach_start(ctx, rpm_start, max_points) if fallback else None
         if p0 is None:
             how = ("; nor by continuation from rpm_start / 4" if fallback else
                    " (from the given start)" if start is not None else "")
             msg = f"no converged solution at rpm_start = {rpm_start}: {exc}{how}"
             logger.error(msg)
             return msg
-    y0 = np.concatenate([p0.unknowns / problem.x_scale, [p0.omega / ctx.wscale]])
+    y0 = np.concatenate([p0.unknowns / model.x_scale, [p0.omega / ctx.wscale]])
     _, jx, jw = ctx.evaluate(y0)
     try:
         tx = -solve_checked(jx, jw, "initial tangent")[0]
@@ -424,15 +418,17 @@ def _first_point(ctx: TraceContext, rec: _Recorder, rpm_start: float, dirn: floa
     return ""
 
 
-def _approach_start(problem, rpm_start, tol, max_iter, max_points):
-    """Point at ``rpm_start`` reached by continuation from ``rpm_start / 4``, or None."""
+def _approach_start(ctx: TraceContext, rpm_start: float, max_points: int):
+    """Point at ``rpm_start`` reached by continuation from ``rpm_start / 4`` (measured by
+    the monitor's auxiliary, without stability), or None."""
     logger.warning("Newton failed at rpm_start = %.6g; approaching it by continuation from "
                    "%.6g rpm", rpm_start, rpm_start / 4)
-    sub = trace(problem, rpm_start / 4, rpm_start, tol=tol, max_iter=max_iter,
-                max_points=max_points, stability=False, start_fallback=False)
+    sub = continue_branch(ctx.model, ctx.monitor.auxiliary(), rpm_start / 4, rpm_start,
+                          tol=ctx.tol, max_iter=ctx.max_iter, max_points=max_points,
+                          start_fallback=False)
     if sub.status != "completed" or abs(sub.rpm[-1] - rpm_start) > 1e-12 * rpm_start:
         logger.warning("approach to rpm_start failed: %s", sub.message)
         return None
-    return problem.point(sub.unknowns[-1], sub.omega[-1], int(sub.newton_iterations[-1]),
-                         float(sub.residual[-1]))
-
+    return SimpleNamespace(unknowns=np.array(sub.unknowns[-1], dtype=float),
+                           omega=sub.omega[-1], iterations=int(sub.newton_iterations[-1]),
+                           residual=float(sub.residual[-1]))

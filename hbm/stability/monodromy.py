@@ -2,22 +2,24 @@
 
 A perturbation ``y`` of an HBM solution obeys, with every mode of the problem,
 
-    M y'' + C y' + K' y + G s'(t) G^T y = 0,     s'(t) = d f'/d Delta (t),        (T.10)
+    M y'' + C y' + K' y + G S'(t) G^T y = 0,     S'(t) = diag_e d f'_e/d Delta_e (t),  (T.10)
 
-``K' = K + k_bar G G^T`` the operator of eq. (17) and ``s'`` the derivative of the
-eq. (13) dead-zone force minus ``k_bar`` along the solution: ``k_m(t) - k_bar`` in
-contact, ``-k_bar`` when the teeth separate.  The coupling has rank one (the line
-of action), and the dead-zone force is continuous in ``Delta``, so (T.10) holds
-almost everywhere and no saltation is needed at contact switches.
+``K' = K + sum_e k_bar_e g_e g_e^T`` the operator of eq. (17) and ``s'_e`` the derivative
+of element e's force minus ``k_bar_e`` along the solution (a gear mesh, eq. 13:
+``k_m(t) - k_bar`` in contact, ``-k_bar`` when the teeth separate).  The coupling has
+rank E (one per element: the line of action of a mesh), and the dead-zone force is
+continuous in ``Delta``, so (T.10) holds almost everywhere and no saltation is needed at
+contact switches.
 
 One period is integrated by Strang splitting: an exact half step of the
 uncoupled part (2x2 exponential per mode for a modal damping, ``expm`` of the
-first-order matrix otherwise), the mesh kick ``v <- v - dt s'_n M^-1 G G^T q``
-(exact: the kick is nilpotent) and another exact half step.  ``s'_n`` is the mean
-of ``s'`` over step n, with the fraction of the step in contact taken from the
-linear interpolation of the gap, so a contact switch inside a step costs no order
-of accuracy beyond the interpolation.  The kick has determinant 1, so
-``det Phi = exp(-T tr M^-1 C)`` exactly (Liouville).
+first-order matrix otherwise), the element kick ``v <- v - dt M^-1 G S'_n G^T q``
+(exact: the kick is nilpotent) and another exact half step.  ``S'_n`` is the mean
+of ``S'`` over step n (each element's :meth:`~hbm.elements.Element.step_stiffness`; a
+gear mesh takes the fraction of the step in contact from the linear interpolation of the
+gap, so a contact switch inside a step costs no order of accuracy beyond the
+interpolation).  The kick has determinant 1, so ``det Phi = exp(-T tr M^-1 C)`` exactly
+(Liouville).
 
 The multipliers are the eigenvalues of the monodromy ``Phi``; the exponents
 ``lam = log(mu) / T`` with ``|Im lam| <= w0 / 2``.  For many modes only the
@@ -41,12 +43,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from .problem import HBMProblem, Point
+from ..problem import HBMProblem, Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MonodromyResult", "orbit_gap", "step_stiffness", "exponents_along",
-           "monodromy_exponents"]
+__all__ = ["DensePeriod", "ModalPeriod", "MonodromyResult", "exponents_along",
+           "monodromy_exponents", "orbit_deltas", "period_map", "step_stiffness"]
 
 
 @dataclass(frozen=True)
@@ -79,78 +81,81 @@ class MonodromyResult:
     basis: np.ndarray | None = None
 
 
-def _in_contact_fraction(p0: np.ndarray, p1: np.ndarray, thr: float) -> np.ndarray:
-    """Fraction of each step where the linear interpolation from p0 to p1 exceeds thr."""
-    a, b = p0 > thr, p1 > thr
-    d = np.where(p1 != p0, p1 - p0, 1.0)
-    th = np.clip((thr - p0) / d, 0.0, 1.0)
-    return np.where(a & b, 1.0, np.where(~a & ~b, 0.0, np.where(b, 1.0 - th, th)))
+def orbit_deltas(problem: HBMProblem, unknowns: np.ndarray, n_steps: int) -> np.ndarray:
+    """Every element's ``Delta_e`` (m) of an HBM solution at ``n_steps`` instants
+    ``t_i = i T / n_steps`` of one fundamental period, (E, n_steps)."""
+    synth, _ = problem.fine_grid(n_steps)
+    return synth @ problem.delta_real(unknowns)
 
 
-def orbit_gap(problem: HBMProblem, unknowns: np.ndarray, n_steps: int) -> np.ndarray:
-    """Gap ``p = Delta - e`` (m, eq. 13) of an HBM solution at ``n_steps`` instants
-    ``t_i = i T / n_steps`` of one fundamental period."""
-    e_fine, _, e = problem.fine_grid(n_steps)
-    return e_fine @ problem.delta_real(unknowns) - e
+def step_stiffness(problem: HBMProblem, deltas: np.ndarray) -> np.ndarray:
+    """Mean of ``s'_e(t) = d f'_e/d Delta_e`` over each step between the samples of every
+    element's deflection (N/m), (E, n).
 
-
-def step_stiffness(problem: HBMProblem, gap: np.ndarray) -> np.ndarray:
-    """Mean of ``s'(t) = d f'/d Delta`` over each step between the gap samples (N/m).
-
-    eq. (13) differentiated: ``k_m`` where a flank is loaded (``p > b`` or
-    ``p < -b``), 0 in the backlash, minus ``k_bar``; ``gap`` holds ``p`` at the
-    ``n`` instants ``i T / n`` of one period (:func:`orbit_gap`, or samples of a
-    time integration).
+    ``deltas``: ``Delta_e`` at the ``n`` instants ``i T / n`` of one period
+    (:func:`orbit_deltas`, or samples of a time integration), (E, n); each element's
+    :meth:`~hbm.elements.Element.step_stiffness` (a gear mesh: eq. 13 differentiated,
+    ``k_m`` where a flank is loaded, 0 in the backlash, minus ``k_bar``, with the
+    fraction of each step in contact from the linear interpolation of the gap).
     """
-    _, k, _ = problem.fine_grid(gap.size)
-    p1, k1 = np.roll(gap, -1), np.roll(k, -1)
-    frac = (_in_contact_fraction(gap, p1, problem.b)
-            + _in_contact_fraction(-gap, -p1, problem.b))
-    return 0.5 * (k + k1) * frac - problem.kbar
+    _, samples = problem.fine_grid(deltas.shape[-1])
+    return np.stack([el.step_stiffness(d, smp) for el, d, smp in
+                     zip(problem.elements, deltas, samples, strict=True)])
 
 
-class _ModalPeriod:
+class ModalPeriod:
     """One period of the (T.10) splitting in the eq. (17) modes, in chunks of steps.
 
-    With ``x_i`` the state before kick ``i``, ``y_i = g^T q_i`` and ``E`` the exact
-    modal step, ``x_{i+1} = E (x_i - kappa_i b y_i)`` (``b = (0, g)``: the kick acts on
-    the velocities). Over a chunk of ``L`` steps from ``x_s`` this unrolls into
+    With ``x_i`` the state before kick ``i``, ``y_i = G^T q_i`` (one entry per element)
+    and ``E`` the exact modal step, ``x_{i+1} = E (x_i - b K_i y_i)`` (``b = (0, G)``: the
+    kick acts on the velocities, ``K_i`` diagonal over the elements). Over a chunk of
+    ``L`` steps from ``x_s`` this unrolls into
 
-        y_{s+i} + sum_{l<i} h_{i-l} kappa_{s+l} y_{s+l} = g^T E^i x_s,
-        x_{s+L} = E^L x_s - sum_{l<L} kappa_{s+l} E^{L-l} b y_{s+l},
+        y_{s+i} + sum_{l<i} H_{i-l} K_{s+l} y_{s+l} = G^T E^i x_s,
+        x_{s+L} = E^L x_s - sum_{l<L} E^{L-l} b K_{s+l} y_{s+l},
 
-    ``h_k = g^T E_qv^k g`` the impulse response along the line of action: a small
-    unit lower-triangular system per chunk and matrix products, the same numbers as
-    stepping but ``L`` times fewer NumPy calls. The product of the ``E K_i`` is
-    similar to the Strang product ``E^(1/2) ... E^(1/2)`` (conjugate by ``E^(1/2)``):
-    same multipliers.
+    ``H_k = G^T E_qv^k G`` (E x E) the impulse response along the elements: a small
+    unit lower-triangular system per chunk (block lower-triangular with E x E blocks) and
+    matrix products, the same numbers as stepping but ``L`` times fewer NumPy calls. The
+    product of the ``E K_i`` is similar to the Strang product ``E^(1/2) ... E^(1/2)``
+    (conjugate by ``E^(1/2)``): same multipliers.
     """
 
     chunk = 64
 
     def __init__(self, problem: HBMProblem, jbar: np.ndarray, period: float) -> None:
         keep = ~problem.rigid
-        self.g = problem.gj[keep]
+        self.g = problem.gj[:, keep]                              # (E, m)
         self.c, self.w2 = problem.cj[keep], problem.w2[keep]
-        self.n = jbar.size
+        self.n = jbar.shape[-1]
         self.dt = period / self.n
-        self.kappa = self.dt * jbar
-        self.size = 2 * self.g.size
+        self.kappa = self.dt * jbar                               # (E, n)
+        self.size = 2 * self.g.shape[1]
         self.ops = {}
         for length in {min(self.chunk, self.n), self.n % min(self.chunk, self.n)} - {0}:
             self.ops[length] = self._chunk_operators(length)
 
     def _chunk_operators(self, length: int):
-        """(P, H, Q, E^L) of a chunk of ``length`` steps (see the class)."""
+        """(P, H, Q, E^L) of a chunk of ``length`` steps (see the class), rows and columns
+        ordered (step, element)."""
         g = self.g
+        ne, m = g.shape
         k = np.arange(length + 1)[:, None] * self.dt
         e = self._blocks(self.c, self.w2, k)                     # E^k, k = 0..L, (L+1, m)
-        p = np.hstack([e[0][:length] * g, e[1][:length] * g])  # rows g^T E^i, (L, 2m)
-        h = e[1][:length] @ (g * g)                              # h_0 = 0
+        # rows G^T E^i, (L E, 2m)
+        p = np.hstack([(e[0][:length, None, :] * g[None]).reshape(length * ne, m),
+                       (e[1][:length, None, :] * g[None]).reshape(length * ne, m)])
+        h = np.empty((length, ne, ne))                           # H_0 = 0
+        for a in range(ne):
+            for b in range(ne):
+                h[:, a, b] = e[1][:length] @ (g[a] * g[b])
         idx = np.arange(length)
-        lower = np.tril(h[np.abs(idx[:, None] - idx[None, :])], -1)
+        below = (idx[:, None] > idx[None, :])[:, :, None, None]
+        lower = np.where(below, h[np.abs(idx[:, None] - idx[None, :])], 0.0)
+        lower = lower.transpose(0, 2, 1, 3).reshape(length * ne, length * ne)
         rev = slice(length, 0, -1)                               # E^{L-l}, l = 0..L-1
-        q = np.vstack([(e[1][rev] * g).T, (e[3][rev] * g).T])   # (2m, L)
+        q = np.vstack([(e[1][rev][:, None, :] * g[None]).reshape(length * ne, m).T,
+                       (e[3][rev][:, None, :] * g[None]).reshape(length * ne, m).T])
         whole = [b[-1][:, None] for b in e]
         return p, lower, q, whole
 
@@ -175,14 +180,14 @@ class _ModalPeriod:
         return ex * ch - s * es, es, -w2 * es, ex * ch + s * es
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        m = self.g.size
+        m = self.g.shape[1]
         q, v = x[:m], x[m:]
         start = 0
         while start < self.n:
             length = min(self.chunk, self.n - start)
             p, lower, qm, e = self.ops[length]
-            kap = self.kappa[start:start + length]
-            y = sla.solve_triangular(np.eye(length) + lower * kap, p @ np.vstack([q, v]),
+            kap = self.kappa[:, start:start + length].T.ravel()  # (step, element)
+            y = sla.solve_triangular(np.eye(kap.size) + lower * kap, p @ np.vstack([q, v]),
                                      lower=True, unit_diagonal=True, check_finite=False)
             kick = qm @ (kap[:, None] * y)                        # (T.10) mesh kicks
             q, v = e[0] * q + e[1] * v - kick[:m], e[2] * q + e[3] * v - kick[m:]
@@ -190,7 +195,7 @@ class _ModalPeriod:
         return np.vstack([q, v])
 
 
-class _DensePeriod:
+class DensePeriod:
     """One period of (T.10) in physical coordinates: ``expm`` of the first-order matrix."""
 
     def __init__(self, problem: HBMProblem, jbar: np.ndarray, period: float) -> None:
@@ -201,28 +206,30 @@ class _DensePeriod:
         a[:n, n:] = np.eye(n)
         a[n:, :n] = -minv @ problem.Kp
         a[n:, n:] = -minv @ s.C
-        self.n = jbar.size
+        self.n = jbar.shape[-1]
         self.dt = period / self.n
         self.full = sla.expm(a * self.dt)
         self.half = sla.expm(a * 0.5 * self.dt)
-        self.mg = minv @ problem.G
-        self.g = problem.G
-        self.kick = self.dt * jbar
+        self.mg = [minv @ g for g in problem.directions]
+        self.g = problem.directions
+        self.kick = self.dt * jbar                               # (E, n)
         self.size = 2 * n
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        n = self.g.size
+        n = self.size // 2
         x = self.half @ x
         last = self.n - 1
         for i in range(self.n):
-            x[n:] -= np.outer(self.kick[i] * self.mg, self.g @ x[:n])   # (T.10) mesh kick
+            for kick, mg, g in zip(self.kick, self.mg, self.g, strict=True):
+                x[n:] -= np.outer(kick[i] * mg, g @ x[:n])           # (T.10) element kick
             x = (self.full if i < last else self.half) @ x
         return x
 
 
-def _period(problem: HBMProblem, gap: np.ndarray, period: float):
-    cls = _ModalPeriod if problem.modal else _DensePeriod
-    return cls(problem, step_stiffness(problem, gap), period)
+def period_map(problem: HBMProblem, deltas: np.ndarray, period: float):
+    """The one-period map of (T.10) along the elements' deflections ``deltas`` (E, n)."""
+    cls = ModalPeriod if problem.modal else DensePeriod
+    return cls(problem, step_stiffness(problem, deltas), period)
 
 
 def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int):
@@ -269,23 +276,25 @@ def _projected(step, basis: np.ndarray) -> np.ndarray:
     return mu[np.argsort(-np.abs(mu))[: max(1, basis.shape[1] // 2)]]
 
 
-def exponents_along(problem: HBMProblem, gap: np.ndarray, period: float,
+def exponents_along(problem: HBMProblem, deltas: np.ndarray, period: float,
                     columns: int = 16, ritz_tol: float = 1e-8) -> np.ndarray:
-    """Dominant Floquet exponents (1/s) of (T.10) along any periodic gap signal.
+    """Dominant Floquet exponents (1/s) of (T.10) along any periodic deflections.
 
-    ``gap``: ``p = Delta - e`` (m) at ``n`` equally spaced instants of one period
-    ``period`` (s) starting at the mesh phase origin — e.g. the last period of a
-    time integration, to check the exponents of an HBM orbit against those of the
-    orbit the equations of motion settle on.
+    ``deltas``: every element's ``Delta_e`` (m) at ``n`` equally spaced instants of one
+    period ``period`` (s) starting at the phase origin of the elements' parameters,
+    (E, n) (or (n,) with one element) — e.g. the last period of a time integration, to
+    check the exponents of an HBM orbit against those of the orbit the equations of
+    motion settle on.
     """
     size = 2 * (int(np.sum(~problem.rigid)) if problem.modal else problem.n_dof)
     cols = size if size <= 2 * columns else columns
-    mu, _, _ = _multipliers(_period(problem, np.asarray(gap, dtype=float), period), size,
+    deltas = np.asarray(deltas, dtype=float).reshape(problem.n_elements, -1)
+    mu, _, _ = _multipliers(period_map(problem, deltas, period), size,
                             cols, ritz_tol, None, np.random.default_rng(12345))
-    return _exponents(mu, period)
+    return floquet_from_multipliers(mu, period)
 
 
-def _exponents(mu: np.ndarray, period: float) -> np.ndarray:
+def floquet_from_multipliers(mu: np.ndarray, period: float) -> np.ndarray:
     """Floquet exponents log(mu) / T by decreasing real part; a multiplier 0 (a direction
     the period annihilates, e.g. a rank-deficient Ritz basis) gives -inf, not a warning."""
     mu = np.asarray(mu, dtype=complex)
@@ -336,14 +345,14 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     prev = None
     for refine in range(max_refine + 1):
         mu, cols, basis = _multipliers(
-            _period(problem, orbit_gap(problem, point.unknowns, n), period), size, cols,
+            period_map(problem, orbit_deltas(problem, point.unknowns, n), period), size, cols,
             ritz_tol, start, rng)
-        lam = _exponents(mu, period)
+        lam = floquet_from_multipliers(mu, period)
         if prev is None:
-            half = _period(problem, orbit_gap(problem, point.unknowns, n // 2), period)
+            half = period_map(problem, orbit_deltas(problem, point.unknowns, n // 2), period)
             mu_h = np.linalg.eigvals(half(np.eye(size))) if basis is None else \
                 _projected(half, basis)
-            prev = float(_exponents(mu_h, period)[0].real)
+            prev = float(floquet_from_multipliers(mu_h, period)[0].real)
         mx = float(lam[0].real)
         err = abs(mx - prev) / 3.0                       # second order in the step
         resolved = err <= rtol * abs(mx) or err * sign_margin < abs(mx)

@@ -7,17 +7,19 @@ transmission error, ``b`` the half backlash and ``k = k_m(t)`` the mesh stiffnes
           = 0           if |p| <= b  (contact loss)
           = k (p + b)   if p < -b    (reverse flank)
 
-One definition, used by the AFT force (:mod:`hbm.problem`), the time signals
-(:mod:`hbm.postprocess`) and the independent checks (:mod:`hbm.verify`).
+One definition, used by the gear-mesh element (:mod:`hbm.elements.gear_mesh`) for its
+AFT force, its time signals and statistics, and the independent checks
+(:mod:`hbm.post.verify`); with the counting of impacts per base period and the refined
+minimum of a sampled margin that its statistics use.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-__all__ = ["ContactStiffness", "KinkCorrection", "dead_zone", "dead_zone_stiffness",
-           "kink_correction"]
+from .base import KinkCorrection
+
+__all__ = ["dead_zone", "dead_zone_stiffness", "impacts_per_mesh_period",
+           "in_contact_fraction", "kink_correction", "refined_minimum"]
 
 
 def dead_zone(p: np.ndarray, k: np.ndarray, b: float) -> np.ndarray:
@@ -38,54 +40,6 @@ def dead_zone(p: np.ndarray, k: np.ndarray, b: float) -> np.ndarray:
 def dead_zone_stiffness(p: np.ndarray, k: np.ndarray, b: float) -> np.ndarray:
     """``d f_LoA / d p`` (N/m) of :func:`dead_zone`: ``k`` in contact, 0 in the gap."""
     return np.where((p > b) | (p < -b), k, 0.0)
-
-
-@dataclass(frozen=True)
-class KinkCorrection:
-    """Sub-sample correction of the sampled dead-zone force and its derivative.
-
-    ``values`` (N) is added to the samples ``dead_zone(p, k, b)``; ``nodes`` are the
-    first samples ``j`` of the intervals ``(j, j+1)`` (periodic) over which ``p``
-    crosses a kink ``+-b``; ``blocks[i]`` (2, 4) is the derivative of the corrections
-    at samples ``(j, j+1)`` with respect to ``p`` at ``(j-1, j, j+1, j+2)`` (N/m).
-    """
-
-    values: np.ndarray
-    nodes: np.ndarray
-    blocks: np.ndarray
-
-    def columns(self, n: int) -> np.ndarray:
-        """Sample indices ``(j-1, j, j+1, j+2)`` of each block, (m, 4)."""
-        return (self.nodes[:, None] + np.arange(-1, 3)[None, :]) % n
-
-    def apply(self, x: np.ndarray) -> np.ndarray:
-        """The derivative times samples ``x`` (N/m times m)."""
-        n = x.shape[-1]
-        cols, succ = self._indices(n)
-        xc = x[cols]                                               # (m, 4)
-        y = np.zeros_like(x)
-        # the nodes are distinct, and so are their successors: no repeated index per call
-        y[self.nodes] += np.einsum("mc,mc->m", self.blocks[:, 0], xc)
-        y[succ] += np.einsum("mc,mc->m", self.blocks[:, 1], xc)
-        return y
-
-    def _indices(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`columns` and the successors of the nodes on a grid of ``n`` (kept: a
-        GMRES solve applies the same correction tens of times)."""
-        cached = self.__dict__.get("_indices_cache")
-        if cached is None or cached[0] != n:
-            cached = (n, self.columns(n), (self.nodes + 1) % n)
-            object.__setattr__(self, "_indices_cache", cached)
-        return cached[1], cached[2]
-
-    def scaled(self, factor: float) -> KinkCorrection:
-        """The correction times ``factor`` (the contact-law homotopy)."""
-        return KinkCorrection(factor * self.values, self.nodes, factor * self.blocks)
-
-    @classmethod
-    def none(cls, n: int) -> KinkCorrection:
-        """No correction on a grid of ``n`` samples."""
-        return cls(np.zeros(n), np.zeros(0, dtype=int), np.zeros((0, 2, 4)))
 
 
 def _shape(p, b):
@@ -175,17 +129,32 @@ def kink_correction(p: np.ndarray, k: np.ndarray, b: float) -> KinkCorrection:
     return KinkCorrection(values, nodes, blocks)
 
 
-@dataclass(frozen=True)
-class ContactStiffness:
-    """``d f'/d Delta`` on the AFT grid: the samples ``s - k_bar`` (N/m) and the
-    blocks of the kink correction (:func:`kink_correction`)."""
+def in_contact_fraction(p0: np.ndarray, p1: np.ndarray, thr: float) -> np.ndarray:
+    """Fraction of each step where the linear interpolation from p0 to p1 exceeds thr."""
+    a, b = p0 > thr, p1 > thr
+    d = np.where(p1 != p0, p1 - p0, 1.0)
+    th = np.clip((thr - p0) / d, 0.0, 1.0)
+    return np.where(a & b, 1.0, np.where(~a & ~b, 0.0, np.where(b, 1.0 - th, th)))
 
-    samples: np.ndarray
-    kinks: KinkCorrection
 
-    def apply(self, x: np.ndarray) -> np.ndarray:
-        """The derivative times the samples ``x`` of a variation of Delta."""
-        y = self.samples * x
-        if self.kinks.nodes.size:
-            y = y + self.kinks.apply(x)
-        return y
+def impacts_per_mesh_period(loss: np.ndarray, mesh_step: int) -> np.ndarray:
+    """Impacts in each mesh period (Sect. 4.3) from ``loss``, ``(..., n_time)`` booleans
+    (contact lost) over one fundamental period of ``mesh_step`` mesh periods.
+
+    An impact is a loss sample followed, cyclically, by a contact sample. Returns
+    ``(..., mesh_step)`` integers.
+    """
+    loss = np.asarray(loss, dtype=bool)
+    n = loss.shape[-1]
+    imp = loss & ~np.roll(loss, -1, axis=-1)
+    return imp.reshape(*loss.shape[:-1], mesh_step, n // mesh_step).sum(axis=-1)
+
+
+def refined_minimum(y: np.ndarray) -> float:
+    """Minimum of a periodic sampled signal refined by a parabola through 3 samples."""
+    i = int(np.argmin(y))
+    ym, y0, yp = y[i - 1], y[i], y[(i + 1) % y.size]
+    curv = ym - 2 * y0 + yp
+    if curv > 0:
+        return float(y0 - (yp - ym) ** 2 / (8 * curv))
+    return float(y0)

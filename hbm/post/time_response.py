@@ -2,12 +2,13 @@
 orbit is unstable (docs/hbm.md "Time integration").
 
 The equations are those the harmonic balance solves (eq. 4, 13-14),
-``M q'' + C q' + K q + G f_LoA(G^T q, t) = f_ex(t)``, in the coupled modes of eq. (17):
-with ``K' = K + k_bar G G^T`` and the modal damping of eq. (18-19) the linear part is
-diagonal and the right-hand side costs O(n) per evaluation; all modes are kept, so the
-change of basis is exact. ``solve_ivp`` (DOP853) integrates them over whole shaft turns
-from the state of an HBM point; :func:`integrate` leaves out a transient and analyses a
-window: the mesh-load std of every turn and the strongest lines of its spectrum.
+``M q'' + C q' + K q + sum_e g_e f_e(g_e^T q, t) = f_ex(t)`` with every element, in the
+coupled modes of eq. (17): with ``K' = K + sum_e k_bar_e g_e g_e^T`` and the modal
+damping of eq. (18-19) the linear part is diagonal and the right-hand side costs O(n)
+per element per evaluation; all modes are kept, so the change of basis is exact.
+``solve_ivp`` (DOP853) integrates them over whole shaft turns from the state of an HBM
+point; :func:`integrate` leaves out a transient and analyses a window for one element
+(a gear mesh): the load std of every turn and the strongest lines of its spectrum.
 """
 
 from __future__ import annotations
@@ -16,20 +17,19 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
-from .contact import dead_zone
-from .postprocess import MeshPeriodEnvelope
-from .problem import RPM_TO_RAD_S, HBMProblem, Point
+from ..problem import HBMProblem, Point
+from ..units import RPM_TO_RAD_S
+from .stats import MeshPeriodEnvelope
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["ModalModel", "TimeResponse", "equations", "fundamentals_per_turn",
-           "initial_state", "integrate", "mesh_load", "modal_model", "state_atol"]
+__all__ = ["ModalModel", "TimeResponse", "element_load", "equations", "fundamentals_per_turn",
+           "initial_state", "integrate", "modal_model", "periods_per_turn", "state_atol"]
 
 #: Samples per mesh period of the analysed turns.
 SAMPLES_PER_MESH_PERIOD = 64
@@ -39,20 +39,19 @@ SAMPLES_PER_MESH_PERIOD = 64
 class ModalModel:
     """The HBM problem's equations at one speed, in the coupled modes of eq. (17).
 
-    ``eta'' + D eta' + diag(w2) eta + gamma (f_LoA(Delta, t) - k_bar Delta) = p(t)``,
-    ``Delta = gamma . eta``, ``p(t) = Re sum_k P_k exp(i kw_k t)``.
+    ``eta'' + D eta' + diag(w2) eta + sum_e gamma_e (f_e(Delta_e, t) - k_bar_e Delta_e)
+    = p(t)``, ``Delta_e = gamma_e . eta``, ``p(t) = Re sum_k P_k exp(i kw_k t)``.
     """
 
     phi: np.ndarray          # (n, m) mass-normalised modes
     w2: np.ndarray           # (m,) rad²/s²
     damp: np.ndarray         # (m,) modal damping 2 xi w (1/s), or (m, m) if not modal
-    gamma: np.ndarray        # (m,) Phi^T G
+    gamma: np.ndarray        # (E, m) Phi^T g_e
     forcing: np.ndarray      # (nS, m) complex modal forcing P_k (N/kg^1/2)
     kw: np.ndarray           # (nS,) angular frequencies k w0 (rad/s)
-    kbar: float              # mean mesh stiffness (N/m)
-    backlash: float          # half backlash b (m)
-    mesh: Any                # hbm.GearMesh: k_m(t), e(t)
-    mesh_rate: float         # mesh phase rate Z Omega (rad/s)
+    kbar: np.ndarray         # (E,) k_bar_e (N/m)
+    elements: tuple          # the problem's elements: f_e(Delta, t)
+    rates: tuple             # (E,) base phase rates base_ratio Omega (rad/s), 0 if none
     period: float            # fundamental period 2 pi / w0 (s)
 
     @property
@@ -60,11 +59,20 @@ class ModalModel:
         return self.w2.size
 
 
+def _rate(el, omega: float) -> float:
+    """Base phase rate ``base_ratio * Omega`` of an element (rad/s; 0 if time-invariant)."""
+    r = el.base_ratio
+    if r is None:
+        return 0.0
+    return r.numerator * omega if r.denominator == 1 else float(r) * omega
+
+
 def modal_model(problem: HBMProblem, rpm: float) -> ModalModel:
     """The equations of ``problem`` at ``rpm`` in modal form.
 
-    Modes of ``(K + k_bar G G^T, M)`` (eq. 17), mass-normalised. If ``Phi^T C Phi``
-    is diagonal to 1e-9 (the modal damping of eq. 18-19) only its diagonal is kept.
+    Modes of ``(K + sum k_bar_e g_e g_e^T, M)`` (eq. 17), mass-normalised. If
+    ``Phi^T C Phi`` is diagonal to 1e-9 (the modal damping of eq. 18-19) only its diagonal
+    is kept.
 
     Raises
     ------
@@ -76,59 +84,52 @@ def modal_model(problem: HBMProblem, rpm: float) -> ModalModel:
     s = problem.system
     omega = rpm * RPM_TO_RAD_S
     w0 = problem.harmonics.fundamental_rad_s(omega)
-    kbar = problem.mesh.mean_stiffness
-    g = np.asarray(problem.G, dtype=float)
-    w2, phi = sla.eigh(s.K + kbar * np.outer(g, g), s.M)
+    w2, phi = sla.eigh(problem.Kp, s.M)
     forcing = (problem.Fc + omega ** 2 * problem.Fu) @ phi          # (nS, m)
     rigid = w2 < 1e-9 * np.max(np.abs(w2))
     if np.any(rigid):
-        gam = phi[:, rigid].T @ g
-        if np.any(np.abs(forcing[:, rigid]) > 0) or np.any(np.abs(gam) > 0):
-            raise ValueError("problem: a rigid mode of K + k_bar G G^T is loaded "
+        gam = [phi[:, rigid].T @ g for g in problem.directions]
+        if np.any(np.abs(forcing[:, rigid]) > 0) or any(np.any(np.abs(x) > 0) for x in gam):
+            raise ValueError("problem: a rigid mode of K + sum k_bar g g^T is loaded "
                              "(no periodic steady state)")
         phi, w2, forcing = phi[:, ~rigid], w2[~rigid], forcing[:, ~rigid]
     cm = phi.T @ s.C @ phi
     off = cm - np.diag(np.diag(cm))
     damp = np.diag(cm).copy() if np.max(np.abs(off)) <= 1e-9 * max(np.max(np.abs(cm)), 1e-300) \
         else cm
-    return ModalModel(phi=phi, w2=w2, damp=damp, gamma=phi.T @ g, forcing=forcing,
-                      kw=problem.kS * w0, kbar=kbar, backlash=problem.mesh.backlash,
-                      mesh=problem.mesh, mesh_rate=problem.mesh.n_teeth * omega,
+    return ModalModel(phi=phi, w2=w2, damp=damp,
+                      gamma=np.stack([phi.T @ g for g in problem.directions]),
+                      forcing=forcing, kw=problem.kS * w0, kbar=problem.kbar,
+                      elements=problem.elements,
+                      rates=tuple(_rate(el, omega) for el in problem.elements),
                       period=2 * np.pi / w0)
 
 
-def mesh_load(mm: ModalModel, delta: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Dead-zone mesh force f_LoA (N) of eq. (13) at times ``t`` (s)."""
-    ph = mm.mesh_rate * t
-    return dead_zone(delta - mm.mesh.error_at(ph), mm.mesh.stiffness_at(ph), mm.backlash)
+def element_load(mm: ModalModel, delta: np.ndarray, t: np.ndarray, element: int = 0
+                 ) -> np.ndarray:
+    """Force ``f_e`` (N) of element ``element`` (a gear mesh: the dead zone of eq. 13)
+    at times ``t`` (s)."""
+    el = mm.elements[element]
+    return el.load(delta, el.sample(mm.rates[element] * t))
 
 
 def equations(mm: ModalModel) -> Callable[[float, np.ndarray], np.ndarray]:
     """Right-hand side ``y' = f(t, y)`` of the modal state ``y = (eta, eta')``."""
     m = mm.n_modes
-    gam, w2, damp, P, kw, b, kbar = (mm.gamma, mm.w2, mm.damp, mm.forcing, mm.kw,
-                                     mm.backlash, mm.kbar)
+    w2, damp, P, kw = mm.w2, mm.damp, mm.forcing, mm.kw
     loaded_rows = np.any(P != 0, axis=1)     # only the forced harmonics: exact, and the
     P, kw = P[loaded_rows], kw[loaded_rows]  # shaft-order sets hold hundreds of unforced ones
     modal = damp.ndim == 1
-    mesh = mm.mesh
-    k_coef = list(mesh.stiffness.items())
-    te_coef = list(mesh.te.items())
-    loaded = mesh.te_kind == "loaded"
-    fs = mesh.static_load
+    terms = [(g, el.time_force(), rate, kb) for g, el, rate, kb in
+             zip(mm.gamma, mm.elements, mm.rates, mm.kbar, strict=True)]
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         eta, vel = y[:m], y[m:]
-        ph = mm.mesh_rate * t
-        km = sum((c * np.exp(1j * mi * ph)).real for mi, c in k_coef)
-        e = sum((c * np.exp(1j * mi * ph)).real for mi, c in te_coef)
-        if loaded:
-            e -= fs / km                                                # eq. (12)
-        delta = gam @ eta
-        p = delta - e
-        f = km * (p - b) if p > b else km * (p + b) if p < -b else 0.0   # eq. (13)
         ext = (np.exp(1j * kw * t) @ P).real
-        acc = ext - (damp * vel if modal else damp @ vel) - w2 * eta - gam * (f - kbar * delta)
+        acc = ext - (damp * vel if modal else damp @ vel) - w2 * eta
+        for gam, force, rate, kbar in terms:
+            delta = gam @ eta
+            acc = acc - gam * (force(delta, rate * t) - kbar * delta)
         return np.concatenate([vel, acc])
     return fun
 
@@ -192,22 +193,40 @@ class TimeResponse:
 
 
 def fundamentals_per_turn(problem: HBMProblem) -> int:
-    """Fundamental periods of the harmonic set in one shaft turn: 1 (shaft fundamental)
-    or Z (mesh fundamental)."""
-    return problem.mesh.n_teeth // problem.mesh_step
+    """Fundamental periods of the harmonic set in one turn of the reference shaft: 1
+    (shaft fundamental) or Z (mesh fundamental); refused for a fundamental below the
+    shaft's (a turn is not a whole number of fundamental periods)."""
+    r = problem.harmonics.ratio
+    if r.denominator != 1:
+        raise ValueError(f"time response: the fundamental {r} Omega is not a whole number "
+                         "of periods per shaft turn")
+    return r.numerator
 
 
-def _turn(problem: HBMProblem, mm: ModalModel) -> tuple[float, np.ndarray]:
+def periods_per_turn(problem: HBMProblem, element: int) -> int:
+    """Base periods of element ``element`` in one turn of the reference shaft (a gear
+    mesh on that shaft: Z; a time-invariant element: 1)."""
+    r = problem.elements[element].base_ratio
+    if r is None:
+        return 1
+    if r.denominator != 1:
+        raise ValueError(f"time response: {problem.labels[element]} has {r} base periods "
+                         "per shaft turn; a whole number is needed")
+    return r.numerator
+
+
+def _turn(problem: HBMProblem, mm: ModalModel, element: int) -> tuple[float, np.ndarray]:
     """Duration of a shaft turn (s) and its sample times (Z x SAMPLES_PER_MESH_PERIOD)."""
     T = fundamentals_per_turn(problem) * mm.period
-    n = problem.mesh.n_teeth * SAMPLES_PER_MESH_PERIOD
+    n = periods_per_turn(problem, element) * SAMPLES_PER_MESH_PERIOD
     return T, T * np.arange(n) / n
 
 
 def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
               transient: int = 30, window: int = 16, rtol: float = 1e-9,
-              n_lines: int = 12) -> TimeResponse:
-    """Integrate the equations at ``rpm`` over whole shaft turns.
+              n_lines: int = 12, element: int = 0) -> TimeResponse:
+    """Integrate the equations at ``rpm`` over whole shaft turns (every element), and
+    analyse the load of element ``element``.
 
     Parameters
     ----------
@@ -239,7 +258,7 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
     if not 0 < rtol < 1:
         raise ValueError(f"rtol = {rtol!r}: must be in (0, 1)")
     mm = modal_model(problem, rpm)
-    T, te = _turn(problem, mm)
+    T, te = _turn(problem, mm, element)
     y = initial_state(problem, start, mm) if isinstance(start, Point) else \
         np.array(start, dtype=float)
     if y.shape != (2 * mm.n_modes,):
@@ -255,8 +274,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
             raise RuntimeError(f"{rpm:.6g} rpm: solve_ivp failed after {k} turns: "
                                f"{sol.message}")
         y = sol.y[:, -1]
-        delta = mm.gamma @ sol.y[:m, :-1]
-        load = mesh_load(mm, delta, te)
+        delta = mm.gamma[element] @ sol.y[:m, :-1]
+        load = element_load(mm, delta, te, element)
         stds.append(float(load.std()))
         if k >= transient:
             loads.append(load)
@@ -269,8 +288,9 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
                        max_load=float(sig.max()),
                        lines=[(float(j / window), float(spec[j])) for j in top],
                        seconds=time.perf_counter() - t0, state=y, delta=delta,
-                       envelope=MeshPeriodEnvelope.of(sig, np.concatenate(deltas),
-                                                      problem.mesh.n_teeth * window))
+                       envelope=MeshPeriodEnvelope.of(
+                           sig, np.concatenate(deltas),
+                           periods_per_turn(problem, element) * window))
     logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
                 "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
                 out.periodic)

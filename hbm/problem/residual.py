@@ -1,15 +1,17 @@
-"""The HBM problem: shared linear data, AFT mesh force, Newton solve at one speed.
+"""The HBM problem: shared linear data, AFT forces of the elements, Newton at one speed.
 
-Equation (eq. 4, 14, 21):  M q'' + C q' + K q + G f_LoA(G^T q, t) = f_ex(t).
+Equation (eq. 4, 14, 21):  M q'' + C q' + K q + sum_e g_e f_e(g_e^T q, t) = f_ex(t),
+one term per nonlinear element ``e`` (:mod:`hbm.elements`) acting along its direction
+``g_e``; ``G = [g_1 ... g_E]`` (n, E).
 
-Internally the mean mesh stiffness is moved to the linear part (the operator of
-eq. 17), which makes the static dynamic stiffness regular even when K has
-rigid-body modes (a free gear pair):
+Internally each element's linear stiffness is moved to the linear part (the operator of
+eq. 17), which makes the static dynamic stiffness regular even when K has rigid-body
+modes (a free gear pair):
 
-    K' = K + k_bar G G^T,      f'(Delta, t) = f_LoA(Delta, t) - k_bar Delta.
+    K' = K + sum_e k_bar_e g_e g_e^T,      f'_e(Delta_e, t) = f_e(Delta_e, t) - k_bar_e Delta_e.
 
 With ``Z'_k(Omega) = K' - (k w0)^2 M + i k w0 C`` (eq. 22) the harmonic balance
-reads ``Z'_k q_k + G f'_k = F_k`` for every retained index k.  Which unknowns
+reads ``Z'_k q_k + sum_e g_e f'_e,k = F_k`` for every retained index k.  Which unknowns
 the solver sees ("none", "gear", "loa") is decided by a condensation object
 (:mod:`hbm.condensation`) that :class:`HBMProblem` delegates the residual, the
 Jacobians, the scales and the recovery of the coordinates to.
@@ -18,32 +20,28 @@ Jacobians, the scales and the recovery of the coordinates to.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..basis import HarmonicSet
+from ..condensation import CONDENSATIONS, Condensation, make_condensation
+from ..elements.base import Element, ElementStiffness
+from ..krylov import Preconditioners
+from ..modes import modes, static_deflection
+from ..system import Excitation, LinearSystem
+from ..units import RPM_TO_RAD_S
 from . import fixed_speed
-from .condensation import CONDENSATIONS, Condensation, make_condensation
-from .contact import (
-    ContactStiffness,
-    KinkCorrection,
-    dead_zone,
-    dead_zone_stiffness,
-    kink_correction,
-)
-from .fixed_speed import RPM_TO_RAD_S, Point
-from .harmonics import HarmonicSet
-from .krylov import Preconditioners
-from .model import Excitation, GearMesh, LinearSystem
-from .modes import length_scale, modes
-from .newton import COND_WARN, ConvergenceError, solve_checked
+from .fixed_speed import Point
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["HBMProblem", "Point", "ConvergenceError", "RPM_TO_RAD_S", "COND_WARN", "solve_checked"]
+__all__ = ["AFT_KINDS", "HBMProblem", "LINEAR_SOLVERS", "KRYLOV_MIN", "Synthesis",
+           "block_diagonal"]
 
 LINEAR_SOLVERS = ("auto", "dense", "krylov")
-# "corrected": samples of the dead-zone force with the sub-sample kink correction
+# "corrected": samples of the non-smooth forces with the sub-sample kink correction
 # (T.13a, C1 in the unknowns); "sampled": the plain samples (piecewise smooth)
 AFT_KINDS = ("corrected", "sampled")
 # "auto": matrix-free from this many real unknowns on (loa); below, the dense LU is as
@@ -64,13 +62,38 @@ class Synthesis:
         return self.harmonics.synthesize(xr, self.n_time)
 
 
-def _check_inputs(system, mesh, excitation, harmonics, condensation: str,
-                  linear_solver: str, aft: str) -> None:
-    """Refuse bad inputs of :class:`HBMProblem`, naming the field and its allowed values."""
+def block_diagonal(blocks) -> np.ndarray:
+    """The block-diagonal matrix of the square ``blocks`` (one per element)."""
+    if len(blocks) == 1:
+        return blocks[0]
+    n = sum(b.shape[0] for b in blocks)
+    out = np.zeros((n, n), dtype=np.result_type(*blocks))
+    i = 0
+    for b in blocks:
+        out[i:i + b.shape[0], i:i + b.shape[0]] = b
+        i += b.shape[0]
+    return out
+
+
+def _check_inputs(system, elements, excitation, harmonics, condensation: str,
+                  linear_solver: str, aft: str) -> tuple[Element, ...]:
+    """Refuse bad inputs of :class:`HBMProblem`, naming the field and its allowed values;
+    the elements as a tuple."""
     if not isinstance(system, LinearSystem):
         raise ValueError(f"problem.system = {type(system).__name__}: must be a LinearSystem")
-    if not isinstance(mesh, GearMesh):
-        raise ValueError(f"problem.mesh = {type(mesh).__name__}: must be a GearMesh")
+    if isinstance(elements, Element) or not isinstance(elements, (list, tuple)):
+        raise ValueError(f"problem.elements = {type(elements).__name__}: must be a list of "
+                         "elements (hbm.GearMesh, ...)")
+    if not elements:
+        raise ValueError("problem.elements = []: needs at least one nonlinear element")
+    n = system.n_dof
+    for i, el in enumerate(elements):
+        if not isinstance(el, Element):
+            raise ValueError(f"problem.elements[{i}] = {type(el).__name__}: must be an "
+                             "hbm element (hbm.GearMesh, hbm.CubicSpring, ...)")
+        if el.direction.shape != (n,):
+            raise ValueError(f"problem.elements[{i}].direction shape = {el.direction.shape}: "
+                             f"must be ({n},) like the system")
     if not isinstance(excitation, Excitation):
         raise ValueError(
             f"problem.excitation = {type(excitation).__name__}: must be an Excitation")
@@ -87,17 +110,9 @@ def _check_inputs(system, mesh, excitation, harmonics, condensation: str,
         raise ValueError(f"problem.aft = {aft!r}: must be one of {', '.join(AFT_KINDS)}")
     if linear_solver == "krylov" and condensation != "loa":
         raise ValueError("problem.linear_solver = 'krylov': needs condensation = 'loa'")
-    n = system.n_dof
     if excitation.n_dof != n:
         raise ValueError(f"excitation.n_dof = {excitation.n_dof}: must equal system size {n}")
-    z = mesh.n_teeth
-    hs = harmonics
-    if hs.fundamental == "mesh" and hs.divisor != z:
-        raise ValueError(
-            f"harmonics.divisor = {hs.divisor}: a mesh-fundamental set needs divisor = "
-            f"n_teeth = {z}")
-    if z % hs.divisor:
-        raise ValueError(f"harmonics.divisor = {hs.divisor}: must divide n_teeth = {z}")
+    return tuple(elements)
 
 
 def _forcing(excitation, hs: HarmonicSet, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -106,51 +121,86 @@ def _forcing(excitation, hs: HarmonicSet, n: int) -> tuple[np.ndarray, np.ndarra
     fu = np.zeros((hs.n_harmonics, n), dtype=complex)
     pos = {k: i for i, k in enumerate(hs.indices)}
     for name, arr in (("constant", fc), ("omega_squared", fu)):
-        for order, vec in getattr(excitation, name).items():
-            idx = hs.index_of_shaft_order(order)
+        for ratio, vec in getattr(excitation, name).items():
+            idx = hs.index_of(ratio)
             if idx is None:
                 raise ValueError(
-                    f"excitation.{name} order = {order}: shaft order not representable in "
-                    f"the harmonic set ({hs.fundamental} fundamental, w0 = {hs.divisor} "
-                    f"Omega, indices {list(hs.indices)[:12]}...)")
+                    f"excitation.{name} frequency ratio = {ratio}: not representable in the "
+                    f"harmonic set ({hs.fundamental} fundamental, w0 = {hs.ratio} Omega, "
+                    f"indices {list(hs.indices)[:12]}...)")
             arr[pos[idx]] += vec
     return fc, fu
 
 
+def _element_step(el: Element, hs: HarmonicSet, label: str) -> int:
+    """Harmonic index of the element's base frequency (0 for a time-invariant one), with
+    its parameters' top harmonic checked against the AFT grid."""
+    if el.base_ratio is None:
+        return 0
+    step = hs.step_of(el.base_ratio, label)
+    harms = el.parameter_harmonics
+    top = max(harms, default=0) * step
+    if 2 * top >= hs.n_time:
+        raise ValueError(
+            f"harmonics.n_time = {hs.n_time}: too few samples for harmonic "
+            f"{max(harms, default=0)} of {label} (index {top}); need > {2 * top}")
+    missing = [m for m in harms if m * step not in hs.indices]
+    if missing:
+        logger.warning("%s: harmonics %s of its base frequency are not in the harmonic set; "
+                       "their direct contribution is only seen through products", label,
+                       sorted(set(missing)))
+    return step
+
+
 class HBMProblem:
-    """Harmonic balance of a linear system with one gear mesh.
+    """Harmonic balance of a linear system with a list of nonlinear elements.
 
     Parameters
     ----------
-    system, mesh, excitation, harmonics
-        See :class:`LinearSystem`, :class:`GearMesh`, :class:`Excitation`,
-        :class:`HarmonicSet`.
+    system, elements, excitation, harmonics
+        See :class:`LinearSystem`, :mod:`hbm.elements` (a list, each element with its
+        direction), :class:`Excitation`, :class:`HarmonicSet`. The fundamental of the
+        harmonic set must divide every element's base frequency.
     condensation
         ``"none"``, ``"gear"`` or ``"loa"`` (default).
+    linear_solver
+        ``"auto"``, ``"dense"`` or ``"krylov"`` (matrix-free Newton, loa only).
+    aft
+        ``"corrected"`` (default) or ``"sampled"``: the AFT of non-smooth forces with or
+        without the sub-sample kink correction (T.13a).
+
+    Attributes
+    ----------
+    elements
+        The elements (tuple); ``n_elements`` of them, ``directions`` their ``g_e`` and
+        ``G`` the (n, n_elements) matrix of them.
+    steps
+        Per element, the harmonic index of its base frequency (0: time-invariant).
+    samples
+        Per element, its parameters on the AFT grid (:meth:`Element.sample`).
+    kbar
+        Per element, ``k_bar_e`` (N/m) moved into ``Kp`` (eq. 17).
+    length_scales
+        Per element, the scale of its unknowns (m): the largest of its own and of its
+        static deflection.
     """
 
-    def __init__(self, system: LinearSystem, mesh: GearMesh, excitation: Excitation,
+    def __init__(self, system: LinearSystem, elements, excitation: Excitation,
                  harmonics: HarmonicSet, condensation: str = "loa",
                  linear_solver: str = "auto", aft: str = "corrected") -> None:
-        _check_inputs(system, mesh, excitation, harmonics, condensation, linear_solver, aft)
+        elements = _check_inputs(system, elements, excitation, harmonics, condensation,
+                                 linear_solver, aft)
         self.aft = aft
         n = system.n_dof
-        z = mesh.n_teeth
         hs = harmonics
-        self.system, self.mesh, self.excitation, self.harmonics = system, mesh, excitation, hs
+        self.system, self.elements, self.excitation, self.harmonics = (system, elements,
+                                                                        excitation, hs)
         self.condensation = condensation
         self.n_dof = n
-        self.mesh_step = z // hs.divisor        # harmonic index of mesh harmonic 1
-        top = mesh.max_harmonic * self.mesh_step
-        if 2 * top >= hs.n_time:
-            raise ValueError(
-                f"harmonics.n_time = {hs.n_time}: too few samples for mesh harmonic "
-                f"{mesh.max_harmonic} (index {top}); need > {2 * top}")
-        missing = [m for m in list(mesh.stiffness) + list(mesh.te)
-                   if m * self.mesh_step not in hs.indices]
-        if missing:
-            logger.warning("mesh harmonics %s are not in the harmonic set; their direct "
-                           "contribution is only seen through products", sorted(set(missing)))
+        self.n_elements = len(elements)
+        self.labels = tuple(f"elements[{i}] ({el.name})" for i, el in enumerate(elements))
+        self.steps = tuple(_element_step(el, hs, lab)
+                           for el, lab in zip(elements, self.labels, strict=True))
         self.kS = np.asarray(hs.indices, dtype=float)
         self.harmonic_indices = np.asarray(hs.indices, dtype=np.int64)
         self.nS = hs.n_harmonics
@@ -159,31 +209,40 @@ class HBMProblem:
         # forcing per harmonic index (nS, n) complex
         self.Fc, self.Fu = _forcing(excitation, hs, n)
 
-        # mesh signals on the AFT grid tau = w0 t (Omega-independent); the AFT itself is
-        # by FFT (HarmonicSet.synthesize / analyse), E and A are built only on request
+        # element parameters on the AFT grid tau = w0 t (Omega-independent); the AFT itself
+        # is by FFT (HarmonicSet.synthesize / analyse), E and A are built only on request
         self._aft: tuple | None = None
-        phase = hs.time_grid() * self.mesh_step
-        self.k_t = mesh.stiffness_at(phase)
-        self.e_t = mesh.error_at(phase)
-        self.kbar = mesh.mean_stiffness
-        self.b = mesh.backlash
-
-        g = system.G
-        self.G = g
-        self.Kp = system.K + self.kbar * np.outer(g, g)                 # eq. (17) operator
+        self.samples = self._sample(hs.n_time)
+        self.kbar = np.array([el.linear_stiffness for el in elements])
+        self.directions = tuple(el.direction for el in elements)
+        self.G = np.column_stack(self.directions)                      # (n, n_elements)
+        kp = system.K
+        for el, g in zip(elements, self.directions, strict=True):
+            kp = kp + el.linear_stiffness * np.outer(g, g)             # eq. (17) operator
+        self.Kp = kp
         # equilibration D = diag(M)^-1/2: D Z D is in 1/s^2 whatever the units of each
         # coordinate, so every dense factorisation below is done on it
         self.dof_eq = 1.0 / np.sqrt(np.diag(system.M))
-        md = modes(self.Kp, system.M, system.C, g, self.Fc, self.Fu, self.dof_eq)
+        md = modes(self.Kp, system.M, system.C, self.directions, self.Fc, self.Fu,
+                   self.dof_eq)
         self.modal, self.kp_symmetric = md.modal, md.kp_symmetric
         self.w2, self.phi, self.cj, self.gj = md.w2, md.phi, md.cj, md.gj
         self.pfc, self.pfu, self.rigid = md.pfc, md.pfu, md.rigid
-        self.length_scale = length_scale(self.b, self.e_t, mesh.static_load, self.kbar, md,
-                                         self.Kp, g, self.Fc[0], self.dof_eq)
+        self.length_scales = np.array([
+            float(max(el.scale(smp), static_deflection(md, self.Kp, g, gj, self.Fc[0],
+                                                       self.dof_eq)))
+            for el, smp, g, gj in zip(elements, self.samples, self.directions, md.gj,
+                                      strict=True)])
+        if not np.all(self.length_scales > 0):
+            bad = [lab for lab, s in zip(self.labels, self.length_scales, strict=True)
+                   if not s > 0]
+            raise ValueError(f"problem: {', '.join(bad)} has no length scale (no own scale "
+                             "and no static deflection): the unknowns cannot be scaled")
         self._fine_cache: dict[int, tuple] = {}
         # matrix-free Newton matrices solved by GMRES (hbm/krylov.py) for large sets
         self.matrix_free = condensation == "loa" and (
-            linear_solver == "krylov" or (linear_solver == "auto" and hs.n_real >= KRYLOV_MIN))
+            linear_solver == "krylov" or (linear_solver == "auto"
+                                          and self.n_elements * hs.n_real >= KRYLOV_MIN))
         self.preconditioners = Preconditioners()
         self.scheme: Condensation = make_condensation(condensation, self)
 
@@ -201,7 +260,7 @@ class HBMProblem:
     # ------------------------------------------------------------------ linear parts
     def harmonic_frequencies(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
         """``k w0`` (rad/s) of every retained index and its Omega-derivative ``k w0 / Omega``."""
-        kd = self.kS * self.harmonics.divisor
+        kd = self.kS * self.harmonics.rate
         return kd * omega, kd
 
     def dynamic_stiffness(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
@@ -221,7 +280,7 @@ class HBMProblem:
         """Modal receptances ``1 / (w_j^2 - (k w0)^2 + i k w0 c_j)`` and their
         Omega-derivatives, (n_modes, nS) complex (eq. 18-19).
 
-        The static term of a rigid-body mode the mesh does not restrain is set to 0.
+        The static term of a rigid-body mode no element restrains is set to 0.
         Meaningful when :attr:`modal` (C diagonal in the eq. (17) modes).
         """
         w, kd = self.harmonic_frequencies(omega)
@@ -258,46 +317,50 @@ class HBMProblem:
             self._aft = self.harmonics.aft_matrices()
         return self._aft[1]
 
-    def mesh_force(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0):
-        """AFT of f' = f_LoA - k_bar Delta (eq. 13) from the real coefficients of Delta.
+    def _sample(self, n_time: int) -> tuple:
+        """Every element's parameters on a grid of ``n_time`` instants of one fundamental
+        period (base phase ``step * tau``)."""
+        tau = self.harmonics.time_grid(n_time)
+        return tuple(el.sample(tau * step) if step else None
+                     for el, step in zip(self.elements, self.steps, strict=True))
 
-        ``law`` = 1 is the dead zone; 0 the linear contact law ``k_m (p - b)``
-        (permanent active contact); values in between blend the two (homotopy).
-        Returns the real coefficients of f' (N) and, if asked, d f'/d Delta
-        (n_real, n_real) (N/m).
+    def forces(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0):
+        """AFT of every element's ``f'_e = f_e - k_bar_e Delta_e`` from the real
+        coefficients of the Deltas (n_elements, n_real).
+
+        ``law`` = 1 is each element's own law, 0 its linear law (a gear mesh: permanent
+        active contact); values in between blend the two (homotopy). Returns the real
+        coefficients of the f'_e (n_elements, n_real) (N) and, if asked, their
+        derivatives ``d f'_e/d Delta_e``, a list of (n_real, n_real) matrices (N/m).
         """
-        ft, st = self.mesh_force_samples(delta_r, jacobian, law)
-        return ft, (self.contact_matrix(st) if jacobian else None)
+        ft, st = self.force_samples(delta_r, jacobian, law)
+        return ft, ([self.stiffness_matrix(s) for s in st] if jacobian else None)
 
-    def mesh_force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
-                           law: float = 1.0) -> tuple[np.ndarray, ContactStiffness | None]:
-        """As :meth:`mesh_force`, with ``d f'/d Delta`` on the AFT grid
-        (:class:`hbm.contact.ContactStiffness`) instead of the dense matrix.
+    def force_samples(self, delta_r: np.ndarray, stiffness: bool = True,
+                      law: float = 1.0) -> tuple[np.ndarray, list[ElementStiffness] | None]:
+        """As :meth:`forces`, with each ``d f'_e/d Delta_e`` on the AFT grid
+        (:class:`hbm.elements.ElementStiffness`) instead of the dense matrix.
 
-        The samples of the dead-zone force carry the sub-sample kink correction (T.13a,
-        :func:`hbm.contact.kink_correction`) that makes them C1 in the unknowns.
+        With ``aft = "corrected"`` the samples of a non-smooth force carry the sub-sample
+        kink correction (T.13a) that makes them C1 in the unknowns.
         """
         delta = self.harmonics.synthesize(delta_r)
-        p = delta - self.e_t
-        if law == 0.0 or self.aft == "sampled":
-            kinks = KinkCorrection.none(p.size)
-        else:
-            kinks = kink_correction(p, self.k_t, self.b)
-        if law == 0.0:
-            f = self.k_t * (p - self.b)
-            s = self.k_t
-        else:
-            f = dead_zone(p, self.k_t, self.b) + kinks.values
-            s = dead_zone_stiffness(p, self.k_t, self.b)
-            if law != 1.0:
-                f = law * f + (1.0 - law) * self.k_t * (p - self.b)
-                s = law * s + (1.0 - law) * self.k_t
-                kinks = kinks.scaled(law)
-        ft = self.harmonics.analyse(f - self.kbar * delta)
-        return ft, (ContactStiffness(s - self.kbar, kinks) if stiffness else None)
+        corrected = self.aft == "corrected"
+        fs, sts = [], []
+        for el, smp, d in zip(self.elements, self.samples, delta, strict=True):
+            f, st = el.force(d, smp, law, corrected, stiffness)
+            fs.append(f)
+            sts.append(st)
+        ft = self.harmonics.analyse(fs[0][None] if len(fs) == 1 else np.stack(fs))
+        return ft, (sts if stiffness else None)
 
-    def contact_matrix(self, st: ContactStiffness) -> np.ndarray:
-        """Real-layout matrix of ``x -> Galerkin(st.apply(x(tau)))``: the dense
+    def element_jacobian(self, delta_r: np.ndarray) -> np.ndarray:
+        """``J_f``: the block-diagonal ``d f'/d Delta`` of every element (n_elements n_real
+        square, element-major), at the elements' own law."""
+        return block_diagonal(self.forces(delta_r)[1])
+
+    def stiffness_matrix(self, st: ElementStiffness) -> np.ndarray:
+        """Real-layout matrix of ``x -> Galerkin(st.apply(x(tau)))``: an element's dense
         ``d f'/d Delta`` (n_real, n_real), kink blocks included."""
         out = self.multiplication_matrix(st.samples)
         kc = st.kinks
@@ -348,14 +411,20 @@ class HBMProblem:
         return self.scheme.eq_scale
 
     def delta_real(self, u: np.ndarray) -> np.ndarray:
-        """Real coefficients of Delta = G^T q from the unknowns."""
+        """Real coefficients of every ``Delta_e = g_e^T q`` from the unknowns,
+        (n_elements, n_real)."""
         return self.scheme.delta_real(u)
+
+    @property
+    def vibration(self) -> np.ndarray:
+        """Mask of the unknowns that are not a mean (index 0) of their signal."""
+        return np.arange(self.n_unknowns) % self.nr != 0
 
     def evaluate(self, u: np.ndarray, omega: float, jacobian: bool = True, law: float = 1.0):
         """Residual R(u, Omega) and, if asked, dR/du and dR/dOmega (physical units).
 
         loa: R in m; none/gear: R in N (per DOF, DOF-major real layout).
-        ``law``: contact law, see :meth:`mesh_force`.
+        ``law``: the elements' law, see :meth:`forces`.
         """
         return self.scheme.evaluate(np.asarray(u, dtype=float), omega, jacobian, law)
 
@@ -390,7 +459,7 @@ class HBMProblem:
     def solve(self, rpm: float, x0: np.ndarray | None = None, tol: float = 1e-8,
               max_iter: int = 40) -> Point:
         """Newton corrector at fixed speed with scaled unknowns and equations; on failure the
-        contact-law homotopy, then damped Newton (:func:`hbm.fixed_speed.solve`).
+        contact-law homotopy, then damped Newton (:func:`hbm.problem.fixed_speed.solve`).
 
         Parameters
         ----------
@@ -421,11 +490,12 @@ class HBMProblem:
         return r / self.eq_scale, self.scaled_jacobian(ju), jw / self.eq_scale
 
     def scaled_jacobian(self, ju):
-        """``dR/du`` in scaled unknowns and equations; a matrix-free one (loa: both
-        scales are the same length) is unchanged."""
+        """``dR/du`` in scaled unknowns and equations; a matrix-free one (loa: the scale of
+        each element's unknowns and equations is the same length) is unchanged with one
+        length scale, else rescaled between the elements' blocks."""
         if isinstance(ju, np.ndarray):
             return ju * (self.x_scale[None, :] / self.eq_scale[:, None])
-        return ju
+        return ju.rescaled(self.length_scales)
 
     # ------------------------------------------------------------------ recovery
     def recover(self, point: Point | np.ndarray, omega: float | None = None) -> np.ndarray:
@@ -438,13 +508,19 @@ class HBMProblem:
                 raise ValueError("recover: omega is required with raw unknowns")
         return self.scheme.recover(u, omega)
 
-    def fine_grid(self, n_time: int) -> tuple[Synthesis, np.ndarray, np.ndarray]:
-        """Synthesis operator (``synth @ x_real``), k_m and e on a grid of ``n_time``
-        samples (cached)."""
+    def fine_grid(self, n_time: int) -> tuple[Synthesis, tuple]:
+        """Synthesis operator (``synth @ x_real``) and every element's parameters on a grid
+        of ``n_time`` samples (cached)."""
         if n_time not in self._fine_cache:
             if len(self._fine_cache) > 8:
                 self._fine_cache.clear()
-            phase = self.harmonics.time_grid(n_time) * self.mesh_step
             self._fine_cache[n_time] = (Synthesis(self.harmonics, n_time),
-                                        self.mesh.stiffness_at(phase), self.mesh.error_at(phase))
+                                        self._sample(n_time))
         return self._fine_cache[n_time]
+
+    def fine_periods(self, n_time: int | None = None) -> int:
+        """A sample count over one fundamental period, at least ``n_time`` (default four
+        times the AFT grid's), that every element's base period divides evenly."""
+        step = math.lcm(*(s for s in self.steps if s), 1)
+        n = 4 * self.harmonics.n_time if n_time is None else int(n_time)
+        return step * int(np.ceil(n / step))

@@ -1,45 +1,65 @@
-"""The continuation branch: its points (:class:`Branch`), the grazing points located on
-it (:class:`GrazingPoint`) and the recorder that grows it point by point, rolls it back
-after a reversal and counts the retries (:mod:`hbm.continuation`)."""
+"""The continuation branch: its points (:class:`Branch`), one element's curve along it
+(:class:`ElementCurve`), the events located on it (:class:`GrazingPoint`) and the
+recorder that grows it point by point, rolls it back after a reversal and counts the
+retries (:class:`Recorder`)."""
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from .newton import COND_WARN
-from .postprocess import point_stats
-from .problem import HBMProblem
-from .stability import stability as point_stability
-from .stability_process import Verdict
+from ..newton import COND_WARN
+from ..records import Record
 
 # the tracer's log: one name for the continuation and its modules
 logger = logging.getLogger("hbm.continuation")
 
-__all__ = ["Branch", "GrazingPoint"]
+__all__ = ["Branch", "ElementCurve", "GrazingPoint", "POINT_FIELDS", "Recorder",
+           "note_condition"]
 
 
 @dataclass
 class GrazingPoint:
-    """Grazing bifurcation (eq. 30) located on the branch.
+    """An event located on the branch: a grazing bifurcation (eq. 30) of element
+    ``element``.
 
     ``kind`` is ``"onset"`` (impacts start, along the direction of travel) or
-    ``"end"``; ``side`` is ``"active"`` (contact loss on the driving flank,
-    sign change of phi_GR) or ``"reverse"`` (the back flank starts/stops being hit).
+    ``"end"``; ``side`` is the element's test function (a gear mesh's flank: ``"active"``,
+    contact loss on the driving flank, sign change of phi_GR; ``"reverse"``, the back
+    flank starts/stops being hit).
     """
 
     rpm: float
     kind: str
     side: str
+    element: int = 0
 
 
-_ARRAYS = ("rpm", "omega", "coefficients", "unknowns", "residual", "newton_iterations",
-           "stable", "floquet_max_real", "mesh_load_std", "mesh_load_max", "contact",
-           "contact_loss_fraction", "impacts_per_mesh_period", "margin_active",
-           "margin_reverse", "ipp", "tangents", "floquet_kind", "stability_consistent",
-           "loop")
+#: The per-point arrays of every branch, whatever the elements.
+POINT_FIELDS = ("rpm", "omega", "unknowns", "residual", "newton_iterations", "stable",
+                "floquet_max_real", "tangents", "floquet_kind", "stability_consistent",
+                "loop")
+
+
+class ElementCurve(Record):
+    """One element's statistics along a branch, by name (a :class:`hbm.records.Record`
+    of per-point arrays: ``curve.mesh_load_std`` for a gear mesh), with ``element`` its
+    index, ``name`` its label and ``grazing`` the events located on it."""
+
+    __slots__ = ("element", "name", "grazing")
+
+    def __init__(self, values: dict[str, np.ndarray], element: int, name: str,
+                 grazing: list[GrazingPoint]) -> None:
+        super().__init__(values)
+        object.__setattr__(self, "element", element)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "grazing", grazing)
+
+    def __reduce__(self):
+        return type(self), (dict(self), self.element, self.name, self.grazing)
 
 
 @dataclass
@@ -48,10 +68,10 @@ class Branch:
 
     Attributes
     ----------
+    harmonics, condensation
+        The problem's harmonic indices and condensation (what the unknowns mean).
     rpm, omega
         Shaft speed (rpm) and Omega (rad/s).
-    coefficients
-        Complex (n_points, n_harmonics) Fourier coefficients of Delta (m).
     unknowns
         Real unknown vectors of the problem's condensation (physical units).
     residual
@@ -66,19 +86,24 @@ class Branch:
         False where the branch lies between two folds (T.9) but the variational
         equation (T.10) finds the orbit stable: the harmonic set does not resolve
         the orbit there (the point is reported unstable).
-    mesh_load_std, mesh_load_max
-        Standard deviation and maximum in time of f_LoA (N).
-    contact
-        0 permanent contact, 1 single-sided, 2 double-sided impacts.
-    contact_loss_fraction, impacts_per_mesh_period
-        Per point; ``ipp[i]`` the impacts in each mesh period of the
-        fundamental period (the IPP sequence, see :meth:`ipp_sequence`).
-    margin_active, margin_reverse
-        Contact margins (m), see :class:`hbm.postprocess.PointStats`.
+    stats
+        The per-element table: each statistic of the elements (a gear mesh:
+        ``mesh_load_std``, ``mesh_load_max``, ``contact``, ``contact_loss_fraction``,
+        ``impacts_per_mesh_period``, ``margin_active``, ``margin_reverse``, ``ipp``;
+        :attr:`hbm.elements.Element.statistics`) and ``coefficients`` (the complex
+        Fourier coefficients of each Delta_e, m), each ``(n_points, n_elements[, ...])``.
+        A statistic an element kind does not have is NaN (integers: -1) for it; the IPP
+        sequences of elements with fewer base periods are padded with -1. Read one
+        element's curve with :meth:`element`.
+    element_names
+        The elements' labels.
+    element_statistics
+        Per element, the names of its own statistics (the others of the table are NaN or
+        -1 for it); empty: every element has every statistic.
     tangents
         Scaled unit tangents (n_points, n_unknowns + 1), for resuming.
     grazing, folds
-        Located grazing points and fold speeds (rpm).
+        Located grazing points (with their element) and fold speeds (rpm).
     fold_index
         For each fold, the index of the point where the speed turns back.
     step_cuts, secant_retries, corner_steps
@@ -119,23 +144,17 @@ class Branch:
     omega_scale: float
     rpm: np.ndarray
     omega: np.ndarray
-    coefficients: np.ndarray
     unknowns: np.ndarray
     residual: np.ndarray
     newton_iterations: np.ndarray
     stable: np.ndarray
     floquet_max_real: np.ndarray
-    mesh_load_std: np.ndarray
-    mesh_load_max: np.ndarray
-    contact: np.ndarray
-    contact_loss_fraction: np.ndarray
-    impacts_per_mesh_period: np.ndarray
-    margin_active: np.ndarray
-    margin_reverse: np.ndarray
-    ipp: np.ndarray
     tangents: np.ndarray
     floquet_kind: np.ndarray
     stability_consistent: np.ndarray
+    stats: dict[str, np.ndarray] = field(default_factory=dict)
+    element_names: tuple[str, ...] = ()
+    element_statistics: tuple[tuple[str, ...], ...] = ()
     loop: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     loops: list = field(default_factory=list)
     grazing: list = field(default_factory=list)
@@ -154,17 +173,44 @@ class Branch:
     def __len__(self) -> int:
         return int(self.rpm.size)
 
-    def ipp_sequence(self, i: int) -> np.ndarray:
-        """Impacts per mesh period along the shaft rotation at point i."""
-        return self.ipp[i]
+    @property
+    def n_elements(self) -> int:
+        """Number of elements of the problem."""
+        return len(self.element_names)
+
+    def element(self, e: int = 0) -> ElementCurve:
+        """Element ``e``'s curve: its own statistics per point (each array's first axis)
+        and the coefficients of its deflection, its label and the events located on it."""
+        if not 0 <= e < max(self.n_elements, 1):
+            raise IndexError(f"branch.element({e}): the branch has {self.n_elements} "
+                             "elements")
+        own = set(self.element_statistics[e]) | {"coefficients"} \
+            if self.element_statistics else set(self.stats)
+        values = {k: (v[:, e] if v.ndim >= 2 else v) for k, v in self.stats.items()
+                  if k in own}
+        name = self.element_names[e] if self.element_names else ""
+        return ElementCurve(values, e, name, [g for g in self.grazing if g.element == e])
 
 
-class _Recorder:
-    def __init__(self, problem: HBMProblem, rpm_start, rpm_end, omega_scale, resume=None):
-        self.meta = dict(harmonics=tuple(problem.harmonics.indices),
-                         condensation=problem.condensation, rpm_start=float(rpm_start),
+class Recorder:
+    """The branch as it grows: the per-point lists, the events found so far and the
+    tracer's bookkeeping (retry counters, the guard after a reversal, closed loops,
+    tickets of stability verdicts still to come).
+
+    ``meta`` (:meth:`Monitor.branch_meta`) names the per-element statistics; ``x_scale``
+    and ``omega_scale`` scale the states of the points; ``resume`` is a branch to
+    continue.
+    """
+
+    def __init__(self, meta: dict[str, Any], x_scale: np.ndarray, rpm_start, rpm_end,
+                 omega_scale, resume: Branch | None = None):
+        self.meta = dict(harmonics=tuple(meta["harmonics"]),
+                         condensation=meta["condensation"], rpm_start=float(rpm_start),
                          rpm_end=float(rpm_end), omega_scale=float(omega_scale))
-        self.lists: dict[str, list] = {k: [] for k in _ARRAYS}
+        self.element_names = tuple(meta.get("element_names", ()))
+        self.element_statistics = tuple(tuple(s) for s in meta.get("element_statistics", ()))
+        self.stat_names = tuple(meta["statistics"])
+        self.lists: dict[str, list] = {k: [] for k in (*POINT_FIELDS, *self.stat_names)}
         self.grazing: list[GrazingPoint] = []
         self.folds: list[float] = []
         self.fold_index: list[int] = []
@@ -182,37 +228,42 @@ class _Recorder:
         self.loops: list[tuple[int, int, int, int]] = []
         self.loop_tries: dict[int, int] = {}   # loop number -> exits tried from its entry
         # per point: the ticket of its stability verdict still to come from the worker
-        # process (None: measured), and the hook that collects them (_Measure.settle)
+        # process (None: measured), and the hook that collects them
         self.tickets: list = []
         self.settle = None
         # scaled states y = (u / x_scale, Omega / omega_scale) of the points, rows of a
         # buffer grown by doubling (the events read the whole branch at every point)
-        self._x_scale = problem.x_scale
-        self._ys = np.empty((16, problem.n_unknowns + 1))
+        self._x_scale = x_scale
+        self._ys = np.empty((16, x_scale.size + 1))
         if resume is not None:
-            self.counters = {"step_cuts": int(resume.step_cuts),
-                             "secant_retries": int(resume.secant_retries),
-                             "corner_steps": int(resume.corner_steps),
-                             "reversals": int(getattr(resume, "reversals", 0)),
-                             "leaps": int(getattr(resume, "leaps", 0)),
-                             "max_condition": float(np.nan_to_num(resume.max_condition))}
-            n = len(resume)
-            for k in _ARRAYS:
-                v = getattr(resume, k, None)
-                self.lists[k] = list(v) if v is not None and len(v) == n else (
-                    [0] * n if k == "loop" else list(v))
-            self.loops = [tuple(int(x) for x in row)
-                          for row in np.asarray(getattr(resume, "loops", []),
-                                                dtype=np.int64).reshape(-1, 4)]
-            self.grazing = list(resume.grazing)
-            self.folds = list(resume.folds)
-            self.fold_index = list(resume.fold_index)
-            if len(self.fold_index) != len(self.folds):     # branch rebuilt without it
-                self.fold_index = [-(10 ** 9)] * len(self.folds)
-            self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
-            self.tickets = [None] * len(self.lists["rpm"])
-            for i in range(len(self.tickets)):
-                self._put_state(i)
+            self._resume(resume)
+
+    def _resume(self, resume: Branch) -> None:
+        self.counters = {"step_cuts": int(resume.step_cuts),
+                         "secant_retries": int(resume.secant_retries),
+                         "corner_steps": int(resume.corner_steps),
+                         "reversals": int(getattr(resume, "reversals", 0)),
+                         "leaps": int(getattr(resume, "leaps", 0)),
+                         "max_condition": float(np.nan_to_num(resume.max_condition))}
+        n = len(resume)
+        for k in POINT_FIELDS:
+            v = getattr(resume, k, None)
+            self.lists[k] = list(v) if v is not None and len(v) == n else (
+                [0] * n if k == "loop" else list(v))
+        for k in self.stat_names:
+            self.lists[k] = list(resume.stats[k])
+        self.loops = [tuple(int(x) for x in row)
+                      for row in np.asarray(getattr(resume, "loops", []),
+                                            dtype=np.int64).reshape(-1, 4)]
+        self.grazing = list(resume.grazing)
+        self.folds = list(resume.folds)
+        self.fold_index = list(resume.fold_index)
+        if len(self.fold_index) != len(self.folds):     # branch rebuilt without it
+            self.fold_index = [-(10 ** 9)] * len(self.folds)
+        self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
+        self.tickets = [None] * len(self.lists["rpm"])
+        for i in range(len(self.tickets)):
+            self._put_state(i)
 
     def __len__(self) -> int:
         return len(self.lists["rpm"])
@@ -220,13 +271,21 @@ class _Recorder:
     def last(self, key):
         return self.lists[key][-1]
 
-    def add(self, ticket=None, **values) -> None:
+    def add(self, ticket=None, stats: dict | None = None, **values) -> None:
+        """Append a point: the :data:`POINT_FIELDS` (``loop`` 0 by default), its
+        per-element ``stats`` and the ticket of a stability still to come."""
         values.setdefault("loop", 0)
-        for k in _ARRAYS:
+        for k in POINT_FIELDS:
             self.lists[k].append(values[k])
+        for k in self.stat_names:
+            self.lists[k].append(stats[k])
         self.n_grazing.append(len(self.grazing))
         self.tickets.append(ticket)
         self._put_state(len(self) - 1)
+
+    def stat(self, name: str, i: int, element: int):
+        """Statistic ``name`` of ``element`` at point ``i``."""
+        return self.lists[name][i][element]
 
     def _put_state(self, i: int) -> None:
         if i >= self._ys.shape[0]:
@@ -267,7 +326,7 @@ class _Recorder:
 
     def truncate(self, n: int) -> None:
         """Keep the first ``n`` points (and the folds and grazing points found by then)."""
-        for k in _ARRAYS:
+        for k in self.lists:
             del self.lists[k][n:]
         del self.tickets[n:]
         keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
@@ -285,10 +344,14 @@ class _Recorder:
             self.settle()
         counters = self.counters if counters is None else counters
         arrays = {}
-        for k in _ARRAYS:
+        for k in (*POINT_FIELDS, *self.stat_names):
             v = self.lists[k]
-            arrays[k] = np.array(v) if v else np.zeros((0,))
-        return Branch(**self.meta, **arrays, loops=[tuple(lp) for lp in self.loops],
+            arrays[k] = _stacked(v) if k in self.stat_names else (
+                np.array(v) if v else np.zeros((0,)))
+        stats = {k: arrays.pop(k) for k in self.stat_names}
+        return Branch(**self.meta, **arrays, stats=stats, element_names=self.element_names,
+                      element_statistics=self.element_statistics,
+                      loops=[tuple(lp) for lp in self.loops],
                       grazing=list(self.grazing), folds=list(self.folds),
                       fold_index=list(self.fold_index),
                       step_cuts=counters["step_cuts"],
@@ -299,8 +362,20 @@ class _Recorder:
                       status=status, message=message, next_step=float(next_step))
 
 
+def _stacked(values: list) -> np.ndarray:
+    """The per-point arrays of a statistic as one array (n_points, n_elements, ...); IPP
+    sequences of different lengths padded with -1."""
+    if not values:
+        return np.zeros((0,))
+    shapes = {np.shape(v) for v in values}
+    if len(shapes) > 1:                        # a branch resumed from another run
+        width = max(s[-1] for s in shapes)
+        values = [np.pad(v, [(0, 0)] * (np.ndim(v) - 1) + [(0, width - np.shape(v)[-1])],
+                         constant_values=-1) for v in values]
+    return np.array(values)
 
-def _note_condition(rec, conds) -> None:
+
+def note_condition(rec: Recorder, conds) -> None:
     """Track the largest corrector condition estimate; warn once per trace."""
     finite = [c for c in conds if np.isfinite(c)]
     if not finite:
@@ -312,79 +387,3 @@ def _note_condition(rec, conds) -> None:
         logger.warning("continuation near rpm %.6g: ill-conditioned corrector, condition "
                        "estimate %.2g of the scaled Jacobian (up to %d digits lost); further "
                        "estimates in branch.max_condition", rec.last("rpm"), c, int(np.log10(c)))
-
-
-@dataclass
-class _Measure:
-    """The ``record`` of a :class:`TraceContext`: statistics and stability of a converged
-    point, added to the recorder. Keeps the dominant Floquet subspace of the last point
-    (warm start) and, matrix-free, the reference of the fold parity.
-
-    With a ``worker`` (:class:`hbm.stability_process.StabilityProcess`) the stability
-    is measured there, in the same order with the same warm starts: the point is added
-    with a ticket and its verdict filled in by :meth:`settle` (bitwise the same values).
-    """
-
-    problem: HBMProblem
-    wscale: float
-    stability: bool
-    basis: object = None
-    # matrix-free: det T(0) (T.9) from the tangent, sign det J = sign det J_0 when the
-    # speed component keeps the sign it had at the first point (T.9a, docs/theory.md)
-    parity_ref: list = field(default_factory=list)
-    worker: object = None
-    recorder: object = None
-    submitted: int = 0
-
-    def parity(self, pt, tangent):
-        problem = self.problem
-        if not (self.stability and problem.matrix_free and problem.modal):
-            return None
-        if not self.parity_ref:
-            first = point_stability(problem, pt).fold_parity
-            self.parity_ref.extend([first, tangent[-1] > 0])
-        return self.parity_ref[0] != ((tangent[-1] > 0) != self.parity_ref[1])
-
-    def settle(self, wait: bool = True) -> None:
-        """Fill in the verdicts of the worker received so far (all pending if ``wait``)."""
-        if self.worker is None or self.recorder is None:
-            return
-        for ticket, v in self.worker.collect(wait):
-            self.recorder.fill(ticket, stable=v.stable, floquet_max_real=v.max_real,
-                               floquet_kind=v.code, stability_consistent=v.consistent)
-
-    def __call__(self, rec: _Recorder, y: np.ndarray, it: int, res: float,
-                 tangent: np.ndarray) -> None:
-        problem = self.problem
-        omega = y[-1] * self.wscale
-        u = y[:-1] * problem.x_scale
-        pt = problem.point(u, omega, it, res)
-        st = point_stats(problem, pt)
-        ticket = None
-        if self.stability and self.worker is not None:
-            self.recorder = rec
-            rec.settle = self.settle
-            ticket = self.submitted
-            self.submitted += 1
-            self.worker.submit(ticket, u, omega, it, res, self.parity(pt, tangent))
-            # placeholders until the verdict arrives (Recorder.branch settles first)
-            fmax, stable, kind, consistent = float("nan"), False, 0, True
-        elif self.stability:
-            stab = point_stability(problem, pt, start=self.basis,
-                                   parity=self.parity(pt, tangent))
-            self.basis = stab.basis
-            v = Verdict.of(stab)
-            fmax, kind, consistent, stable = v.max_real, v.code, v.consistent, v.stable
-        else:
-            fmax, stable, kind, consistent = 0.0, True, 0, True
-        rec.add(ticket=ticket, rpm=pt.rpm, omega=omega, coefficients=pt.coefficients,
-                unknowns=u, residual=res, newton_iterations=it, stable=bool(stable),
-                floquet_max_real=fmax, mesh_load_std=st.mesh_load_std,
-                mesh_load_max=st.mesh_load_max, contact=st.contact,
-                contact_loss_fraction=st.contact_loss_fraction,
-                impacts_per_mesh_period=st.impacts_per_mesh_period,
-                margin_active=st.margin_active, margin_reverse=st.margin_reverse,
-                ipp=st.ipp, tangents=tangent, floquet_kind=kind,
-                stability_consistent=bool(consistent))
-        if ticket is not None:
-            self.settle(wait=False)

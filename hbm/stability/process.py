@@ -1,11 +1,11 @@
 """Stability of the accepted continuation points in a second process (the second core).
 
-The continuation's stability verdict (:func:`hbm.stability.stability`, T.10) of a point
-depends only on that point and on the dominant Floquet basis of the point measured
+The continuation's stability verdict (:func:`hbm.stability.verdict.stability`, T.10) of a
+point depends only on that point and on the dominant Floquet basis of the point measured
 before it (the warm start of the subspace iteration). A :class:`StabilityProcess` is a
 forked process that measures the points it is sent one after the other, in the order
 they were sent, keeping that basis itself: the same calls on the same data in the same
-order as :class:`hbm.branch._Measure` makes in-line, hence bitwise the same verdicts
+order as :class:`hbm.sweep.PointMonitor` makes in-line, hence bitwise the same verdicts
 (tests/test_hbm_stability_process.py). The tracer sends each point as it accepts it and
 collects the verdicts when it needs them (before handing out a branch), so the Floquet
 exponents of point i are computed while the corrector looks for point i + 1.
@@ -21,32 +21,16 @@ import logging
 import multiprocessing as mp
 import os
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 
-from .problem import HBMProblem
-from .stability import stability as point_stability
+from ..problem import HBMProblem
+from .verdict import Verdict
+from .verdict import stability as point_stability
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["StabilityProcess", "Verdict", "available", "wanted"]
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """What the branch keeps of a point's stability (:class:`hbm.stability.Stability`)."""
-
-    max_real: float
-    code: int
-    consistent: bool
-    stable: bool
-
-    @classmethod
-    def of(cls, stab) -> Verdict:
-        """The verdict of a :class:`hbm.stability.Stability`."""
-        return cls(float(stab.max_real), int(stab.code), bool(stab.consistent),
-                   stab.kind == "stable")
+__all__ = ["StabilityProcess", "available", "wanted"]
 
 
 def available() -> bool:

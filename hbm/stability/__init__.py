@@ -1,0 +1,10 @@
+"""Stability of periodic solutions: the verdict of a point (:mod:`.verdict`), the
+monodromy of the variational equation (:mod:`.monodromy`, T.10), the exact exponents on
+the elements' deflections (:mod:`.exponents`, T.9), Hill's method for reference
+(:mod:`.hill`) and the worker process of the continuation (:mod:`.process`)."""
+
+from .hill import floquet_exponents
+from .verdict import KINDS, Stability, Verdict, loss_of_stability, stability
+
+__all__ = ["KINDS", "Stability", "Verdict", "floquet_exponents", "loss_of_stability",
+           "stability"]

@@ -23,6 +23,7 @@ from study.scene import load_scene
 
 log = logging.getLogger("ltca_pump")
 ROOT = Path(__file__).resolve().parent.parent
+BORE = 0.016   # r_int of both gear bodies (m), docs/theory.md §13.3
 
 # name -> keyword arguments of gears.class_deviations (None: perfect teeth)
 CASES: dict[str, dict | None] = {
@@ -39,9 +40,12 @@ CASES: dict[str, dict | None] = {
 def measure(torques: tuple[float, ...], positions: int, slices: int) -> dict:
     """Scene values and LTCA coefficients per case and torque."""
     scene = load_scene(ROOT / "scenes" / "pump.toml")
-    pair = tc.SpurPair.from_pair(scene.gear.pair())
-    c_prime, c_gamma = pair_stiffness(pair.geometry)
+    pair = scene.gear.pair()
+    bores = (BORE, BORE)
+    c_prime, c_gamma = pair_stiffness(pair)
     ms, te = scene.mesh_stiffness, scene.transmission_error
+    s_p = pair.pitch_radii[0] * math.sin(pair.working_pressure_angle)
+    k_pitch = pair.face_width / tc.pair_compliance(pair, [s_p], bores)[0]
     out: dict = {
         "scene": {"mesh_stiffness": {"mean_N_per_um": ms.mean * 1e-6,
                                      "amplitudes_N_per_um": [a * 1e-6 for a in ms.amplitudes],
@@ -49,21 +53,22 @@ def measure(torques: tuple[float, ...], positions: int, slices: int) -> dict:
                   "transmission_error": {"mean_um": te.mean * 1e6,
                                          "amplitudes_um": [a * 1e6 for a in te.amplitudes],
                                          "phases_deg": [math.degrees(p) for p in te.phases]}},
-        "pitch_point_pair_N_per_um": tc.pitch_point_stiffness(pair) * 1e-6,
+        "pitch_point_pair_N_per_um": k_pitch * 1e-6,
         "iso6336_c_prime_N_per_um": c_prime * 1e-6,
         "iso6336_c_gamma_N_per_um": c_gamma * 1e-6,
         "iso1328_class6_um": tc.class_deviations(pair, 6)[1],
-        "contact_ratio": pair.contact_ratio,
+        "contact_ratio": pair.transverse_contact_ratio,
         "cases": {},
     }
     for name, kw in CASES.items():
-        dev = tc.Deviations() if kw is None else tc.class_deviations(pair, 6, **kw)[0]
+        flanks = (tc.Flank(), tc.Flank()) if kw is None else tc.class_deviations(pair, 6, **kw)[0]
         for torque in torques:
-            load = torque / scene.gear.base_radius
-            res = tc.solve_ltca(pair, load, dev, n_positions=positions, n_slices=slices)
+            case = tc.LtcaCase(pair, torque, bores, flanks=flanks, n_positions=positions,
+                               n_slices=slices)
+            res = tc.solve_ltca(case)
             coef = tc.scene_coefficients(res, 3)
-            coef["load_N"] = load
-            coef["F_s_over_kbar_um"] = load / res.stiffness.mean() * 1e6
+            coef["load_N"] = case.load
+            coef["F_s_over_kbar_um"] = case.load / res.stiffness.mean() * 1e6
             out["cases"][f"{name} @ {torque} N·m"] = coef
     return out
 

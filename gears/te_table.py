@@ -124,8 +124,10 @@ def mesh_table(position: np.ndarray, *, te: np.ndarray | None = None,
                             "samples")
     step = np.diff(x)
     if not np.all(step > 0):
-        raise InputError.of(f"{source}: {abscissa}", f"row {int(np.argmax(step <= 0)) + 2}",
-                            "must increase strictly from row to row")
+        bad = int(np.argmax(step <= 0)) + 2
+        raise InputError(f"{source}: {abscissa} must increase strictly from sample to "
+                         f"sample; sample {bad} does not", field=f"{source}: {abscissa}",
+                         value=float(x[bad - 1]), allowed="increasing")
     columns = {"te": te, "stiffness": stiffness}
     arrays = {}
     for name, values in columns.items():
@@ -201,8 +203,10 @@ def read_mesh_table(path: str | Path, *, teeth: int | None = None,
         raise InputError.of(f"{name}: column", unknown[0], "must be one of "
                             f"{', '.join([*ABSCISSAE, *VALUES])}")
     if len(abscissae) != 1:
-        raise InputError.of(f"{name}: abscissa columns", abscissae or "none",
-                            f"must be exactly one of {', '.join(ABSCISSAE)}")
+        raise InputError(f"{name}: {len(abscissae)} abscissa columns ({', '.join(abscissae)})"
+                         f": must be exactly one of {', '.join(ABSCISSAE)}",
+                         field=f"{name}: columns", value=abscissae,
+                         allowed=", ".join(ABSCISSAE))
     quantities = [VALUES[h][0] for h in header if h in VALUES]
     if len(set(quantities)) != len(quantities):
         raise InputError(f"{name}: a quantity is given twice ({', '.join(header)})",

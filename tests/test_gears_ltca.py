@@ -82,6 +82,20 @@ def test_the_compliance_is_that_of_the_pump_pair_before_the_generalisation(pair)
     assert np.all(c[2] <= c)
 
 
+def test_the_ltca_interpolates_the_pair_compliance_to_round_off():
+    # the LTCA's k_m of a spur pair with uniform flanks is Σ b/c_pair(s_j) over the pairs
+    # in the path, c_pair through a Chebyshev interpolant of degree 40 (1.9e-13)
+    p = spur(20, 20)
+    bores = half_bores(p)
+    res = g.solve_ltca(g.LtcaCase(p, 10.0, bores, n_positions=50))
+    s_a, s_e = p.path
+    inside = (res.slot_s >= s_a) & (res.slot_s <= s_e)
+    s = np.clip(res.slot_s, s_a, s_e)
+    c = g.pair_compliance(p, s.ravel(), bores).reshape(s.shape)
+    k = np.where(inside, p.face_width / c, 0.0)
+    np.testing.assert_allclose(res.stiffness, k.sum(axis=1), rtol=1e-12)
+
+
 def test_half_angle_at_the_reference_circle_and_below_the_base_circle():
     p = spur(20, 40, profile_shift=(0.3, -0.2))
     for gear, x in ((1, 0.3), (2, -0.2)):
@@ -103,7 +117,8 @@ def test_single_and_mesh_stiffness_against_iso6336(teeth, shift):
     """ISO 6336-1 method B, ISO 53 A rack, steel, line load >= 100 N/mm, solid discs
     held at r_int = r_f/2: c' (C_M = 0.8) against the largest single-pair stiffness of the
     single-contact zone, c_γα = c'(0.75 ε_α + 0.25) against the LTCA's mean k_m. Measured
-    ratios: c' 0.957 … 1.050, c_γα 0.953 … 1.009 (docs/gears.md); band ±10 %."""
+    ratios: c' 0.957 … 1.050, c_γα 0.954 … 1.011 (docs/gears.md); band ±10 % (chosen here:
+    the accuracy ISO states for method B was not checked)."""
     p = g.GearPair(teeth, 4e-3, math.radians(20.0), 40e-3, profile_shift=shift)
     c_single, c_gamma = pair_stiffness(p)        # N/m, C_M = 0.8, no low-load factor
     bores = half_bores(p)

@@ -397,6 +397,29 @@ def test_iso1328_tolerances_by_hand():
     assert tol5["f_pT"] == pytest.approx(6.0)   # 0.05 + 0.8 + 5 = 5.85 -> 6.0
 
 
+def test_flank_deviation_by_hand():
+    # (M.1-M.4) at the ends and middle of each part: reliefs 0 at their start and -C at
+    # the tip / the form circle, half (linear) or a quarter (parabolic) of it midway
+    p = spur()
+    rb, ra = p.base_radii[0], p.tip_radii[0]
+    l_a, l_ff = math.sqrt(ra**2 - rb**2), p.form_roll_lengths[0]
+    d_ca, d_cf = 2 * (p.pitch_radii[0] + 1e-3), 2 * (p.pitch_radii[0] - 1e-3)
+    l_ca, l_cf = math.sqrt((d_ca / 2) ** 2 - rb**2), math.sqrt((d_cf / 2) ** 2 - rb**2)
+    for shape, mid in (("linear", 0.5), ("parabolic", 0.25)):
+        f = g.Flank(tip_relief=g.Relief(8e-6, d_ca, shape), root_relief=g.Relief(4e-6, d_cf,
+                                                                                  shape))
+        roll = np.array([l_ca, 0.5 * (l_ca + l_a), l_a, l_cf, 0.5 * (l_cf + l_ff), l_ff])
+        np.testing.assert_allclose(g.flank_deviation(f, p, 1, roll, 0.0),
+                                   [0, -8e-6 * mid, -8e-6, 0, -4e-6 * mid, -4e-6],
+                                   atol=1e-18)
+    (l_s, l_e), b = p.active_roll_lengths[1], p.face_width
+    f = g.Flank(crowning=3e-6, lead_slope=2e-6, profile_slope=1e-6, profile_form=-2e-6)
+    got = g.flank_deviation(f, p, 2, np.array([l_s, 0.5 * (l_s + l_e), l_e]),
+                            np.array([-b / 2, 0.0, b / 2]))
+    np.testing.assert_allclose(got, [-0.5e-6 - 3e-6 - 1e-6, -2e-6, 0.5e-6 - 3e-6 + 1e-6],
+                               atol=1e-18)
+
+
 def test_eccentricity_pitch_deviations_close_the_circle():
     f = np.array(g.eccentricity_pitch_deviations(40, 7e-6, 0.3))
     assert f.size == 40 and abs(f.sum()) < 1e-18

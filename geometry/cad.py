@@ -43,6 +43,8 @@ import numpy as np
 from core.errors import InputError
 from core.files import atomic_write
 
+from .session import ensure_initialized
+
 log = logging.getLogger(__name__)
 
 #: Length units a file may be written in -> metres per unit.
@@ -396,6 +398,7 @@ def import_part(part: CadPart, where: str = "part") -> ImportedSolid:
         healing), or the unit (implausible size; the bounding box is printed).
     """
     part.validate(where)
+    ensure_initialized()
     path = Path(part.path)
     notes: list[str] = []
     name, mm = declared_unit(path)
@@ -516,6 +519,7 @@ def write_step(path: str | os.PathLike[str], build: Callable[[], object]) -> Pat
     target = Path(path)
     if target.suffix.lower() not in (".step", ".stp"):
         raise InputError.of("path", str(target), "must end in .step or .stp")
+    ensure_initialized()
     current = gmsh.model.getCurrent() if gmsh.model.list() else None
     names = []
     try:

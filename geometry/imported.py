@@ -274,6 +274,7 @@ def import_mesh(parts: MeshPart | Sequence[MeshPart], seats: Sequence[BearingSea
     """
     parts = [parts] if isinstance(parts, MeshPart) else list(parts)
     check_requests(parts, seats, mounts)
+    ensure_initialized(verbose)
     meshes = {p.name: read_volume_mesh(p, f"parts[{i}]") for i, p in enumerate(parts)}
     bounds = {k: MeshBoundary(m.nodes, m.tets, m.face_sets, m.node_sets)
               for k, m in meshes.items()}
@@ -295,7 +296,6 @@ def import_mesh(parts: MeshPart | Sequence[MeshPart], seats: Sequence[BearingSea
         log.info("%s", rep.summary())
     _disjoint({k: {(p, int(i)) for i in sel} for k, (p, sel) in facet_sets.items()},
               "boundary facet")
-    ensure_initialized(verbose)
     _new_model(model_name)
     offsets, vols, solids = {}, {}, {}
     offset = 0

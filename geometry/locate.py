@@ -392,6 +392,16 @@ def fit_cylinder(points: np.ndarray, normals: np.ndarray | None = None,
         ``point`` is the axis point nearest the points' centroid.
     """
     pts = np.asarray(points, dtype=float)
+    centroid = pts.mean(axis=0)
+
+    def circle(a: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        e1, e2 = perpendicular_frame(a)
+        d = pts - centroid
+        c2, r = fit_circle(np.column_stack([d @ e1, d @ e2]))
+        point = centroid + c2[0] * e1 + c2[1] * e2
+        _, rho = axis_coordinates(pts, point, a)
+        return point, r, rho - r
+
     if direction is None:
         if normals is None or len(normals) < 2:
             raise ValueError("fit_cylinder: needs normals or a direction")
@@ -399,15 +409,26 @@ def fit_cylinder(points: np.ndarray, normals: np.ndarray | None = None,
         if w[1] < 1e-3 * w[2]:
             raise ValueError("fit_cylinder: the normals span less than ~4 deg of arc; "
                              "they do not fix an axis")
-        direction = v[:, 0]
+        direction = _refine_axis(v[:, 0], circle)
     direction = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
-    e1, e2 = perpendicular_frame(direction)
-    centroid = pts.mean(axis=0)
-    d = pts - centroid
-    c2, r = fit_circle(np.column_stack([d @ e1, d @ e2]))
-    point = centroid + c2[0] * e1 + c2[1] * e2
-    _, rho = axis_coordinates(pts, point, direction)
-    return point, direction, r, float(np.sqrt(np.mean((rho - r) ** 2)))
+    point, r, res = circle(direction)
+    return point, direction, r, float(np.sqrt(np.mean(res ** 2)))
+
+
+def _refine_axis(a0: np.ndarray, circle) -> np.ndarray:
+    """The axis direction near ``a0`` that minimises the circle-fit residuals (the normals
+    of flat facets tilt off a cylinder's axis: their estimate is only a start)."""
+    from scipy.optimize import least_squares
+
+    e1, e2 = perpendicular_frame(a0)
+
+    def axis(t: np.ndarray) -> np.ndarray:
+        a = a0 + t[0] * e1 + t[1] * e2
+        return a / np.linalg.norm(a)
+
+    sol = least_squares(lambda t: circle(axis(t))[2], np.zeros(2), x_scale=1e-3,
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    return axis(sol.x)
 
 
 def seat_match(c: Candidate, seat: BearingSeat) -> tuple[bool, float, str]:

@@ -31,6 +31,7 @@ import numpy as np
 from core.errors import InputError
 
 from .cad import LENGTH_UNITS, PLAUSIBLE_SIZE, check_file, check_size
+from .session import ensure_initialized
 
 log = logging.getLogger(__name__)
 
@@ -117,6 +118,7 @@ class VolumeMesh:
 def _read_gmsh(path: Path, fld: str) -> tuple[np.ndarray, dict[int, np.ndarray],
                                                dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Nodes, 3-D elements by gmsh type (0-based), face sets, node sets of a ``.msh``."""
+    ensure_initialized()
     current = gmsh.model.getCurrent() if gmsh.model.list() else None
     scratch = "_read_msh"
     if scratch in gmsh.model.list():

@@ -2,10 +2,11 @@
 
 A mesh file has no CAD faces: its boundary is the set of tetrahedron faces used once,
 each a 6-node triangle with its outward normal (away from the tetrahedron's fourth
-vertex). A seat is the set of boundary facets whose three corners lie on the seat's
-cylinder (radius and axis within the tolerance) inside the axial window, facing the
-axis (a bore); a mount the facets in its plane and box. Corner nodes only are tested:
-the mid-edge nodes of a mesh upgraded from 4-node tetrahedra sit on the chords.
+vertex). A seat is made of the boundary facets whose three corners lie on the seat's
+cylinder (radius and axis within the tolerance), facing the axis (a bore): each connected
+piece of them that lies mostly in the axial window is taken whole, as a whole CAD face
+is. A mount is the facets in its plane and box. Corner nodes only are tested: the
+mid-edge nodes of a mesh upgraded from 4-node tetrahedra sit on the chords.
 
 When nothing fits, the boundary is cut into smooth patches (neighbour facets whose
 normals differ by less than :data:`PATCH_ANGLE_DEG`, the way a feature-angle
@@ -223,10 +224,19 @@ class MeshBoundary:
             radial = radial_directions(self.centroids, p, a)
             cos = np.einsum("ij,ij->i", self.normals, radial)
             sign = -1.0 if seat.surface == "bore" else 1.0
-            hit = ((np.abs(rho - r) <= tol).all(axis=1)
-                   & (np.abs(s) <= 0.5 * w + tol).all(axis=1)
-                   & (sign * cos >= math.cos(math.radians(SEAT_NORMAL_DEG))))
-            sel = np.flatnonzero(hit)
+            on = np.flatnonzero((np.abs(rho - r) <= tol).all(axis=1)
+                                & (sign * cos >= math.cos(math.radians(SEAT_NORMAL_DEG))))
+            # whole connected pieces of the cylinder lying mostly in the window, as
+            # whole CAD faces are
+            labels = patches(self.facets[on], self.normals[on], angle_deg=None)
+            keep = []
+            for k in range(int(labels.max()) + 1 if on.size else 0):
+                piece = labels == k
+                lo, hi = float(s[on[piece]].min()), float(s[on[piece]].max())
+                overlap = min(hi, 0.5 * w) - max(lo, -0.5 * w)
+                if overlap >= 0.5 * min(hi - lo, w) - tol:
+                    keep.append(on[piece])
+            sel = np.sort(np.concatenate(keep)) if keep else np.zeros(0, dtype=np.int64)
             if not sel.size:
                 scored = [(sc, c.label, shape) for c in self.candidates()
                           for _, sc, shape in [seat_match(c, seat)]]

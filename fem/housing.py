@@ -183,6 +183,10 @@ class SurfaceWeights:
     area: float
     centroid: np.ndarray
 
+    def by_gmsh_tag(self) -> dict[int, float]:
+        """Weight by gmsh node tag (input index + 1), e.g. for ``calculix.Coupling``."""
+        return dict(zip((self.nodes + 1).tolist(), self.weights.tolist(), strict=True))
+
 
 def surface_weights(fe_mesh: FEMesh, surface: str) -> SurfaceWeights:
     """Nodal area weights and area centroid of surface group ``surface`` (collective).

@@ -15,6 +15,9 @@ of the numbers written in the file; when the caller's unit and the declared one 
 the caller wins and a warning names both (files written by tools that ignore units, such
 as gmsh from a model in metres, declare mm and hold metres). A BREP file has no unit.
 
+Only the highest-dimensional entities of a file are read (``importShapes(highestDimOnly=
+True)``): construction curves or surfaces beside the solids are left out.
+
 Checks before any meshing (each a :class:`core.errors.InputError` naming the field):
 the file exists and is readable, OpenCASCADE reads solids from it, every solid is closed
 (each boundary curve shared by exactly two face sides) with a positive volume, and its
@@ -355,10 +358,6 @@ def _problems(dim_tags: list[tuple[int, int]]) -> list[str]:
                        f"only, {n_multi} more than two")
         if not mass > 0:
             out.append(f"solid {v} has volume {mass:.3g} m^3 (inverted or empty)")
-    free = [(d, t) for d, t in dim_tags if d < 3]
-    if free:
-        out.append(f"{len(free)} free entities besides the solids (surfaces or curves "
-                   "outside every solid)")
     return out
 
 

@@ -37,21 +37,13 @@ from .meshing import MAX_ELEMENTS, TETS_PER_SIZE_CUBED, generate, mesh_volume, p
 from .meshsurface import MeshBoundary
 from .model import ImportedModel
 from .params import MeshOptions, preset
-from .session import ensure_initialized
+from .session import ensure_initialized, new_model
 
 log = logging.getLogger(__name__)
 
 SURFACE_TAG0 = 101  # surface physical tags are numbered from here, seats then mounts
 #: Points sampled per face direction for its curvature in the element-count estimate.
 N_CURVATURE = 5
-
-
-def _new_model(name: str) -> None:
-    if name in gmsh.model.list():
-        gmsh.model.setCurrent(name)
-        gmsh.model.remove()
-    gmsh.model.add(name)
-    gmsh.model.setCurrent(name)
 
 
 def check_requests(parts: Sequence[CadPart | MeshPart], seats: Sequence[BearingSeat],
@@ -204,7 +196,7 @@ def import_cad(parts: Sequence[CadPart], seats: Sequence[BearingSeat] = (),
     opts.validate()
     check_requests(parts, seats, mounts)
     ensure_initialized(verbose)
-    _new_model(model_name)
+    new_model(model_name)
     solids = {p.name: import_part(p, f"parts[{i}]") for i, p in enumerate(parts)}
     cands = {k: face_candidates(s.volumes) for k, s in solids.items()}
     surfaces: dict[str, list[int]] = {}
@@ -296,7 +288,7 @@ def import_mesh(parts: MeshPart | Sequence[MeshPart], seats: Sequence[BearingSea
         log.info("%s", rep.summary())
     _disjoint({k: {(p, int(i)) for i in sel} for k, (p, sel) in facet_sets.items()},
               "boundary facet")
-    _new_model(model_name)
+    new_model(model_name)
     offsets, vols, solids = {}, {}, {}
     offset = 0
     for p in parts:

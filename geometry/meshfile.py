@@ -195,8 +195,16 @@ def _read_meshio(path: Path, fmt: str, fld: str) -> tuple[np.ndarray, dict[int, 
             {k: np.vstack(v) for k, v in elems.items()}, {}, node_sets)
 
 
-def order_mid_nodes(nodes: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, int]:
+def order_mid_nodes(nodes: np.ndarray, tets: np.ndarray, block: int = 65536
+                    ) -> tuple[np.ndarray, int]:
     """Put each 10-node tetrahedron's mid nodes in gmsh's edge order, by position.
+
+    Parameters
+    ----------
+    nodes : numpy.ndarray, shape (n, 3)
+    tets : numpy.ndarray of int, shape (m, 10)
+    block : int
+        Elements handled at once (bounds the memory: 36 distances per element).
 
     Returns
     -------
@@ -208,22 +216,27 @@ def order_mid_nodes(nodes: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, in
     ValueError
         If an element's mid nodes are not one per edge, near its chord midpoint.
     """
-    corners = nodes[tets[:, :4]]
-    chord = 0.5 * (corners[:, TET_EDGES[:, 0]] + corners[:, TET_EDGES[:, 1]])  # (m, 6, 3)
-    length = np.linalg.norm(corners[:, TET_EDGES[:, 0]] - corners[:, TET_EDGES[:, 1]], axis=2)
-    mids = nodes[tets[:, 4:]]  # (m, 6, 3)
-    dist = np.linalg.norm(chord[:, :, None, :] - mids[:, None, :, :], axis=3)  # edge, mid
-    pick = np.argmin(dist, axis=2)  # mid node for each edge
-    best = np.take_along_axis(dist, pick[:, :, None], axis=2)[:, :, 0]
-    ok = ((np.sort(pick, axis=1) == np.arange(6)).all(axis=1)
-          & (best <= MID_NODE_TOL * length).all(axis=1))
-    if not ok.all():
-        bad = int(np.flatnonzero(~ok)[0])
-        raise ValueError(f"element {bad}: its mid-edge nodes are not one per edge near the "
-                         "edge midpoints (not a 10-node tetrahedron of a known node order)")
     out = tets.copy()
-    out[:, 4:] = np.take_along_axis(tets[:, 4:], pick, axis=1)
-    return out, int(np.count_nonzero((pick != np.arange(6)).any(axis=1)))
+    n_changed = 0
+    for b0 in range(0, len(tets), block):
+        t = tets[b0:b0 + block]
+        corners = nodes[t[:, :4]]
+        a, b = corners[:, TET_EDGES[:, 0]], corners[:, TET_EDGES[:, 1]]
+        chord, length = 0.5 * (a + b), np.linalg.norm(a - b, axis=2)  # (m, 6)
+        mids = nodes[t[:, 4:]]
+        dist = np.linalg.norm(chord[:, :, None, :] - mids[:, None, :, :], axis=3)
+        pick = np.argmin(dist, axis=2)  # the mid node of each edge
+        best = np.take_along_axis(dist, pick[:, :, None], axis=2)[:, :, 0]
+        ok = ((np.sort(pick, axis=1) == np.arange(6)).all(axis=1)
+              & (best <= MID_NODE_TOL * length).all(axis=1))
+        if not ok.all():
+            bad = b0 + int(np.flatnonzero(~ok)[0])
+            raise ValueError(f"element {bad}: its mid-edge nodes are not one per edge near "
+                             "the edge midpoints (not a 10-node tetrahedron of a known node "
+                             "order)")
+        out[b0:b0 + block, 4:] = np.take_along_axis(t[:, 4:], pick, axis=1)
+        n_changed += int(np.count_nonzero((pick != np.arange(6)).any(axis=1)))
+    return out, n_changed
 
 
 def upgrade_to_tet10(nodes: np.ndarray, tets4: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -337,3 +337,39 @@ def test_step_writer_restores_the_current_model(tmp_path: Path) -> None:
         assert gmsh.model.getCurrent() == "mine"
         assert "_write_step_m" not in gmsh.model.list()
         gmsh.model.remove()
+
+
+def test_housing_and_shaft_parts_with_journal_seats(files: dict[str, Path],
+                                                    tmp_path: Path) -> None:
+    """Two parts, one physical volume each; journal seats (convex) on the shaft, bores on
+    the housing; a construction line beside the shaft's solid is not read."""
+    from geometry import ShaftParams, build_shaft
+
+    def shaft_and_line() -> None:
+        build_shaft(ShaftParams(), "in")
+        a, b = gmsh.model.occ.addPoint(0.1, 0, 0), gmsh.model.occ.addPoint(0.2, 0, 0)
+        gmsh.model.occ.addLine(a, b)
+
+    with gmsh_session():
+        shaft = write_step(tmp_path / "shaft.step", shaft_and_line)
+    journals = [BearingSeat(f"in_{e}", point=(0.0, 0.0, z), direction=(0, 0, 1),
+                            radius=0.0125, width=0.015, part="shaft_in", surface="journal")
+                for e, z in (("a", 0.0675), ("b", 0.2315))]
+    bore = cs.pump_seats()[0]
+    with gmsh_session():
+        model = import_cad([CadPart("housing", files["pump"]),
+                            CadPart("shaft_in", shaft, size=0.01)],
+                           [bore, *journals], [], preset("coarse"))
+        line = gmsh.model.getEntitiesInBoundingBox(0.099, -1e-6, -1e-6, 0.201, 1e-6, 1e-6,
+                                                   dim=1)
+        assert line == []  # the construction line was not read
+    assert {k: v for k, v in model.groups.items() if v[0] == 3} == {"housing": (3, 1),
+                                                                    "shaft_in": (3, 2)}
+    for e in "ab":
+        rep = model.seats[f"in_{e}"]
+        assert rep.group == f"shaft_in/journal_in_{e}"
+        assert rep.area == pytest.approx(2 * math.pi * 0.0125 * 0.015, rel=1e-9)
+    wrong = BearingSeat("in_a", point=(0.0, 0.0, 0.0675), direction=(0, 0, 1),
+                        radius=0.0125, width=0.015, part="shaft_in")  # a bore: none
+    with pytest.raises(InputError, match="no bore face.*facing away from the axis"):
+        import_cad([CadPart("shaft_in", shaft)], [wrong], [], preset("coarse"))

@@ -105,7 +105,7 @@ def test_seat_links_match_calculix(gearbox: dict, kind: str) -> None:
 
 def test_distributing_seats_add_no_stiffness(gearbox: dict) -> None:
     """Unloaded seat nodes: distributing links leave the clamped housing's spectrum as it
-    is (1e-9), rigid ones stiffen the bores (the first mode +5.6 %)."""
+    is (1e-9), rigid ones stiffen the bores (the first mode +5.4 %, the next +15-35 %)."""
     fe_mesh, seats = gearbox["fe_mesh"], gearbox["seats"]
     spec = fem.housing_spec(fe_mesh, {}, CLAMPED)
     bare = fem.build_model(fe_mesh, MATERIALS, spec, quadrature_degree=2)
@@ -114,7 +114,7 @@ def test_distributing_seats_add_no_stiffness(gearbox: dict) -> None:
     f_rigid = _modes(fe_mesh, dict.fromkeys(seats, "rigid"), CLAMPED, n=6)
     assert np.abs(f_dist / f0 - 1).max() < 1e-9
     assert np.all(f_rigid > f0 * (1 + 1e-3))
-    assert f_rigid[0] / f0[0] - 1 == pytest.approx(0.0557, abs=2e-3)
+    assert f_rigid[0] / f0[0] - 1 == pytest.approx(0.0544, abs=2e-3)
 
 
 def test_seat_weights_and_centroid(gearbox: dict) -> None:
@@ -142,7 +142,8 @@ def _group_node_tags(gearbox: dict, group: str) -> np.ndarray:
 @needs_ccx
 def test_spring_mounts_match_calculix(gearbox: dict, tmp_path: Path) -> None:
     """Each foot on its own spring node (per-patch mount, rigid link): the housing on four
-    rubber mounts, against CalculiX's *RIGID BODY feet on SPRING1 elements (1e-6)."""
+    rubber mounts, against CalculiX's *RIGID BODY feet on SPRING1 elements (1e-6;
+    measured 2.6e-7)."""
     p = gearbox["params"]
     k = (2e7, 5e7, 2e7, 2e3, 2e3, 2e3)
     with gmsh_session():

@@ -418,17 +418,19 @@ def import_part(part: CadPart, where: str = "part") -> ImportedSolid:
                             f" ({exc})") from exc
     new = [dt for dt in gmsh.model.getEntities() if dt not in before]
     top = _top_level(new)
+    if not top:
+        raise InputError.of(f"{where}.path", str(path), "the file holds no shape")
+    check_size(_bbox(top), part.unit, part.plausible_size, f"{where}.unit", path.name)
     problems = _problems(top)
     healed = False
     if part.heal.mode == "always" or (problems and part.heal.mode == "auto"):
-        n_before = len(new)
         top = _heal(top, part.heal)
         healed = True
         remaining = _problems(top)
-        notes.append(f"healed (tolerance {part.heal.tolerance:g} m): "
-                     + ("; ".join(problems) if problems else "no defect found")
-                     + (f"; still: {'; '.join(remaining)}" if remaining else "; fixed")
-                     + f" ({n_before} entities before)")
+        notes.append(f"healed with tolerance {part.heal.tolerance:g} m ({len(new)} entities "
+                     "read): " + ("; ".join(problems) if problems else "no defect found")
+                     + ("" if not problems else
+                        f"; still: {'; '.join(remaining)}" if remaining else "; fixed"))
         problems = remaining
     if problems:
         hint = (f"; {where}.heal.mode = 'never': healing might fix it"
@@ -443,13 +445,7 @@ def import_part(part: CadPart, where: str = "part") -> ImportedSolid:
         gmsh.model.occ.synchronize()
         vols = sorted(t for d, t in out if d == 3)
         notes.append(f"{len(vols)} solids fragmented together (conformal interfaces)")
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
-    for v in vols:
-        b = gmsh.model.getBoundingBox(3, v)
-        lo, hi = np.minimum(lo, b[:3]), np.maximum(hi, b[3:])
-    bbox = np.array([lo, hi])
-    check_size(bbox, part.unit, part.plausible_size, f"{where}.unit", path.name)
+    bbox = _bbox([(3, v) for v in vols])
     faces = {abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in vols],
                                                        combined=False, oriented=False)}
     solid = ImportedSolid(
@@ -459,6 +455,12 @@ def import_part(part: CadPart, where: str = "part") -> ImportedSolid:
         declared_unit=name, healed=healed, notes=notes)
     log.info("%s (%s)", solid.summary(), path.name)
     return solid
+
+
+def _bbox(dim_tags: list[tuple[int, int]]) -> np.ndarray:
+    """Bounding box (2, 3) [m] of entities."""
+    boxes = np.array([gmsh.model.getBoundingBox(d, t) for d, t in dim_tags]).reshape(-1, 6)
+    return np.array([boxes[:, :3].min(axis=0), boxes[:, 3:].max(axis=0)])
 
 
 def _top_level(dim_tags: list[tuple[int, int]]) -> list[tuple[int, int]]:

@@ -77,6 +77,13 @@ def check_requests(parts: Sequence[CadPart | MeshPart], seats: Sequence[BearingS
             groups[s.group_name] = where
 
 
+def _unused(name: str, made: dict, where: str) -> None:
+    """Refuse a group name made twice (a per-patch mount ``feet_1`` beside ``feet``)."""
+    if name in made:
+        raise InputError.of(f"{where}.name", name, "this group is already made by "
+                            "another seat or mount: rename one")
+
+
 def _disjoint(claims: dict[str, set], kind: str) -> None:
     """Refuse two groups that claim the same face or facet."""
     seen: dict[object, str] = {}
@@ -211,6 +218,7 @@ def import_cad(parts: Sequence[CadPart], seats: Sequence[BearingSeat] = (),
     for i, mount in enumerate(mounts):
         face_groups, rep = find_mount(mount, cands[mount.part], f"mounts[{i}]")
         for name, faces, c in zip(rep.groups, face_groups, rep.centres, strict=True):
+            _unused(name, surfaces, f"mounts[{i}]")
             surfaces[name] = faces
             centres[name] = np.asarray(c, dtype=float)
         mount_reports[mount.name] = rep
@@ -282,6 +290,7 @@ def import_mesh(parts: MeshPart | Sequence[MeshPart], seats: Sequence[BearingSea
     for i, mount in enumerate(mounts):
         sels, rep = bounds[mount.part].find_mount(mount, f"mounts[{i}]")
         for name, sel, c in zip(rep.groups, sels, rep.centres, strict=True):
+            _unused(name, facet_sets, f"mounts[{i}]")
             facet_sets[name] = (mount.part, sel)
             centres[name] = np.asarray(c, dtype=float)
         mount_reports[mount.name] = rep

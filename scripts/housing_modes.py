@@ -9,7 +9,7 @@ Markdown tables of the first modes with the feet clamped:
   node, and to a node carrying a point mass;
 * convergence: the housing alone at several element sizes (DOF, time, frequencies);
 * ``--pump``: the parametric pump housing against the same housing written as STEP and
-  read back, at the coarse and fine presets.
+  read back, at the coarse and fine presets, and the seat table of the pump housing.
 
 Usage (serial; about 6 min and 5 GB at the default sizes)::
 
@@ -71,21 +71,21 @@ def _row(label: str, f: np.ndarray, ref: np.ndarray | None = None) -> str:
     return f"| {label} | " + " | ".join(cells) + " |"
 
 
-def seat_table(step: Path, gb, size: float, mass: float, n: int) -> str:
+def seat_table(step: Path, seats: list, feet, size: float, mass: float, n: int,
+               label: str = "gearbox housing") -> str:
     """First modes with no seat, RBE3 and RBE2 seats, free and with a mass."""
-    p = gb.GearboxHousing()
-    model, fe_mesh, _ = _load(step, size, gb.seats(p), gb.feet_mount(p))
+    model, fe_mesh, _ = _load(step, size, seats, feet)
     groups = list(model.seat_groups().values())
     bare = _modes(fe_mesh, {}, 0.0, n)
     head = ("| seats (feet clamped) | " + " | ".join(f"f{i + 1} [Hz]" for i in range(n))
             + " |\n|" + "---|" * (n + 1))
     rows = [_row("none (housing alone)", bare)]
     for m in (0.0, mass):
-        for kind, label in (("distributing", "RBE3"), ("rigid", "RBE2")):
+        for kind, rbe in (("distributing", "RBE3"), ("rigid", "RBE2")):
             f = _modes(fe_mesh, dict.fromkeys(groups, kind), m, n)
-            rows.append(_row(f"{label}, " + (f"{m:g} kg on each node" if m else "free nodes"),
+            rows.append(_row(f"{rbe}, " + (f"{m:g} kg on each node" if m else "free nodes"),
                              f, bare))
-    return (f"gearbox housing, size {size * 1e3:g} mm: {model.quality.summary()}\n\n"
+    return (f"{label}, size {size * 1e3:g} mm: {model.quality.summary()}\n\n"
             + head + "\n" + "\n".join(rows))
 
 
@@ -109,8 +109,9 @@ def convergence_table(step: Path, gb, sizes: list[float], n: int) -> str:
     return head + "\n" + "\n".join(lines)
 
 
-def pump_table(n: int) -> str:
-    """The parametric pump housing against its STEP round trip (coarse, fine)."""
+def pump_tables(n: int, size: float, mass: float) -> str:
+    """The parametric pump housing against its STEP round trip (coarse, fine), and its
+    seat table at ``size``."""
     from mpi4py import MPI
 
     import fem
@@ -149,6 +150,7 @@ def pump_table(n: int) -> str:
                 model = import_cad([CadPart("housing", step)], seats, [feet], preset(name))
                 f_step = _modes(fem.load_meshed_model(model, MPI.COMM_WORLD), {}, 0.0, n)
             rows.append((name, f_par, f_step))
+        seat_text = seat_table(step, seats, feet, size, mass, n, "pump housing")
     head = ("| preset | model | " + " | ".join(f"f{i + 1} [Hz]" for i in range(n))
             + " |\n|" + "---|" * (n + 2))
     lines = []
@@ -157,7 +159,7 @@ def pump_table(n: int) -> str:
         lines.append(f"| {name} | STEP | " + " | ".join(
             f"{x:.2f} ({100 * (x / r - 1):+.3f} %)" for x, r in zip(fs, fp, strict=True))
             + " |")
-    return head + "\n" + "\n".join(lines)
+    return head + "\n" + "\n".join(lines) + "\n\n" + seat_text
 
 
 def _drop_shafts(meshed) -> None:
@@ -189,11 +191,13 @@ def main(argv: list[str] | None = None) -> int:
     gb = _gearbox_module()
     with tempfile.TemporaryDirectory() as tmp:
         step = Path(args.step) if args.step else gb.write(Path(tmp) / "gearbox.step")
-        print(seat_table(step, gb, args.size, args.mass, args.modes), "\n")
+        p = gb.GearboxHousing()
+        print(seat_table(step, gb.seats(p), gb.feet_mount(p), args.size, args.mass,
+                         args.modes), "\n")
         if args.sizes:
             print(convergence_table(step, gb, args.sizes, args.modes), "\n")
     if args.pump:
-        print(pump_table(args.modes))
+        print(pump_tables(args.modes, args.size, args.mass))
     return 0
 
 

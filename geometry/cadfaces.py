@@ -27,6 +27,7 @@ from .locate import (
     nearest_text,
     plane_match,
     seat_match,
+    seat_miss,
     seat_misses,
     seat_report,
 )
@@ -116,14 +117,10 @@ def find_seat(seat: BearingSeat, cands: dict[int, Candidate], bbox: np.ndarray,
     """
     if seat.by_axis:
         seat_misses(seat, bbox[0], bbox[1], where)
-        faces, scored = [], []
-        for f, c in cands.items():
-            ok, score, shape = seat_match(c, seat)
-            if ok:
-                faces.append(f)
-            else:
-                scored.append((score, c.label, shape))
+        faces = [f for f, c in cands.items() if seat_match(c, seat)]
         if not faces:
+            scored = [(score, c.label, shape) for c in cands.values()
+                      for score, shape in [seat_miss(c, seat)]]
             p, a = seat.axis()
             raise InputError(
                 f"{where} ({seat.name!r}): no {seat.surface} face of radius "

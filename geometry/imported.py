@@ -21,6 +21,7 @@ Every request is checked before any file is read; everything found is logged
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Sequence
 
@@ -238,7 +239,8 @@ def import_cad(parts: Sequence[CadPart], seats: Sequence[BearingSeat] = (),
     groups = _add_groups({k: s.volumes for k, s in solids.items()}, surfaces)
     vols = {(k if len(s.volumes) == 1 else f"{k}[{j}]"): v
             for k, s in solids.items() for j, v in enumerate(s.volumes)}
-    report = generate(vols, opts)
+    # generate() caps every size at its options' size: the largest part size
+    report = generate(vols, dataclasses.replace(opts, size=max(sizes.values())))
     log.info("%s meshed: %s (estimated %d tets)", model_name, report.summary(), n_est)
     return ImportedModel(groups=groups, centres=centres, quality=report, parts=solids,
                          seats=seat_reports, mounts=mount_reports, mesh_options=opts,

@@ -431,15 +431,8 @@ def _refine_axis(a0: np.ndarray, circle) -> np.ndarray:
     return axis(sol.x)
 
 
-def seat_match(c: Candidate, seat: BearingSeat) -> tuple[bool, float, str]:
-    """Whether candidate ``c`` is (part of) ``seat``, a mismatch score, and a description.
-
-    A match lies on the seat's cylinder within the tolerance (every point), faces the
-    axis for a bore (outward normals within :data:`SEAT_NORMAL_DEG` of the inward radial
-    direction; outwards for a journal) and lies mostly in the axial window: its overlap
-    with ``[-width/2, width/2]`` is at least half of its own extent or of the width.
-    The score ranks near misses (0 for a match).
-    """
+def _seat_geometry(c: Candidate, seat: BearingSeat) -> dict:
+    """What the seat tests measure on a candidate (see :func:`seat_match`)."""
     p, a = seat.axis()
     tol, r, w = seat.tol(), float(seat.radius), float(seat.width)
     _, rho = axis_coordinates(c.points, p, a)
@@ -447,17 +440,37 @@ def seat_match(c: Candidate, seat: BearingSeat) -> tuple[bool, float, str]:
     lo, hi = float(s_rim.min()), float(s_rim.max())
     overlap = min(hi, 0.5 * w) - max(lo, -0.5 * w)
     radial = radial_directions(c.normal_points, p, a)
+    cos = np.einsum("ij,ij->i", c.normals, radial)
     sign = -1.0 if seat.surface == "bore" else 1.0
-    cos = np.einsum("ij,ij->i", c.normals, radial) * sign
-    facing = bool(len(cos)) and float(cos.min()) >= math.cos(math.radians(SEAT_NORMAL_DEG))
-    dev = float(np.abs(rho - r).max())
-    in_window = overlap >= 0.5 * min(hi - lo, w) - tol
-    ok = dev <= tol and facing and in_window
-    if ok:
-        return True, 0.0, ""
-    gap = max(0.0, 0.5 * min(hi - lo, w) - overlap)
-    side = ("facing the axis" if float(np.median(np.einsum("ij,ij->i", c.normals, radial)))
-            < 0 else "facing away from the axis")
+    facing = bool(len(cos)) and float((sign * cos).min()) >= math.cos(
+        math.radians(SEAT_NORMAL_DEG))
+    return {"p": p, "a": a, "tol": tol, "r": r, "w": w, "rho": rho, "lo": lo, "hi": hi,
+            "overlap": overlap, "cos": cos, "facing": facing,
+            "dev": float(np.abs(rho - r).max())}
+
+
+def seat_match(c: Candidate, seat: BearingSeat) -> bool:
+    """Whether candidate ``c`` is (part of) ``seat``.
+
+    A match lies on the seat's cylinder within the tolerance (every point), faces the
+    axis for a bore (outward normals within :data:`SEAT_NORMAL_DEG` of the inward radial
+    direction; outwards for a journal) and lies mostly in the axial window: its overlap
+    with ``[-width/2, width/2]`` is at least half of its own extent or of the width.
+    """
+    g = _seat_geometry(c, seat)
+    return (g["dev"] <= g["tol"] and g["facing"]
+            and g["overlap"] >= 0.5 * min(g["hi"] - g["lo"], g["w"]) - g["tol"])
+
+
+def seat_miss(c: Candidate, seat: BearingSeat) -> tuple[float, str]:
+    """How far a candidate that is not the seat is from it: a score (lower is nearer)
+    and a description (its own cylinder, when it is one: radius, axis offset and tilt)."""
+    g = _seat_geometry(c, seat)
+    p, a, r, tol, lo, hi = g["p"], g["a"], g["r"], g["tol"], g["lo"], g["hi"]
+    gap = max(0.0, 0.5 * min(hi - lo, g["w"]) - g["overlap"])
+    side = ("facing the axis" if float(np.median(g["cos"])) < 0
+            else "facing away from the axis")
+    penalty = 0.0 if g["facing"] else 1.0
     try:  # a cylinder of its own? then say where its axis is
         fp, fa, fr, rms = fit_cylinder(c.points, c.normals)
     except ValueError:
@@ -465,15 +478,14 @@ def seat_match(c: Candidate, seat: BearingSeat) -> tuple[bool, float, str]:
     if rms <= tol and fr < 1e3 * r:
         _, off = axis_coordinates(p[None, :], fp, fa)
         tilt = math.acos(min(1.0, abs(float(fa @ a))))
-        score = (abs(fr - r) + float(off[0]) + gap) / r + tilt + (0.0 if facing else 1.0)
-        shape = (f"cylinder of radius {fr * 1e3:.3f} mm, its axis {off[0] * 1e3:.3f} mm from "
-                 f"the point and {math.degrees(tilt):.2f} deg off, axial [{lo * 1e3:.2f}, "
-                 f"{hi * 1e3:.2f}] mm from the point, {side}")
-    else:
-        score = (dev + gap) / r + (0.0 if facing else 1.0) + 1.0
-        shape = (f"not a cylinder; {rho.min() * 1e3:.3f}-{rho.max() * 1e3:.3f} mm from the "
-                 f"axis, axial [{lo * 1e3:.2f}, {hi * 1e3:.2f}] mm from the point, {side}")
-    return False, score, shape
+        return ((abs(fr - r) + float(off[0]) + gap) / r + tilt + penalty,
+                f"cylinder of radius {fr * 1e3:.3f} mm, its axis {off[0] * 1e3:.3f} mm from "
+                f"the point and {math.degrees(tilt):.2f} deg off, axial [{lo * 1e3:.2f}, "
+                f"{hi * 1e3:.2f}] mm from the point, {side}")
+    rho = g["rho"]
+    return ((g["dev"] + gap) / r + penalty + 1.0,
+            f"not a cylinder; {rho.min() * 1e3:.3f}-{rho.max() * 1e3:.3f} mm from the "
+            f"axis, axial [{lo * 1e3:.2f}, {hi * 1e3:.2f}] mm from the point, {side}")
 
 
 def nearest_text(scored: list[tuple[float, str, str]], n: int = N_CANDIDATES) -> str:

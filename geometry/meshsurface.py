@@ -34,7 +34,7 @@ from .locate import (
     nearest_text,
     plane_match,
     radial_directions,
-    seat_match,
+    seat_miss,
     seat_misses,
     seat_report,
 )
@@ -239,7 +239,7 @@ class MeshBoundary:
             sel = np.sort(np.concatenate(keep)) if keep else np.zeros(0, dtype=np.int64)
             if not sel.size:
                 scored = [(sc, c.label, shape) for c in self.candidates()
-                          for _, sc, shape in [seat_match(c, seat)]]
+                          for sc, shape in [seat_miss(c, seat)]]
                 raise InputError(
                     f"{where} ({seat.name!r}): no {seat.surface} facets of radius {r:.6g} m "
                     f"(tolerance {tol:.3g} m) around the axis through "

@@ -31,6 +31,7 @@ from geometry import (  # noqa: E402
     MeshPart,
     PumpParams,
     build_pump,
+    finalize_gmsh,
     gmsh_session,
     import_cad,
     import_mesh,
@@ -39,6 +40,14 @@ from geometry import (  # noqa: E402
 )
 
 pytestmark = pytest.mark.fem
+
+
+@pytest.fixture(autouse=True)
+def _gmsh_finalised():
+    """A builder called outside a session leaves gmsh initialised: close it after each
+    test, so that no model outlives it."""
+    yield
+    finalize_gmsh()
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX missing")
 
 GEARBOX = cs.gearbox_script()

@@ -24,6 +24,7 @@ from geometry import (  # noqa: E402
     HousingParams,
     Mount,
     build_housing,
+    finalize_gmsh,
     gmsh_session,
     import_cad,
     import_part,
@@ -35,6 +36,14 @@ from geometry.imported import estimate_elements  # noqa: E402
 from geometry.params import DEFAULT_CENTRE_DISTANCE  # noqa: E402
 
 pytestmark = pytest.mark.fem
+
+
+@pytest.fixture(autouse=True)
+def _gmsh_finalised():
+    """A builder called outside a session leaves gmsh initialised: close it after each
+    test, so that no model outlives it."""
+    yield
+    finalize_gmsh()
 
 GEARBOX = cs.gearbox_script()
 COARSE = preset("coarse", size=0.03, curvature_points=6)

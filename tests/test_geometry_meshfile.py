@@ -22,6 +22,7 @@ from geometry import (  # noqa: E402
     CadPart,
     MeshPart,
     Mount,
+    finalize_gmsh,
     gmsh_session,
     import_cad,
     import_mesh,
@@ -36,6 +37,14 @@ from geometry.meshfile import (  # noqa: E402
 from geometry.meshsurface import boundary_facets, facet_areas  # noqa: E402
 
 pytestmark = pytest.mark.fem
+
+
+@pytest.fixture(autouse=True)
+def _gmsh_finalised():
+    """A builder called outside a session leaves gmsh initialised: close it after each
+    test, so that no model outlives it."""
+    yield
+    finalize_gmsh()
 
 # gmsh 10-node tetrahedron -> meshio/VTK/Abaqus/NASTRAN order (last two mid nodes swapped)
 GMSH_TO_VTK = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]

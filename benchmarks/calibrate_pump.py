@@ -178,7 +178,7 @@ def scene_digest(scene: Path, sets: dict) -> str:
     ``"scene"``), so that a record made on another version of the file (its rotors, mesh,
     n_CM, TE shape, continuation steps, ...) is never reused, and shown by
     :func:`settings_note`."""
-    from study.scene_load import resolved_table
+    from study.scene.load import resolved_table
 
     body = resolved_table(scene, sets)
     for path in DIGEST_SKIP:
@@ -596,7 +596,7 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     3+ impacts per mesh period), or with ``objective = "coexist"`` for contact and
     3-IPP in one turn; kept as ``ipp`` with the linear IPP of each."""
     from benchmarks import te_margin as tm
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
     ov = basis_overrides(extra)

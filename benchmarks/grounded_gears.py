@@ -202,7 +202,7 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from study.excitations import case_scenes
     from study.model import build_problem
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     g = GearParams()
     blank = disk_mass(g.blank_outer_radius(1), g.bore_radius, g.face_width, g.density)

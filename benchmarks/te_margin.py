@@ -94,7 +94,7 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
     from hbm.units import RPM_TO_RAD_S
     from study.excitations import case_scenes
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     def problem(amps, phases):
         ov = {**overrides, "transmission_error.amplitudes_um": list(amps),

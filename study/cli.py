@@ -35,7 +35,7 @@ import re
 import sys
 from pathlib import Path
 
-from study.errors import SceneError
+from study.scene.errors import SceneError
 
 EXIT_OK, EXIT_INTERNAL, EXIT_INPUT, EXIT_SOLVER, EXIT_UNAVAILABLE, EXIT_IO = 0, 1, 2, 3, 4, 5
 EXIT_INTERRUPTED = 130
@@ -84,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def parse_sets(items: list[str]) -> list[dict]:
     """``["a.b=1,2", "c.d=x"]`` -> list of override dicts (Cartesian product)."""
-    from study.scene_overrides import parse_set_values
+    from study.scene.overrides import parse_set_values
 
     axes = []
     for item in items:
@@ -199,7 +199,7 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
     """``geardyn excitations``: three cases, comparison and paper.md (study.excitations)."""
     from study.excitations import run_cases, write_comparison
     from study.parallel import world
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     scene = load_scene(scene_path, overrides)
     results, failed = run_cases(scene, args.out, cache_dir=args.cache or
@@ -213,7 +213,7 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
 def _convergence(args, scene_path: Path) -> int:
     """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
     from study.convergence import KNOB_KEYS, run_convergence
-    from study.scene_overrides import parse_set_values
+    from study.scene.overrides import parse_set_values
 
     knobs: dict[str, list] = {}
     for item in args.knob:

@@ -85,7 +85,6 @@ from study.convergence_report import (
     write_outputs,
     write_text,
 )
-from study.errors import SceneError
 from study.housing_error import field_error, housing_field
 from study.knobs import (
     KNOB_KEYS,
@@ -101,9 +100,10 @@ from study.knobs import (
     plan,
 )
 from study.pipeline import Pipeline, SolverError
-from study.scene_data import Scene
-from study.scene_load import load_scene, scene_from_dict
-from study.scene_overrides import apply_overrides
+from study.scene.data import Scene
+from study.scene.errors import SceneError
+from study.scene.load import load_scene, scene_from_dict
+from study.scene.overrides import apply_overrides
 
 logger = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from core.files import atomic_write
 from study.convergence_errors import ConvergenceResult, Row
 from study.knobs import fmt_value as _num
-from study.scene_data import Scene
+from study.scene.data import Scene
 
 logger = logging.getLogger(__name__)
 

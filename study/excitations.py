@@ -26,9 +26,9 @@ import numpy as np
 
 from core.files import atomic_write
 from study.curves import Peak, kind_label, primary_peak, summarize_branch
-from study.errors import SceneError
-from study.scene_data import Scene
-from study.scene_load import scene_from_dict
+from study.scene.data import Scene
+from study.scene.errors import SceneError
+from study.scene.load import scene_from_dict
 
 logger = logging.getLogger(__name__)
 

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 
 from study import fields
-from study.errors import SceneError
 from study.fe_params import FEParams, fe_parameters
 from study.model import build_problem
 from study.parallel import world
 from study.points import nearest_point
+from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)
 

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from study.errors import SceneError
+from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)
 

@@ -14,10 +14,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from study.errors import SceneError
-from study.scene_data import Scene
-from study.scene_load import scene_from_dict
-from study.scene_overrides import apply_overrides
+from study.scene.data import Scene
+from study.scene.errors import SceneError
+from study.scene.load import scene_from_dict
+from study.scene.overrides import apply_overrides
 
 logger = logging.getLogger(__name__)
 

@@ -33,11 +33,11 @@ import numpy as np
 
 from core.files import atomic_write
 from study.cache import StageCache, source_hash, stage_key
-from study.errors import SceneError, StageUnavailable
 from study.parallel import mark_collective, world
 from study.progress import ProgressBar, StageBar
 from study.runs import RunResult, SolverError, StageStatus
-from study.scene_data import Scene
+from study.scene.data import Scene
+from study.scene.errors import SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
 

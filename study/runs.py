@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from study.scene_data import Scene
+from study.scene.data import Scene
 
 __all__ = ["SolverError", "StageStatus", "RunResult"]
 

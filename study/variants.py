@@ -58,11 +58,11 @@ def write_variants(out: Path, results: list) -> tuple[Path, Path]:
 def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
                         cache: str | None = None):
     """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
-    from study.errors import SceneError
     from study.parallel import mark_collective
     from study.pipeline import Pipeline, RunResult
     from study.results import read_branch
-    from study.scene_load import load_scene
+    from study.scene.errors import SceneError
+    from study.scene.load import load_scene
 
     scene = load_scene(scene_path, overrides)
     pipe = Pipeline(scene, out, cache_dir=cache, progress=False)

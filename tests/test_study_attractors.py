@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import study
-from study.scene_load import load_scene
+from study.scene.load import load_scene
 
 SDOF = Path(__file__).resolve().parents[1] / "scenes" / "gear-pair-sdof.toml"
 OVERRIDES = {"outputs.attractor_transient_turns": 2, "outputs.attractor_window_turns": 2,

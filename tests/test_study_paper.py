@@ -324,7 +324,7 @@ def test_calibrated_rows_are_marked_and_every_row_has_a_calibration_key():
     and a sentence says the scene declares no fits. Every row compares one finding whose
     key a scene may name (``CALIBRATION_ROWS``, each a key of ``PAPER``)."""
     from study.paper import PAPER, _ipp_rows, _mode_rows, _spectrum_rows
-    from study.scene_schema import CALIBRATION_ROWS
+    from study.scene.schema import CALIBRATION_ROWS
 
     assert set(CALIBRATION_ROWS) <= set(PAPER)
     inp = _inputs()

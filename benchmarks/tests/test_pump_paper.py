@@ -115,7 +115,7 @@ def test_internal_only_impacts_reach_the_end_of_the_range(work):
 
     import study
     from study.excitations import case_scenes
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     scene = load_scene(SCENE, {**RANGE, "continuation.speed_rpm": [2600.0, 7000.0]})
     r = study.run(case_scenes(scene)["internal"], work / "internal", cache_dir=work / "cache")
@@ -135,7 +135,7 @@ def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
     from benchmarks.ti_attractor import orbit_std
     from hbm.post.time_response import integrate
     from study.excitations import case_scenes
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     scene = load_scene(SCENE, {**RANGE, "hbm.stability": True,
                                "continuation.speed_rpm": [2850.0, 2925.0]})

@@ -137,7 +137,7 @@ def test_grounded_gears_adds_the_flywheel_and_lateral_ground_of_its_closed_forms
 
 def test_benchmark_set_options_parse_as_geardyn_set():
     from benchmarks.common import scene_overrides
-    from study.errors import SceneError
+    from study.scene.errors import SceneError
 
     ov = scene_overrides(["mesh_stiffness.mean_N_per_um=235.3",
                           "mesh_stiffness.amplitudes_N_per_um=[44.35,37.37,27.2]",

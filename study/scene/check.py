@@ -1,4 +1,4 @@
-"""The one checker of scene tables against their :class:`~study.scene_schema.Spec`.
+"""The one checker of scene tables against their :class:`~study.scene.schema.Spec`.
 
 :func:`check_table` refuses unknown keys (with a "did you mean"), wrong types,
 values out of range and missing required keys with a :class:`SceneError` naming the
@@ -15,8 +15,8 @@ from typing import Any
 
 from core.errors import show
 from core.units import TO_SI
-from study.errors import SceneError
-from study.scene_schema import Spec, attr_name
+from study.scene.errors import SceneError
+from study.scene.schema import Spec, attr_name
 
 __all__ = ["check_table", "check_value", "check_known", "suggest"]
 

@@ -1,8 +1,8 @@
-"""Loading a scene: TOML text or file -> validated :class:`~study.scene_data.Scene`,
-with the ``--set`` overrides of :mod:`study.scene_overrides` applied first.
+"""Loading a scene: TOML text or file -> validated :class:`~study.scene.data.Scene`,
+with the ``--set`` overrides of :mod:`study.scene.overrides` applied first.
 
-Each section is checked against :data:`study.scene_schema.SCHEMA` by the one checker
-(:func:`study.scene_check.check_table`), then the builders below check what spans
+Each section is checked against :data:`study.scene.schema.SCHEMA` by the one checker
+(:func:`study.scene.check.check_table`), then the builders below check what spans
 keys or sections (gear consistency, harmonic sets, speed ranges, FE sections) in a
 fixed order, so the first error in a file is always the same one.
 """
@@ -17,10 +17,9 @@ from typing import Any
 from core.errors import show
 from gears.excitation import perfect_teeth_ste, rectangular_mesh_stiffness
 from gears.iso6336 import approximate_virtual_teeth, single_stiffness
-from study.errors import SceneError, StageUnavailable
 from study.fe_params import fe_parameters
-from study.scene_check import check_known, check_table, suggest
-from study.scene_data import (
+from study.scene.check import check_known, check_table, suggest
+from study.scene.data import (
     Accelerometer,
     AcousticsData,
     AeroLoad,
@@ -39,8 +38,9 @@ from study.scene_data import (
     TransmissionError,
     Unbalance,
 )
-from study.scene_overrides import apply_overrides
-from study.scene_schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, TOP_LEVEL, attr_name
+from study.scene.errors import SceneError, StageUnavailable
+from study.scene.overrides import apply_overrides
+from study.scene.schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, TOP_LEVEL, attr_name
 
 __all__ = ["scene_from_dict", "parse_scene", "load_scene"]
 

@@ -1,4 +1,4 @@
-"""Scene files: the public face of the scene layers of :mod:`study`.
+"""Scene files (``study.scene``): the scene's schema, checker, data, ``--set`` and loader.
 
 A scene describes one machine and its operating range. Files use engineering
 units, carried by each key's suffix (``backlash_um``, ``speed_rpm``,
@@ -13,16 +13,17 @@ harmonic sets without 0 and inconsistent gear data all raise
 value and what is allowed. The schema is documented in ``docs/scenes.md``.
 
 The work is done by modules that import one way (docs/architecture.md):
-:mod:`study.scene_schema` (the :class:`Spec` table) → :mod:`study.scene_check` (the
-checker) → :mod:`study.scene_data` (the frozen dataclasses) → :mod:`study.scene_overrides`
-(``--set``) → :mod:`study.scene_load` (validation and loading; the ISO 6336 and STE
-estimates come from :mod:`gears`). This module re-exports their
-public names; code inside :mod:`study` imports from the module that holds a name.
+:mod:`study.scene.errors` (:class:`SceneError`, :class:`StageUnavailable`) →
+:mod:`study.scene.schema` (the :class:`Spec` table) → :mod:`study.scene.check` (the
+checker) → :mod:`study.scene.data` (the frozen dataclasses) → :mod:`study.scene.overrides`
+(``--set``) → :mod:`study.scene.load` (validation and loading; the ISO 6336 and STE
+estimates come from :mod:`gears`). This ``__init__`` is the scene API for users: it
+re-exports their public names and defines nothing; code inside :mod:`study` imports a
+name from the module that holds it.
 """
 from __future__ import annotations
 
-from study.errors import SceneError, StageUnavailable
-from study.scene_data import (
+from study.scene.data import (
     Accelerometer,
     AcousticsData,
     AeroLoad,
@@ -42,9 +43,10 @@ from study.scene_data import (
     TransmissionError,
     Unbalance,
 )
-from study.scene_load import load_scene, parse_scene, scene_from_dict
-from study.scene_overrides import apply_overrides, parse_set_values
-from study.scene_schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, Spec, schema_markdown
+from study.scene.errors import SceneError, StageUnavailable
+from study.scene.load import load_scene, parse_scene, scene_from_dict
+from study.scene.overrides import apply_overrides, parse_set_values
+from study.scene.schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, Spec, schema_markdown
 
 __all__ = [
     "SceneError", "Scene", "SceneInfo", "GearData", "MeshStiffness", "TransmissionError",

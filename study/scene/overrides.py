@@ -1,6 +1,6 @@
 """``--set section.key=value`` overrides of a scene: the value list of the command
 line (:func:`parse_set_values`) and setting dotted keys on the parsed TOML document
-(:func:`apply_overrides`). The result is validated by :mod:`study.scene_load`.
+(:func:`apply_overrides`). The result is validated by :mod:`study.scene.load`.
 """
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import copy
 import tomllib
 from typing import Any
 
-from study.errors import SceneError
+from study.scene.errors import SceneError
 
 __all__ = ["apply_overrides", "parse_set_values"]
 

@@ -2,7 +2,7 @@
 
 The bottom of the scene layers (above :mod:`core.units`): what each key of a scene
 file is, its type, default, allowed range, unit suffix and meaning. The one checker
-that applies it is :mod:`study.scene_check`; the unit factors come from the one unit
+that applies it is :mod:`study.scene.check`; the unit factors come from the one unit
 table :data:`core.units.TO_SI`. ``docs/scenes.md`` lists the schema
 (:func:`schema_markdown`; a test checks every key is there).
 """

@@ -1,7 +1,7 @@
 """The data of a validated scene: frozen dataclasses in SI units.
 
 Attribute names are the scene file's keys without their unit suffix. Built by
-:mod:`study.scene_load`; everything downstream (models, stages, outputs) reads a
+:mod:`study.scene.load`; everything downstream (models, stages, outputs) reads a
 scene through these types only. Imports nothing of :mod:`study`; the gear geometry
 and the Fourier series of the mesh come from :mod:`gears`.
 """

@@ -12,7 +12,7 @@ error") explicit:
 * **against**: the three resonance speeds of the paper's Fig. 14 (1070, 1570, 3000 rpm:
   H_3Z, H_2Z and H_Z of the mode with most mesh energy), measured as the three most
   prominent local maxima of the mesh-load std of the all-excitations curve
-  (:meth:`study.curves.CurveSummary.strongest`, as ``paper.md`` measures them);
+  (:meth:`study.outputs.curves.CurveSummary.strongest`, as ``paper.md`` measures them);
 * everything else ``geardyn excitations`` prints in ``paper.md`` (grazings, windows,
   external-excitation effect, IPP, 6875 rpm) is *not* seen by the calibration.
 
@@ -230,7 +230,7 @@ def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path,
     H_3Z) and the overrides ``extra`` (the TE phases among them, if given); the curve
     summary as plain data."""
     import study
-    from study.curves import summarize_branch
+    from study.outputs.curves import summarize_branch
     from study.pipeline import SolverError
 
     ov = {**extra, "transmission_error.amplitudes_um": [float(a) for a in amps]}

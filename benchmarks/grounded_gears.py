@@ -198,9 +198,9 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from hbm import trace
     from reduction import modal_damping
     from study import fe_stages
-    from study.curves import primary_peak, summarize_branch
     from study.excitations import case_scenes
     from study.model import build_problem
+    from study.outputs.curves import primary_peak, summarize_branch
     from study.pipeline import Pipeline
     from study.scene.load import load_scene
 

@@ -115,7 +115,7 @@ def trace_attractor(problem, scene, point, ends: tuple[float, float]) -> dict:
     up to ``ends[1]`` rpm with the scene's continuation settings and stability; per
     direction its reach, largest std, unstable segments and arrays."""
     import hbm
-    from study.curves import unstable_segments
+    from study.outputs.curves import unstable_segments
 
     c = scene.continuation
     out = {}

@@ -17,7 +17,7 @@ step        ``continuation.max_step_rpm``               ×2, ×1, ×0.5         
 The most converged value of each knob (last column) is that knob's reference.
 Each knob is one :class:`study.knobs.Knob` entry of :data:`study.knobs.KNOBS` (scene
 key, ladder, reference, applicability, cost stages); the error measures are in
-:mod:`study.convergence_errors` and :mod:`study.housing_error`, the files in
+:mod:`study.convergence_errors` and :mod:`study.outputs.housing_error`, the files in
 :mod:`study.convergence_report`.
 Each setting is run through the cached pipeline (:class:`study.pipeline.Pipeline`,
 up to ``results.h5``), so a harmonics sweep of an FE scene reuses the cached ROM and
@@ -85,7 +85,6 @@ from study.convergence_report import (
     write_outputs,
     write_text,
 )
-from study.housing_error import field_error, housing_field
 from study.knobs import (
     KNOB_KEYS,
     KNOB_NAMES,
@@ -99,6 +98,7 @@ from study.knobs import (
     knob_overrides,
     plan,
 )
+from study.outputs.housing_error import field_error, housing_field
 from study.pipeline import Pipeline, SolverError
 from study.scene.data import Scene
 from study.scene.errors import SceneError

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.curves import Peak, kind_label, primary_peak, summarize_branch
+from study.outputs.curves import Peak, kind_label, primary_peak, summarize_branch
 from study.scene.data import Scene
 from study.scene.errors import SceneError
 from study.scene.load import scene_from_dict
@@ -166,7 +166,7 @@ def _machine(result, point):
     """(turns left out, turns analysed, envelope) of the time response from ``point``
     when the scene asks for time responses (``[outputs] attractor_transient_turns`` > 0),
     else None; a failed integration is logged and gives None."""
-    from study.attractors import scene_time_response
+    from study.outputs.attractors import scene_time_response
 
     try:
         tr = scene_time_response(result, point)
@@ -191,7 +191,7 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
     from the ``all`` case). ``solved``, if given, receives the ``all`` case's solutions
     at the paper's speeds: ``{rpm: (Point, how, stability kind)}``."""
     from hbm import mesh_period_envelope, point_stats, spectrum
-    from study.curves import is_unstable
+    from study.outputs.curves import is_unstable
     from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load,
@@ -329,7 +329,7 @@ def _atomic_text(path: Path, write) -> Path:
 def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
     """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
     the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
-    from study.curves import is_unstable
+    from study.outputs.curves import is_unstable
     from study.paper import FIGURES
     from study.plots_point import time_series_plot
 

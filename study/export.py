@@ -5,13 +5,13 @@ import logging
 from pathlib import Path
 
 from study import fe_stages
-from study.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.outputs.points import nearest_point, point_at, time_series_speeds
 from study.parallel import world
-from study.points import nearest_point, point_at, time_series_speeds
 
 logger = logging.getLogger(__name__)
 
-# time_series_speeds, nearest_point and point_at live in study.points (re-exported)
+# time_series_speeds, nearest_point and point_at live in study.outputs.points (re-exported)
 __all__ = ["write_partial", "export", "write_report_files", "write_attractor_files",
            "time_series_speeds", "nearest_point", "point_at"]
 
@@ -36,7 +36,7 @@ def _extra(result):
 
 def write_partial(result, branch) -> None:
     """(Re)write results.h5 with the branch so far (checkpoint; atomic)."""
-    from study.results import write_results
+    from study.outputs.results import write_results
 
     write_results(result.results, result.scene, result.problem, branch,
                   settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
@@ -96,7 +96,7 @@ def write_attractor_files(result) -> None:
     """The time responses at the unstable segments when the scene asks for them
     (``[outputs] attractor_transient_turns``): ``result.attractors``, attractors.csv and
     ``/attractors`` of results.h5."""
-    from study.attractors import attractors, write_attractors_csv, write_attractors_group
+    from study.outputs.attractors import attractors, write_attractors_csv, write_attractors_group
 
     result.attractors = attractors(result)
     if result.attractors:
@@ -107,7 +107,7 @@ def write_attractor_files(result) -> None:
 def write_report_files(result) -> Path:
     """report.md, with the time responses at the unstable segments and their files
     (:func:`write_attractor_files`)."""
-    from study import report
+    from study.outputs import report
 
     write_attractor_files(result)
     p = report.write_report(result)

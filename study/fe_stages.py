@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from study import fields
 from study.fe_params import FEParams, fe_parameters
 from study.model import build_problem
+from study.outputs import fields
+from study.outputs.points import nearest_point
 from study.parallel import world
-from study.points import nearest_point
 from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)
@@ -241,7 +241,7 @@ def write_rom_group(f, result) -> None:
 
 
 def housing_fields(result) -> list[Path]:
-    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.fields):
+    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.outputs.fields):
     time series of the dynamic displacement (no aliasing), complex amplitudes per order,
     normal velocity and ERP density per order on the outer surface.
 

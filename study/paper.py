@@ -1,7 +1,7 @@
 """``paper.md``: the findings of the paper's Sect. 4 beside those of a run.
 
 The paper's figures are constants here, each with the section and figure it comes
-from; the run's values are measured from its curves (:mod:`study.curves`): the
+from; the run's values are measured from its curves (:mod:`study.outputs.curves`): the
 resonance speeds are the most prominent local maxima of the mesh-load std, the
 grazing speeds those located by the continuation, the span the length of the speed
 intervals with impacts. Nothing of the run is typed in. Written by
@@ -16,7 +16,14 @@ from typing import NamedTuple
 import numpy as np
 
 from core.files import atomic_write
-from study.curves import CurveSummary, Peak, ipp_fractions, ipp_runs, is_unstable, kind_label
+from study.outputs.curves import (
+    CurveSummary,
+    Peak,
+    ipp_fractions,
+    ipp_runs,
+    is_unstable,
+    kind_label,
+)
 from study.paper_data import (
     FIGURES,
     IPP_KEYS,

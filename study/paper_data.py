@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hbm import MeshPeriodEnvelope
-from study.curves import CurveSummary, Peak
+from study.outputs.curves import CurveSummary, Peak
 
 __all__ = ["TOLERANCE", "Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES",
            "IppAt", "SpectrumAt", "PaperInputs"]

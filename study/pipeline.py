@@ -252,7 +252,7 @@ class Pipeline:
     def hbm_key(self) -> str:
         lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
         return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
-                         source_hash("hbm", "study.model", "study.results"))
+                         source_hash("hbm", "study.model", "study.outputs.results"))
 
     def hbm_resume_key(self) -> str:
         """Key of what a resumed continuation must share with the partial run: the hbm key
@@ -262,12 +262,12 @@ class Pipeline:
         inputs["continuation"] = {k: v for k, v in inputs["continuation"].items()
                                   if k not in RESUMABLE_CONTROLS}
         return stage_key("hbm_resume", {"linear": lin, **inputs},
-                         source_hash("hbm", "study.model", "study.results"))
+                         source_hash("hbm", "study.model", "study.outputs.results"))
 
     def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
         """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
         from hbm import trace
-        from study.results import Checkpointer, read_branch, stored_key
+        from study.outputs.results import Checkpointer, read_branch, stored_key
 
         key = self.keys["hbm"] = self.hbm_key()
         hit = self.cache.lookup("hbm", key)
@@ -329,7 +329,7 @@ class Pipeline:
             def produce(tmp: Path) -> None:
                 import h5py
 
-                from study.results import write_branch
+                from study.outputs.results import write_branch
                 with h5py.File(tmp / "branch.h5", "w") as f:
                     write_branch(f, br)
             if resume is None or same:  # a resumed entry's cost is unknown (None)
@@ -361,7 +361,7 @@ class Pipeline:
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
                              self.keys, seconds=time.perf_counter() - t0)
         problem, rom = self.problem()
-        from study.fields import check_outputs
+        from study.outputs.fields import check_outputs
         check_outputs(s, problem.harmonics, rom)
         self.keys.setdefault("hbm", self.hbm_key())
         result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
@@ -413,7 +413,7 @@ class Pipeline:
 def _partial_curves(result) -> None:
     """curves.csv of a continuation that stopped early (the points so far); a failure
     here is logged, never raised over the solver error being reported."""
-    from study.nvh import compute_nvh, write_curves_csv
+    from study.outputs.nvh import compute_nvh, write_curves_csv
 
     if len(result.branch) == 0:
         return

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from core.files import atomic_write  # noqa: E402
-from study.curves import class_intervals  # noqa: E402
+from study.outputs.curves import class_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
@@ -40,7 +40,7 @@ def save_figure(fig, path: Path) -> Path:
 
 def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
     """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
-    grazing speeds (:func:`study.curves.class_intervals`)."""
+    grazing speeds (:func:`study.outputs.curves.class_intervals`)."""
     mesh = branch.element(0)
     return class_intervals(branch.rpm, mesh.contact, [g.rpm for g in mesh.grazing])
 

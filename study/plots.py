@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from study.outputs.points import nearest_point, time_series_speeds
 from study.plot_common import contact_intervals, grazing_values, order_label
 from study.plots_modes import (
     campbell_modes,
@@ -29,7 +30,6 @@ from study.plots_speed import (
     forced_response,
     forced_response_overlay,
 )
-from study.points import nearest_point, time_series_speeds
 
 __all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
            "campbell_plot", "campbell_modes", "rom_error_plot", "rom_plots", "draw_all",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from study.fields import V_REF, velocity_level_db
+from study.outputs.fields import V_REF, velocity_level_db
 from study.plot_common import (
     contact_intervals,
     grazing_values,

@@ -78,7 +78,7 @@ class RunResult:
     seconds : float
         Wall time of the run.
     attractors : list
-        :class:`study.attractors.Attractor` per unstable segment (``[outputs]
+        :class:`study.outputs.attractors.Attractor` per unstable segment (``[outputs]
         attractor_transient_turns`` > 0; computed by the export, with or without
         report.md).
     """

@@ -58,9 +58,9 @@ def write_variants(out: Path, results: list) -> tuple[Path, Path]:
 def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
                         cache: str | None = None):
     """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
+    from study.outputs.results import read_branch
     from study.parallel import mark_collective
     from study.pipeline import Pipeline, RunResult
-    from study.results import read_branch
     from study.scene.errors import SceneError
     from study.scene.load import load_scene
 
@@ -85,7 +85,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     def draw() -> None:
         from study import plots
         from study.export import write_report_files
-        from study.nvh import compute_nvh
+        from study.outputs.nvh import compute_nvh
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
         res.figures += plots.draw_all(res)
         write_report_files(res)

@@ -1,5 +1,5 @@
 """``[outputs] attractor_transient_turns``: time integration at the unstable segments of
-a run, in report.md (study.attractors), on the single-DOF scene whose curve has amplitude
+a run, in report.md (study.outputs.attractors), on the single-DOF scene whose curve has amplitude
 jumps (folds) and a period-doubling segment."""
 
 from pathlib import Path
@@ -24,7 +24,7 @@ def run(tmp_path_factory):
 
 
 def test_each_unstable_segment_has_its_time_response_in_the_report(run):
-    from study.report import summary
+    from study.outputs.report import summary
 
     segs = summary(run)["unstable_segments"]
     kinds = {u.kind for u in segs}
@@ -92,8 +92,8 @@ def test_from_a_jump_the_response_lands_on_a_stable_orbit_of_the_curve(run):
 
 
 def test_a_failed_integration_is_said_in_the_report(run, monkeypatch):
-    import study.attractors as sa
-    from study.report import summary, unstable_lines
+    import study.outputs.attractors as sa
+    from study.outputs.report import summary, unstable_lines
 
     def fail(*args, **kwargs):
         raise RuntimeError("solve_ivp failed after 3 turns: step size too small")

@@ -329,8 +329,8 @@ def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):
     instead of one block the files hold the same values (to round-off of the products)."""
     from fem import post
     from fem.post import fields as post_fields
-    from study import fields
     from study.export import nearest_point
+    from study.outputs import fields
 
     _, _, r1 = pump_runs
     _, pt = nearest_point(r1, 620.0)

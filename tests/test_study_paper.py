@@ -1,4 +1,4 @@
-"""Curve features (study.curves) and the paper table (study.paper) on synthetic curves
+"""Curve features (study.outputs.curves) and the paper table (study.paper) on synthetic curves
 whose peaks, impact intervals and IPP sequences are known in closed form."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hbm import MeshPeriodEnvelope
-from study.curves import (
+from study.outputs.curves import (
     FoldPair,
     class_intervals,
     contact_windows,

@@ -211,7 +211,7 @@ def test_cache_reuse_and_rebuild(tmp_path, caplog):
 
 _KILLABLE = """
 import sys, time
-import study.results as R
+import study.outputs.results as R
 orig = R.Checkpointer.__call__
 def slow(self, branch):
     n = self.n_written

@@ -37,7 +37,7 @@ def result(work):
 
 @pytest.fixture(scope="module")
 def summary(result):
-    from study.curves import summarize_branch
+    from study.outputs.curves import summarize_branch
 
     return summarize_branch(result.branch)
 
@@ -87,7 +87,7 @@ def test_ipp_at_1700_rpm_is_the_calibrated_one(result):
     """The TE's third criterion (``calibrate_pump refine-nl --nl-ipp 1700=0,0.2,0.8,0``):
     Fig. 17's 1-IPP on ~20 % of the turn and 2-IPP on the rest, measured as paper.md
     measures it; the two 1-IPP runs per turn (the H_2 modulation) were not asked for."""
-    from study.curves import ipp_runs
+    from study.outputs.curves import ipp_runs
 
     ipp = _ipp_at(result, 1700.0)
     shares = np.bincount(ipp, minlength=4) / ipp.size

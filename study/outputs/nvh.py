@@ -6,7 +6,7 @@ Computed once at export for every continuation point: the mesh load f_LoA(t)
 (eq. 13) on the fine AFT grid of :func:`hbm.time_series`, its Fourier amplitudes at
 the harmonic indices of the set, and (FE scenes) the ERP of every harmonic from
 the ROM coordinates q̃_k recovered from the point (:meth:`hbm.HBMProblem.recover`)
-and the cached radiation matrix W (:mod:`study.acoustics`).
+and the cached radiation matrix W (:mod:`study.outputs.acoustics`).
 """
 from __future__ import annotations
 
@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.acoustics import P_REF, erp_harmonics, power_db
-from study.fields import V_REF, accelerometer_rows, velocity_level_db
-from study.points import point_at
+from study.outputs.acoustics import P_REF, erp_harmonics, power_db
+from study.outputs.fields import V_REF, accelerometer_rows, velocity_level_db
+from study.outputs.points import point_at
 
 logger = logging.getLogger(__name__)
 

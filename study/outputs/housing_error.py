@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from study.points import nearest_point
+from study.outputs.points import nearest_point
 
 logger = logging.getLogger(__name__)
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from core.files import atomic_write
 from hbm.post.time_response import TimeResponse, integrate
-from study.curves import UnstableSegment, unstable_segments
+from study.outputs.curves import UnstableSegment, unstable_segments
 
 logger = logging.getLogger(__name__)
 

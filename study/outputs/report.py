@@ -8,9 +8,9 @@ import numpy as np
 
 from core.files import atomic_write
 from hbm.stability import KINDS
-from study.attractors import attractor_line
-from study.curves import UnstableSegment, kind_label, kind_name, unstable_segments
-from study.fields import velocity_level_db
+from study.outputs.attractors import attractor_line
+from study.outputs.curves import UnstableSegment, kind_label, kind_name, unstable_segments
+from study.outputs.fields import velocity_level_db
 from study.plot_common import contact_intervals, order_label
 
 __all__ = ["summary", "write_report"]
@@ -100,7 +100,7 @@ _MEANING = {
 
 def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -> list[str]:
     """Report lines for the unstable segments of a branch and what each kind means, with
-    the time response at each where computed (``found``: :class:`study.attractors.Attractor`
+    the time response at each where computed (``found``: :class:`study.outputs.attractors.Attractor`
     per segment)."""
     if not segments:
         return []

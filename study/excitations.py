@@ -331,7 +331,7 @@ def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[
     the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
     from study.outputs.curves import is_unstable
     from study.paper import FIGURES
-    from study.plots_point import time_series_plot
+    from study.plots.point import time_series_plot
 
     names = {}
     for rpm, fig in FIGURES.items():
@@ -352,7 +352,7 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
     ``paper.md`` and the time series at the paper's speeds (``paper_<rpm>rpm.png``) in
     ``out`` (rank 0 under mpirun)."""
     from study.paper import write_paper
-    from study.plots_speed import forced_response_overlay
+    from study.plots.speed import forced_response_overlay
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

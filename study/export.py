@@ -73,7 +73,7 @@ def write_housing(result, figures: bool = True) -> None:
 
 
 def _render(result, fields: list[Path]) -> None:
-    from study.render import render_housing_isolated
+    from study.plots.render import render_housing_isolated
     for x in fields:
         if x.name.startswith(("housing_orders_", "housing_surface_")):
             continue
@@ -83,9 +83,9 @@ def _render(result, fields: list[Path]) -> None:
 
 
 def _figures(result) -> None:
-    from study import plots
+    from study.plots.figures import draw_all
 
-    result.figures += plots.draw_all(result)
+    result.figures += draw_all(result)
     if result.scene.outputs.report:
         write_report_files(result)
     else:                       # time responses asked for are kept without report.md too

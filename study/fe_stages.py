@@ -241,7 +241,7 @@ def write_rom_group(f, result) -> None:
 
 
 def housing_fields(result) -> list[Path]:
-    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.outputs.fields):
+    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.fields):
     time series of the dynamic displacement (no aliasing), complex amplitudes per order,
     normal velocity and ERP density per order on the outer surface.
 

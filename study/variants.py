@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.plot_common import contact_intervals
-from study.plots_speed import forced_response_overlay
+from study.plots.common import contact_intervals
+from study.plots.speed import forced_response_overlay
 
 logger = logging.getLogger(__name__)
 
@@ -83,11 +83,11 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
 
     def draw() -> None:
-        from study import plots
         from study.export import write_report_files
         from study.outputs.nvh import compute_nvh
+        from study.plots.figures import draw_all
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
-        res.figures += plots.draw_all(res)
+        res.figures += draw_all(res)
         write_report_files(res)
     if scene.scene.kind == "fe" and scene.outputs.housing_field:
         from study.export import write_housing

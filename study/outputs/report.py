@@ -11,7 +11,7 @@ from hbm.stability import KINDS
 from study.outputs.attractors import attractor_line
 from study.outputs.curves import UnstableSegment, kind_label, kind_name, unstable_segments
 from study.outputs.fields import velocity_level_db
-from study.plot_common import contact_intervals, order_label
+from study.plots.common import contact_intervals, order_label
 
 __all__ = ["summary", "write_report"]
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from study.plot_common import order_label, plt, save_figure
+from study.plots.common import order_label, plt, save_figure
 
 __all__ = ["time_series_plot", "spectrum_lines", "spectrum_plot"]
 

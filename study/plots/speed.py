@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from study.outputs.fields import V_REF, velocity_level_db
-from study.plot_common import (
+from study.plots.common import (
     contact_intervals,
     grazing_values,
     order_label,

@@ -1,10 +1,5 @@
-"""PNG plots of a run (matplotlib, Agg): :func:`draw_all` draws what the scene's
-``[outputs] plots`` asks for.
-
-The plots live by what they draw: :mod:`study.plots_speed` (forced response, ERP,
-accelerometers against speed), :mod:`study.plots_point` (time series and spectrum of
-one solution), :mod:`study.plots_modes` (Campbell diagram, ROM error, order maps), on
-top of :mod:`study.plot_common`. Their public names are re-exported here.
+"""The figures of a run: :func:`draw_all` draws the PNG plots the scene's ``[outputs]
+plots`` asks for, each by the module of what it draws (:mod:`study.plots`).
 
 Units on the plots: rpm, µm, N, Hz.
 """
@@ -15,26 +10,11 @@ from pathlib import Path
 import numpy as np
 
 from study.outputs.points import nearest_point, time_series_speeds
-from study.plot_common import contact_intervals, grazing_values, order_label
-from study.plots_modes import (
-    campbell_modes,
-    campbell_plot,
-    order_map_plot,
-    rom_error_plot,
-    rom_plots,
-)
-from study.plots_point import spectrum_lines, spectrum_plot, time_series_plot
-from study.plots_speed import (
-    accelerometer_plot,
-    erp_plot,
-    forced_response,
-    forced_response_overlay,
-)
+from study.plots.modes import order_map_plot, rom_plots
+from study.plots.point import spectrum_plot, time_series_plot
+from study.plots.speed import accelerometer_plot, erp_plot, forced_response
 
-__all__ = ["forced_response", "forced_response_overlay", "time_series_plot", "spectrum_plot",
-           "campbell_plot", "campbell_modes", "rom_error_plot", "rom_plots", "draw_all",
-           "contact_intervals", "grazing_values", "order_label", "spectrum_lines",
-           "order_map_plot", "erp_plot", "accelerometer_plot"]
+__all__ = ["draw_all"]
 
 
 def draw_all(result) -> list[Path]:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from study.plot_common import order_label, plt, save_figure
+from study.plots.common import order_label, plt, save_figure
 
 __all__ = ["campbell_modes", "campbell_plot", "order_map_plot", "rom_error_plot", "rom_plots"]
 

@@ -18,12 +18,12 @@ __all__ = ["render_housing", "render_housing_isolated"]
 
 
 def render_housing_isolated(xdmf: Path, png: Path, timeout: float = 300.0) -> Path | None:
-    """:func:`render_housing` in a child process (``python -m study.render XDMF PNG``)."""
+    """:func:`render_housing` in a child process (``python -m study.plots.render XDMF PNG``)."""
     import subprocess
     import sys
 
     try:
-        p = subprocess.run([sys.executable, "-m", "study.render", str(xdmf), str(png)],
+        p = subprocess.run([sys.executable, "-m", "study.plots.render", str(xdmf), str(png)],
                            capture_output=True, text=True, timeout=timeout)
     except (OSError, subprocess.TimeoutExpired) as exc:
         logger.warning("housing rendering failed: %s", exc)
@@ -90,7 +90,7 @@ def render_housing(xdmf: Path, png: Path, amplification: float = 0.05) -> Path |
         return None
 
 
-if __name__ == "__main__":  # python -m study.render XDMF PNG
+if __name__ == "__main__":  # python -m study.plots.render XDMF PNG
     import sys
 
     logging.basicConfig(level=logging.WARNING)

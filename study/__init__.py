@@ -55,7 +55,7 @@ def run(scene: str | Path | Any, out: str | Path, *, overrides: dict | None = No
     -------
     study.pipeline.RunResult
     """
-    from study.pipeline import run_scene
+    from study.pipeline.stages import run_scene
     from study.scene.data import Scene
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene, overrides)

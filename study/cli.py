@@ -16,7 +16,7 @@
                                         # one ROM; comparison and paper.md in DIR
 
 ``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
-(:mod:`study.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
+(:mod:`study.pipeline.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
 same exit code on every rank; ``convergence`` refuses (exit 2).
 
 Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
@@ -157,7 +157,7 @@ def _progress(args) -> bool:
 
 def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> int:
     import study
-    from study.pipeline import SolverError
+    from study.pipeline.runs import SolverError
 
     out = Path(args.out)
     cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
@@ -182,7 +182,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                     and len(exc.result.branch) > 1:
                 results.append((ov, exc.result))
     if results and until == "export":
-        from study.parallel import world
+        from study.pipeline.parallel import world
         from study.variants import write_variants
         world().root_call(write_variants, out, results)
     return EXIT_SOLVER if failed else EXIT_OK
@@ -198,7 +198,7 @@ def _report(args, scene_path: Path, overrides: dict) -> int:
 def _excitations(args, scene_path: Path, overrides: dict) -> int:
     """``geardyn excitations``: three cases, comparison and paper.md (study.excitations)."""
     from study.excitations import run_cases, write_comparison
-    from study.parallel import world
+    from study.pipeline.parallel import world
     from study.scene.load import load_scene
 
     scene = load_scene(scene_path, overrides)
@@ -250,7 +250,7 @@ def _dispatch(args) -> int:
     scene_path = Path(args.scene)
     variants = parse_sets(args.set)
     cmd = args.command
-    from study.parallel import world
+    from study.pipeline.parallel import world
 
     if cmd != "convergence" and (args.knob or args.only or args.tol != 1e-2):
         raise SceneError(f"{cmd}: --knob, --only and --tol are options of `geardyn "
@@ -279,17 +279,17 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: usage errors -> 2, --help -> 0
         return int(exc.code or 0)
-    from study.parallel import world
+    from study.pipeline.parallel import world
 
     comm = world()
     _setup_logging(args.quiet, args.verbose, comm.rank)
     code, exc = _main(args)
     if exc is None:
         return code
-    from study.pipeline import StageUnavailable
+    from study.scene.errors import StageUnavailable
 
     # raised identically on every rank (scene validation runs on every rank; rank-0
-    # sections share their errors, study.parallel): rank 0 alone reports it
+    # sections share their errors, study.pipeline.parallel): rank 0 alone reports it
     agreed = isinstance(exc, (SceneError, StageUnavailable)) or \
         bool(getattr(exc, "collective", False))
     if comm.rank != 0 and agreed:
@@ -315,7 +315,8 @@ def _main(args) -> tuple[int, BaseException | None]:
 def _exit_code(exc: BaseException) -> int:
     """Log ``exc`` and return its exit code (module docstring)."""
     from hbm import ConvergenceError
-    from study.pipeline import SolverError, StageUnavailable
+    from study.pipeline.runs import SolverError
+    from study.scene.errors import StageUnavailable
 
     if isinstance(exc, SceneError):
         logger.error("invalid input: %s", exc)

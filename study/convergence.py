@@ -54,7 +54,7 @@ The recommendation of a knob is its cheapest value whose errors are all within
 ``tol`` (no unmatched grazing). Costs are the wall times of the stages the knob
 changes (mesh: mesh+fe+rom+hbm; n_cm: fe+rom+hbm; others: hbm), measured when the
 stage ran; the stage times of cached entries are kept in ``<cache>/timings.json`` and in
-each entry's manifest (:meth:`study.cache.StageCache.seconds`).
+each entry's manifest (:meth:`study.pipeline.cache.StageCache.seconds`).
 """
 
 from __future__ import annotations
@@ -99,7 +99,8 @@ from study.knobs import (
     plan,
 )
 from study.outputs.housing_error import field_error, housing_field
-from study.pipeline import Pipeline, SolverError
+from study.pipeline.runs import SolverError
+from study.pipeline.stages import Pipeline
 from study.scene.data import Scene
 from study.scene.errors import SceneError
 from study.scene.load import load_scene, scene_from_dict

@@ -113,7 +113,7 @@ def run_cases(scene: Scene, out: str | Path, cache_dir: str | None = None,
     early keeps its partial result when it has at least two points.
     """
     import study
-    from study.pipeline import SolverError
+    from study.pipeline.runs import SolverError
 
     scenes = case_scenes(scene)           # every case validated before any heavy work
     out = Path(out)
@@ -137,7 +137,7 @@ def solution_at(result, rpm: float):
     """The solution at ``rpm``: Newton at that speed from the nearest branch point
     (stable preferred), or that point itself if Newton fails. Returns (Point, how)."""
     from hbm import ConvergenceError
-    from study.export import nearest_point
+    from study.pipeline.export import nearest_point
 
     _, pt = nearest_point(result, rpm)
     if abs(pt.rpm - rpm) <= 1e-9 * rpm:

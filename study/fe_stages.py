@@ -22,7 +22,7 @@ from study.fe_params import FEParams, fe_parameters
 from study.model import build_problem
 from study.outputs import fields
 from study.outputs.points import nearest_point
-from study.parallel import world
+from study.pipeline.parallel import world
 from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)

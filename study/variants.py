@@ -59,8 +59,9 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                         cache: str | None = None):
     """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
     from study.outputs.results import read_branch
-    from study.parallel import mark_collective
-    from study.pipeline import Pipeline, RunResult
+    from study.pipeline.parallel import mark_collective
+    from study.pipeline.runs import RunResult
+    from study.pipeline.stages import Pipeline
     from study.scene.errors import SceneError
     from study.scene.load import load_scene
 
@@ -83,14 +84,14 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
 
     def draw() -> None:
-        from study.export import write_report_files
         from study.outputs.nvh import compute_nvh
+        from study.pipeline.export import write_report_files
         from study.plots.figures import draw_all
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
         res.figures += draw_all(res)
         write_report_files(res)
     if scene.scene.kind == "fe" and scene.outputs.housing_field:
-        from study.export import write_housing
+        from study.pipeline.export import write_housing
         write_housing(res)                          # from the cached ROM, rank 0 writes
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

@@ -129,7 +129,7 @@ def test_time_responses_are_kept_without_report(run, tmp_path):
     import dataclasses
     import shutil
 
-    from study.export import _figures
+    from study.pipeline.export import _figures
 
     out = tmp_path / "run"
     shutil.copytree(run.out, out)

@@ -7,7 +7,7 @@ from pathlib import Path
 from study import fe_stages
 from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
 from study.outputs.points import nearest_point, point_at, time_series_speeds
-from study.parallel import world
+from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
@@ -47,7 +47,7 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     fields, plots and report.md the scene asks for (``housing=False``: no housing
     fields, e.g. for an incomplete curve).
 
-    Under mpirun (:mod:`study.parallel`) rank 0 writes every file."""
+    Under mpirun (:mod:`study.pipeline.parallel`) rank 0 writes every file."""
     comm = world()
     result.nvh = compute_nvh(result)
     comm.root_call(write_partial, result, result.branch)

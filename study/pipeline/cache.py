@@ -167,7 +167,7 @@ class StageCache:
         ``elapsed=None``: the cost is not known (a continuation resumed from an earlier
         process), and the manifest says so (``seconds`` null).
 
-        With ``comm`` (a :class:`study.parallel.World`) the call is collective: rank 0
+        With ``comm`` (a :class:`study.pipeline.parallel.World`) the call is collective: rank 0
         creates the folder, every rank runs ``produce`` (which may be collective and
         should write each file from one rank), then rank 0 checksums and renames the
         entry while the others wait; every rank gets the entry's path.

@@ -32,10 +32,10 @@ from typing import Any
 import numpy as np
 
 from core.files import atomic_write
-from study.cache import StageCache, source_hash, stage_key
-from study.parallel import mark_collective, world
-from study.progress import ProgressBar, StageBar
-from study.runs import RunResult, SolverError, StageStatus
+from study.pipeline.cache import StageCache, source_hash, stage_key
+from study.pipeline.parallel import mark_collective, world
+from study.pipeline.progress import ProgressBar, StageBar
+from study.pipeline.runs import RunResult, SolverError, StageStatus
 from study.scene.data import Scene
 from study.scene.errors import SceneError, StageUnavailable
 
@@ -340,7 +340,7 @@ class Pipeline:
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
         """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
-        from study.export import export, write_partial
+        from study.pipeline.export import export, write_partial
 
         t0 = time.perf_counter()
         s = self.scene

@@ -183,23 +183,23 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                 results.append((ov, exc.result))
     if results and until == "export":
         from study.pipeline.parallel import world
-        from study.variants import write_variants
+        from study.studies.variants import write_variants
         world().root_call(write_variants, out, results)
     return EXIT_SOLVER if failed else EXIT_OK
 
 
 def _report(args, scene_path: Path, overrides: dict) -> int:
-    from study.variants import report_from_results
+    from study.studies.variants import report_from_results
     report_from_results(scene_path, Path(args.out), overrides,
                         cache=args.cache or os.environ.get("GEARDYN_CACHE"))
     return EXIT_OK
 
 
 def _excitations(args, scene_path: Path, overrides: dict) -> int:
-    """``geardyn excitations``: three cases, comparison and paper.md (study.excitations)."""
-    from study.excitations import run_cases, write_comparison
+    """``geardyn excitations``: three cases, comparison and paper.md (study.studies.excitations)."""
     from study.pipeline.parallel import world
     from study.scene.load import load_scene
+    from study.studies.excitations import run_cases, write_comparison
 
     scene = load_scene(scene_path, overrides)
     results, failed = run_cases(scene, args.out, cache_dir=args.cache or
@@ -212,8 +212,9 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
 
 def _convergence(args, scene_path: Path) -> int:
     """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
-    from study.convergence import KNOB_KEYS, run_convergence
     from study.scene.overrides import parse_set_values
+    from study.studies.convergence.knobs import KNOB_KEYS
+    from study.studies.convergence.sweep import run_convergence
 
     knobs: dict[str, list] = {}
     for item in args.knob:

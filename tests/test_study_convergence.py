@@ -17,14 +17,10 @@ import numpy as np
 import pytest
 
 from hbm import GrazingPoint
-from study.convergence import (
-    curve_error,
-    grazing_error,
-    plan,
-    recommend,
-    run_convergence,
-)
 from study.scene import SceneError, load_scene
+from study.studies.convergence.knobs import plan
+from study.studies.convergence.measures import curve_error, grazing_error, recommend
+from study.studies.convergence.sweep import run_convergence
 
 ROOT = Path(__file__).resolve().parents[1]
 SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"

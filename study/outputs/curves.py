@@ -3,7 +3,7 @@ vibro-impact span and the permanent-contact windows between impact regions.
 
 Plain functions of the per-point arrays of a branch (speed in rpm, std of the
 dynamic mesh load in N, contact class 0/1/2), so that they can be checked on
-synthetic curves. Used by :mod:`study.excitations` and :mod:`study.paper`.
+synthetic curves. Used by :mod:`study.studies.excitations` and :mod:`study.studies.paper.report`.
 """
 from __future__ import annotations
 

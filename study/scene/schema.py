@@ -58,7 +58,7 @@ PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_err
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
 
 #: The findings of the paper that ``paper.md`` compares, by the key of
-#: :data:`study.paper_data.PAPER` (a test checks the two agree): the keys of a scene's
+#: :data:`study.studies.paper.findings.PAPER` (a test checks the two agree): the keys of a scene's
 #: ``[calibration]``, which says which of them the scene's parameters were fitted to.
 CALIBRATION_ROWS = {
     "static_load": "static mesh load F_s",

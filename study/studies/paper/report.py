@@ -5,7 +5,7 @@ from; the run's values are measured from its curves (:mod:`study.outputs.curves`
 resonance speeds are the most prominent local maxima of the mesh-load std, the
 grazing speeds those located by the continuation, the span the length of the speed
 intervals with impacts. Nothing of the run is typed in. Written by
-``geardyn excitations`` (:mod:`study.excitations`), the only command that has the
+``geardyn excitations`` (:mod:`study.studies.excitations`), the only command that has the
 three excitation cases the Sect. 4.2 comparison needs.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ from study.outputs.curves import (
     is_unstable,
     kind_label,
 )
-from study.paper_data import (
+from study.studies.paper.findings import (
     FIGURES,
     IPP_KEYS,
     PAPER,

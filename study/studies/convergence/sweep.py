@@ -15,11 +15,12 @@ step        ``continuation.max_step_rpm``               ×2, ×1, ×0.5         
 ==========  ==========================================  =========================  =====
 
 The most converged value of each knob (last column) is that knob's reference.
-Each knob is one :class:`study.knobs.Knob` entry of :data:`study.knobs.KNOBS` (scene
-key, ladder, reference, applicability, cost stages); the error measures are in
-:mod:`study.convergence_errors` and :mod:`study.outputs.housing_error`, the files in
-:mod:`study.convergence_report`.
-Each setting is run through the cached pipeline (:class:`study.pipeline.Pipeline`,
+Each knob is one :class:`~study.studies.convergence.knobs.Knob` entry of
+:data:`~study.studies.convergence.knobs.KNOBS` (scene key, ladder, reference,
+applicability, cost stages); the error measures are in
+:mod:`~study.studies.convergence.measures` and :mod:`study.outputs.housing_error`, the
+files in :mod:`~study.studies.convergence.report`.
+Each setting is run through the cached pipeline (:class:`study.pipeline.stages.Pipeline`,
 up to ``results.h5``), so a harmonics sweep of an FE scene reuses the cached ROM and
 only the hbm stage runs; the log says which stages ran and which came from cache.
 
@@ -64,40 +65,6 @@ import logging
 import math
 from pathlib import Path
 
-from study.convergence_errors import (
-    FIG11_BAND,
-    MATCH_WINDOW,
-    SPEED_SLACK,
-    ConvergenceResult,
-    GrazingMatch,
-    Row,
-    curve_error,
-    grazing_error,
-    recommend,
-    rom_frequency_error,
-    validity_hz,
-)
-from study.convergence_report import (
-    cost_text,
-    pareto_plot,
-    recommendation_text,
-    table_markdown,
-    write_outputs,
-    write_text,
-)
-from study.knobs import (
-    KNOB_KEYS,
-    KNOB_NAMES,
-    KNOBS,
-    Knob,
-    Setting,
-    applicable,
-    default_values,
-    fmt_value,
-    knob,
-    knob_overrides,
-    plan,
-)
 from study.outputs.housing_error import field_error, housing_field
 from study.pipeline.runs import SolverError
 from study.pipeline.stages import Pipeline
@@ -105,14 +72,22 @@ from study.scene.data import Scene
 from study.scene.errors import SceneError
 from study.scene.load import load_scene, scene_from_dict
 from study.scene.overrides import apply_overrides
+from study.studies.convergence.knobs import Setting, fmt_value, knob, plan
+from study.studies.convergence.measures import (
+    SPEED_SLACK,
+    ConvergenceResult,
+    Row,
+    curve_error,
+    grazing_error,
+    recommend,
+    rom_frequency_error,
+    validity_hz,
+)
+from study.studies.convergence.report import cost_text, write_outputs, write_text
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["KNOBS", "KNOB_NAMES", "KNOB_KEYS", "Knob", "Setting", "Row", "ConvergenceResult",
-           "default_values", "applicable", "knob_overrides", "plan", "curve_error",
-           "grazing_error", "GrazingMatch", "rom_frequency_error", "run_convergence",
-           "recommend", "write_outputs", "table_markdown", "recommendation_text",
-           "pareto_plot", "FIG11_BAND", "MATCH_WINDOW", "SPEED_SLACK"]
+__all__ = ["run_convergence"]
 
 
 class _Timings:

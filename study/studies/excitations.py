@@ -13,7 +13,7 @@ the excitation, :mod:`study.pipeline`), each into ``OUT/<case>/`` as a full run,
 the comparison is written: ``excitations_forced_response.png`` (std curves overlaid),
 ``excitations.csv`` and ``excitations.md`` (grazing speeds per case, primary peak
 and vibro-impact span and their change against the internal-only case) and
-``paper.md`` (:mod:`study.paper`).
+``paper.md`` (:mod:`study.studies.paper.report`).
 """
 from __future__ import annotations
 
@@ -187,12 +187,13 @@ def _range_text(result) -> str:
 
 
 def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
-    """:class:`study.paper.PaperInputs` of the case results (IPP, spectrum and mesh mode
-    from the ``all`` case). ``solved``, if given, receives the ``all`` case's solutions
-    at the paper's speeds: ``{rpm: (Point, how, stability kind)}``."""
+    """:class:`~study.studies.paper.report.PaperInputs` of the case results (IPP,
+    spectrum and mesh mode from the ``all`` case). ``solved``, if given, receives the
+    ``all`` case's solutions at the paper's speeds: ``{rpm: (Point, how, stability
+    kind)}``."""
     from hbm import mesh_period_envelope, point_stats, spectrum
     from study.outputs.curves import is_unstable
-    from study.paper import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
+    from study.studies.paper.report import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
 
     inp = PaperInputs(scene.name, scene.load.torque, scene.static_load,
                       calibration=dict(scene.calibration))
@@ -328,10 +329,11 @@ def _atomic_text(path: Path, write) -> Path:
 
 def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
     """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
-    the paper's time-series speeds (:data:`study.paper.FIGURES`) that the range holds."""
+    the paper's time-series speeds (:data:`~study.studies.paper.report.FIGURES`) that the
+    range holds."""
     from study.outputs.curves import is_unstable
-    from study.paper import FIGURES
     from study.plots.point import time_series_plot
+    from study.studies.paper.report import FIGURES
 
     names = {}
     for rpm, fig in FIGURES.items():
@@ -351,8 +353,8 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
     """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md``,
     ``paper.md`` and the time series at the paper's speeds (``paper_<rpm>rpm.png``) in
     ``out`` (rank 0 under mpirun)."""
-    from study.paper import write_paper
     from study.plots.speed import forced_response_overlay
+    from study.studies.paper.report import write_paper
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

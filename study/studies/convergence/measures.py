@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from study.knobs import Setting
 from study.scene.data import Scene
+from study.studies.convergence.knobs import Setting
 
 __all__ = ["FIG11_BAND", "MATCH_WINDOW", "SPEED_SLACK", "GrazingMatch", "Row",
            "ConvergenceResult", "curve_error", "grazing_error", "rom_frequency_error",

@@ -1,5 +1,5 @@
 """The paper's Sect. 4 findings (constants, each with its section and figure) and the
-run quantities :mod:`study.paper` sets beside them (plain dataclasses)."""
+run quantities :mod:`study.studies.paper.report` sets beside them (plain dataclasses)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field

@@ -8,9 +8,9 @@ import logging
 from pathlib import Path
 
 from core.files import atomic_write
-from study.convergence_errors import ConvergenceResult, Row
-from study.knobs import fmt_value as _num
 from study.scene.data import Scene
+from study.studies.convergence.knobs import fmt_value
+from study.studies.convergence.measures import ConvergenceResult, Row
 
 logger = logging.getLogger(__name__)
 
@@ -34,7 +34,7 @@ def _csv_row(r: Row, tol: float) -> dict:
 
     def f(x):
         return "" if x is None else f"{x:.6g}"
-    return {"knob": r.setting.knob, "value": _num(r.setting.value),
+    return {"knob": r.setting.knob, "value": fmt_value(r.setting.value),
             "reference": int(r.reference), "status": r.status, "seconds": f(r.seconds),
             "seconds_run": f"{r.seconds_run:.3f}", "points": r.points,
             "stages": " ".join(f"{k}:{v}" for k, v in r.stages.items() if v != "skipped"),
@@ -49,7 +49,7 @@ def _csv_row(r: Row, tol: float) -> dict:
             "housing_err": f(r.housing_err), "housing_metric": r.housing_metric,
             "max_err": f(r.max_err), "within_tol": int(r.within(tol)),
             "recommended": int(r.recommended),
-            "overrides": ";".join(f"{k}={_num(v)}" for k, v in r.setting.overrides.items())}
+            "overrides": ";".join(f"{k}={fmt_value(v)}" for k, v in r.setting.overrides.items())}
 
 
 def write_text(path: Path, text: str) -> None:
@@ -74,7 +74,7 @@ def table_markdown(result: ConvergenceResult) -> str:
         return "–" if x is None else f"{x:.2e}"
     for r in result.rows:
         g = r.grazing
-        cells = [r.setting.knob, _num(r.setting.value) + (" (ref)" if r.reference else ""),
+        cells = [r.setting.knob, fmt_value(r.setting.value) + (" (ref)" if r.reference else ""),
                  "n/a" if r.seconds is None else f"{r.seconds:.2f}", str(r.points)]
         cells += [e(r.rom_freq_err)] if fe else []
         if g is None:
@@ -100,7 +100,7 @@ def recommendation_text(result: ConvergenceResult) -> str:
     for knob, r in result.recommendation.items():
         why = "within tolerance" if r.within(result.tol) else \
             "no other value within tolerance: the reference"
-        lines.append(f"- {knob} = {_num(r.setting.value)} (cost {cost_text(r)}, max error "
+        lines.append(f"- {knob} = {fmt_value(r.setting.value)} (cost {cost_text(r)}, max error "
                      f"{(r.max_err or 0.0):.2e}; {why})")
     for knob in dict.fromkeys(r.setting.knob for r in result.rows):
         if knob not in result.recommendation:
@@ -114,7 +114,7 @@ def recommendation_text(result: ConvergenceResult) -> str:
     ov = result.overrides()
     if ov:
         lines += ["", "As scene overrides: " + " ".join(
-            f"`--set {k}={_num(v)}`" for k, v in ov.items())]
+            f"`--set {k}={fmt_value(v)}`" for k, v in ov.items())]
     return "\n".join(lines)
 
 
@@ -156,7 +156,7 @@ def pareto_plot(result: ConvergenceResult, path: Path) -> Path:
         y = [max(r.max_err, floor) for r in kr]
         line, = ax.plot(x, y, "o-", color=f"C{i}", label=knob)
         for r, xi, yi in zip(kr, x, y, strict=True):
-            ax.annotate(_num(r.setting.value) + (" (ref)" if r.reference else ""), (xi, yi),
+            ax.annotate(fmt_value(r.setting.value) + (" (ref)" if r.reference else ""), (xi, yi),
                         textcoords="offset points", xytext=(4, 4), fontsize=7)
             if r.reference:
                 ax.plot([xi], [yi], "o", ms=10, mfc="none", mec=f"C{i}")

@@ -38,8 +38,8 @@ def main(argv: list[str] | None = None) -> dict:
     from reduction import load_basis, reconstruct
     from study import fe_stages
     from study.outputs.acoustics import erp_harmonics
+    from study.outputs.points import point_at
     from study.pipeline import Pipeline
-    from study.pipeline.export import point_at
 
     t0 = time.perf_counter()
     ov = {"continuation.speed_rpm": [2000.0, 2100.0], "hbm.stability": False,

@@ -221,7 +221,7 @@ def test_housing_fields_read_back(pump_runs):
     import meshio
 
     from reduction import load_basis
-    from study.pipeline.export import nearest_point
+    from study.outputs.points import nearest_point
 
     _, _, r1 = pump_runs
     i, pt = nearest_point(r1, 620.0)
@@ -330,7 +330,7 @@ def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):
     from fem import post
     from fem.post import fields as post_fields
     from study.outputs import fields
-    from study.pipeline.export import nearest_point
+    from study.outputs.points import nearest_point
 
     _, _, r1 = pump_runs
     _, pt = nearest_point(r1, 620.0)
@@ -358,7 +358,7 @@ def test_accelerometers(pump_runs):
     from dolfinx import geometry as dgeo
 
     from reduction import load_basis, reconstruct
-    from study.pipeline.export import point_at
+    from study.outputs.points import point_at
 
     _, _, r1 = pump_runs
     with h5py.File(r1.results, "r") as f:
@@ -403,7 +403,7 @@ def test_housing_files_pyvista(pump_runs):
 
     from dolfinx import fem as dfem
 
-    from study.pipeline.export import nearest_point
+    from study.outputs.points import nearest_point
 
     pytest.importorskip("pyvista")
     _, _, r1 = pump_runs
@@ -484,7 +484,7 @@ def test_erp_matches_direct_surface_integral(pump_runs):
 
     from fem import post
     from reduction import load_basis, reconstruct
-    from study.pipeline.export import point_at
+    from study.outputs.points import point_at
 
     _, _, r1 = pump_runs
     model = _fe_model(pump_runs)

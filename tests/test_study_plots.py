@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from study.plots.common import order_label
+from study.outputs.nvh import order_label
 from study.plots.modes import campbell_modes, campbell_plot, order_map_plot
 from study.plots.point import spectrum_lines
 

@@ -1,6 +1,6 @@
-"""Equivalent radiated power (ERP) of the housing from the ROM coordinates: pure NumPy
-on the radiation matrix ``W`` that the rom stage computed (:mod:`fem.post.radiation`,
-cached as ``radiation.h5``).
+"""Equivalent radiated power (ERP) of the housing from the ROM coordinates, and the
+levels in dB of sound power and vibration velocity: pure NumPy on the radiation matrix
+``W`` that the rom stage computed (:mod:`fem.post.radiation`, cached as ``radiation.h5``).
 
 ERP is the sound power a surface would radiate if every element radiated as a
 plane wave (radiation efficiency 1)::
@@ -23,14 +23,16 @@ import math
 
 import numpy as np
 
-__all__ = ["AIR_DENSITY", "SOUND_SPEED", "P_REF", "DB_FLOOR", "erp_harmonics", "power_db",
-           "sphere_erp"]
+__all__ = ["AIR_DENSITY", "SOUND_SPEED", "P_REF", "V_REF", "DB_FLOOR", "erp_harmonics",
+           "power_db", "velocity_level_db", "sphere_erp"]
 
 #: Default air density [kg/m³] and speed of sound [m/s] (20 °C, sea level).
 AIR_DENSITY = 1.2
 SOUND_SPEED = 343.0
 #: Reference sound power for dB [W].
 P_REF = 1e-12
+#: Reference velocity of velocity levels (ISO 1683) [m/s].
+V_REF = 1e-9
 #: Floor of the dB values (a zero power, e.g. of the mean k = 0, reads as this) [dB].
 DB_FLOOR = -100.0
 
@@ -40,6 +42,13 @@ def power_db(power_w: np.ndarray) -> np.ndarray:
     p = np.asarray(power_w, dtype=float)
     floor = P_REF * 10 ** (DB_FLOOR / 10)
     return 10.0 * np.log10(np.maximum(p, floor) / P_REF)
+
+
+def velocity_level_db(v_amp: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Velocity level ``20 log10(v_rms / 1 nm/s)`` [dB] of harmonics of amplitudes
+    ``|ṽ_k|`` summed along ``axis`` (``v_rms² = Σ |ṽ_k|²/2``), floored at −100 dB."""
+    ms = 0.5 * np.sum(np.abs(v_amp) ** 2, axis=axis)
+    return 10.0 * np.log10(np.maximum(ms, (V_REF * 1e-5) ** 2) / V_REF ** 2)
 
 
 def erp_harmonics(W: np.ndarray, qk: np.ndarray, omega_k: np.ndarray,

@@ -3,7 +3,7 @@ vibro-impact span and the permanent-contact windows between impact regions.
 
 Plain functions of the per-point arrays of a branch (speed in rpm, std of the
 dynamic mesh load in N, contact class 0/1/2), so that they can be checked on
-synthetic curves. Used by :mod:`study.studies.excitations` and :mod:`study.studies.paper.report`.
+synthetic curves. Used by the report, the plots and the studies.
 """
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import numpy as np
 
 __all__ = ["Peak", "FoldPair", "UnstableSegment", "CurveSummary", "resonance_peaks",
            "fold_pairs", "unstable_segments", "kind_name", "kind_label", "is_unstable",
-           "class_intervals", "impact_intervals", "merge_intervals", "impact_span",
-           "contact_windows", "summarize_curve", "summarize_branch",
+           "class_intervals", "contact_intervals", "impact_intervals", "merge_intervals",
+           "impact_span", "contact_windows", "summarize_curve", "summarize_branch",
            "primary_peak", "ipp_runs", "ipp_fractions"]
 
 #: Local maxima less prominent than this fraction of the curve's largest std are
@@ -260,6 +260,13 @@ def class_intervals(rpm: np.ndarray, contact: np.ndarray,
         elif max(ca, cb) in out:
             out[max(ca, cb)].append((float(lo), float(hi)))
     return {c: merge_intervals(iv) for c, iv in out.items()}
+
+
+def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
+    grazing speeds (:func:`class_intervals`)."""
+    mesh = branch.element(0)
+    return class_intervals(branch.rpm, mesh.contact, [g.rpm for g in mesh.grazing])
 
 
 def impact_intervals(rpm: np.ndarray, contact: np.ndarray,

@@ -37,19 +37,10 @@ from study.scene.errors import SceneError
 logger = logging.getLogger(__name__)
 
 __all__ = ["field_orders", "frames_per_mesh_period", "check_outputs", "write_housing_fields",
-           "accelerometer_rows", "V_REF", "velocity_level_db", "SNAP_DISTANCE"]
+           "accelerometer_rows", "SNAP_DISTANCE"]
 
-#: Reference velocity of velocity levels (ISO 1683) [m/s].
-V_REF = 1e-9
 #: Largest distance from an accelerometer position to its outer facet centre [m].
 SNAP_DISTANCE = 0.010
-
-
-def velocity_level_db(v_amp: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Velocity level ``20 log10(v_rms / 1 nm/s)`` [dB] of harmonics of amplitudes
-    ``|ṽ_k|`` summed along ``axis`` (``v_rms² = Σ |ṽ_k|²/2``), floored at −100 dB."""
-    ms = 0.5 * np.sum(np.abs(v_amp) ** 2, axis=axis)
-    return 10.0 * np.log10(np.maximum(ms, (V_REF * 1e-5) ** 2) / V_REF ** 2)
 
 
 def field_orders(scene, harmonics) -> list[int]:

@@ -19,15 +19,28 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.outputs.acoustics import P_REF, erp_harmonics, power_db
-from study.outputs.fields import V_REF, accelerometer_rows, velocity_level_db
+from study.outputs.acoustics import P_REF, V_REF, erp_harmonics, power_db, velocity_level_db
+from study.outputs.fields import accelerometer_rows
 from study.outputs.points import point_at
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["NVH", "compute_nvh", "write_nvh_group", "write_curves_csv", "CONTACT_NAMES"]
+__all__ = ["NVH", "compute_nvh", "write_nvh_group", "write_curves_csv", "CONTACT_NAMES",
+           "order_label"]
 
 CONTACT_NAMES = ("permanent contact", "single-sided impacts", "double-sided impacts")
+
+
+def order_label(order: int, n_teeth: int) -> str:
+    """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
+    plain number for orders far below the mesh frequency (external orders)."""
+    order = int(order)
+    k = int(round(order / n_teeth))
+    e = order - k * n_teeth
+    if k == 0:
+        return str(order)
+    base = "Z" if k == 1 else f"{k}Z"
+    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
 
 
 @dataclass

@@ -8,10 +8,16 @@ import numpy as np
 
 from core.files import atomic_write
 from hbm.stability import KINDS
+from study.outputs.acoustics import velocity_level_db
 from study.outputs.attractors import attractor_line
-from study.outputs.curves import UnstableSegment, kind_label, kind_name, unstable_segments
-from study.outputs.fields import velocity_level_db
-from study.plots.common import contact_intervals, order_label
+from study.outputs.curves import (
+    UnstableSegment,
+    contact_intervals,
+    kind_label,
+    kind_name,
+    unstable_segments,
+)
+from study.outputs.nvh import order_label
 
 __all__ = ["summary", "write_report"]
 

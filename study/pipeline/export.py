@@ -6,14 +6,12 @@ from pathlib import Path
 
 from study import fe_stages
 from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
-from study.outputs.points import nearest_point, point_at, time_series_speeds
 from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
-# time_series_speeds, nearest_point and point_at live in study.outputs.points (re-exported)
-__all__ = ["write_partial", "export", "write_report_files", "write_attractor_files",
-           "time_series_speeds", "nearest_point", "point_at"]
+__all__ = ["write_partial", "export", "write_housing", "write_report_files",
+           "write_attractor_files"]
 
 
 def _settings(result) -> dict:

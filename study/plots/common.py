@@ -1,8 +1,9 @@
 """What the plots of :mod:`study` share: the Agg backend, atomic PNG writing, the
-impact-class colours and shading, and the naming of shaft orders.
+impact-class colours and shading, and the grazing points on a forced-response curve.
 
-Plain helpers (:func:`contact_intervals`, :func:`grazing_values`,
-:func:`order_label`) are also used by ``report.md`` and the variant study.
+The impact intervals of a branch (:func:`study.outputs.curves.contact_intervals`) and
+the names of shaft orders (:func:`study.outputs.nvh.order_label`) are the outputs'
+(``report.md`` uses them too).
 """
 from __future__ import annotations
 
@@ -16,12 +17,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from core.files import atomic_write  # noqa: E402
-from study.outputs.curves import class_intervals  # noqa: E402
+from study.outputs.curves import contact_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
-__all__ = ["CLASS_COLOURS", "save_figure", "contact_intervals", "shade_impacts",
-           "grazing_values", "order_label"]
+__all__ = ["CLASS_COLOURS", "save_figure", "shade_impacts", "grazing_values"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
 
@@ -36,13 +36,6 @@ def save_figure(fig, path: Path) -> Path:
         plt.close(fig)
     logger.info("wrote %s", path)
     return path
-
-
-def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
-    """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
-    grazing speeds (:func:`study.outputs.curves.class_intervals`)."""
-    mesh = branch.element(0)
-    return class_intervals(branch.rpm, mesh.contact, [g.rpm for g in mesh.grazing])
 
 
 def shade_impacts(ax, branch, alpha: tuple[float, float] = (0.18, 0.25)) -> None:
@@ -81,17 +74,3 @@ def grazing_values(branch) -> list[tuple[float, float, str, str]]:
             best = (0.0, std[i])
         out.append((g.rpm, float(best[1]), g.kind, g.side))
     return out
-
-
-
-def order_label(order: int, n_teeth: int) -> str:
-    """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
-    plain number for orders far below the mesh frequency (external orders)."""
-    order = int(order)
-    k = int(round(order / n_teeth))
-    e = order - k * n_teeth
-    if k == 0:
-        return str(order)
-    base = "Z" if k == 1 else f"{k}Z"
-    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
-

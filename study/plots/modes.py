@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from study.plots.common import order_label, plt, save_figure
+from study.outputs.nvh import order_label
+from study.plots.common import plt, save_figure
 
 __all__ = ["campbell_modes", "campbell_plot", "order_map_plot", "rom_error_plot", "rom_plots"]
 

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from study.plots.common import order_label, plt, save_figure
+from study.outputs.nvh import order_label
+from study.plots.common import plt, save_figure
 
 __all__ = ["time_series_plot", "spectrum_lines", "spectrum_plot"]
 

@@ -8,15 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from study.outputs.fields import V_REF, velocity_level_db
-from study.plots.common import (
-    contact_intervals,
-    grazing_values,
-    order_label,
-    plt,
-    save_figure,
-    shade_impacts,
-)
+from study.outputs.acoustics import V_REF, velocity_level_db
+from study.outputs.curves import contact_intervals
+from study.outputs.nvh import order_label
+from study.plots.common import grazing_values, plt, save_figure, shade_impacts
 
 __all__ = ["forced_response", "forced_response_overlay", "erp_plot", "accelerometer_plot"]
 

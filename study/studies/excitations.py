@@ -137,7 +137,7 @@ def solution_at(result, rpm: float):
     """The solution at ``rpm``: Newton at that speed from the nearest branch point
     (stable preferred), or that point itself if Newton fails. Returns (Point, how)."""
     from hbm import ConvergenceError
-    from study.pipeline.export import nearest_point
+    from study.outputs.points import nearest_point
 
     _, pt = nearest_point(result, rpm)
     if abs(pt.rpm - rpm) <= 1e-9 * rpm:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.plots.common import contact_intervals
+from study.outputs.curves import contact_intervals
 from study.plots.speed import forced_response_overlay
 
 logger = logging.getLogger(__name__)

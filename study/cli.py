@@ -189,7 +189,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
 
 
 def _report(args, scene_path: Path, overrides: dict) -> int:
-    from study.studies.variants import report_from_results
+    from study.pipeline.replay import report_from_results
     report_from_results(scene_path, Path(args.out), overrides,
                         cache=args.cache or os.environ.get("GEARDYN_CACHE"))
     return EXIT_OK

@@ -109,7 +109,7 @@ def test_report_from_results_gives_the_same_time_responses(run):
     """``geardyn report`` (report_from_results) integrates again from the saved branch:
     the same attractors.csv, bitwise, and the same ``/attractors`` in results.h5, whose
     branch it leaves as it was."""
-    from study.studies.variants import report_from_results
+    from study.pipeline.replay import report_from_results
 
     def stored():
         with h5py.File(run.out / "results.h5", "r") as f:

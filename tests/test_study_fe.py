@@ -534,7 +534,7 @@ def test_report_rewrites_the_housing_fields(pump_runs):
     series equals the export's."""
     import meshio
 
-    from study.studies.variants import report_from_results
+    from study.pipeline.replay import report_from_results
 
     def frames(path):
         with meshio.xdmf.TimeSeriesReader(str(path)) as rd:

@@ -1,4 +1,4 @@
-"""Parameter studies (``--set key=v1,v2``): overlay plot and table; reports from files."""
+"""Parameter studies (``--set key=v1,v2``): overlay plot and table of the variants."""
 from __future__ import annotations
 
 import logging
@@ -12,7 +12,7 @@ from study.plots.speed import forced_response_overlay
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["write_variants", "variants_table", "report_from_results"]
+__all__ = ["write_variants", "variants_table"]
 
 
 def _label(ov: dict) -> str:
@@ -53,45 +53,3 @@ def write_variants(out: Path, results: list) -> tuple[Path, Path]:
         f.write(text)
     logger.info("wrote %s and %s", png, md)
     return png, md
-
-
-def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
-                        cache: str | None = None):
-    """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
-    from study.outputs.results import read_branch
-    from study.pipeline.parallel import mark_collective
-    from study.pipeline.runs import RunResult
-    from study.pipeline.stages import Pipeline
-    from study.scene.errors import SceneError
-    from study.scene.load import load_scene
-
-    scene = load_scene(scene_path, overrides)
-    pipe = Pipeline(scene, out, cache_dir=cache, progress=False)
-    problem, rom = pipe.problem()
-    key = pipe.hbm_key()
-    path = Path(out) / "results.h5"
-    # read by every rank under mpirun: the same error everywhere
-    if not path.exists():
-        raise mark_collective(FileNotFoundError(f"{path}: no such file; run `geardyn run` "
-                                                "with this scene and --out first"))
-    br = read_branch(path, problem, expected_key=key)
-    if br is None:
-        raise mark_collective(SceneError(f"{path} holds no continuation of this scene's "
-                                         "inputs (model, harmonic set, speed range, --set "
-                                         "values or code version differ); run `geardyn run` "
-                                         "with them first"))
-    res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
-                    {"hbm": "from results.h5"}, pipe.keys, rom=rom)
-
-    def draw() -> None:
-        from study.outputs.nvh import compute_nvh
-        from study.pipeline.export import write_report_files
-        from study.plots.figures import draw_all
-        res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
-        res.figures += draw_all(res)
-        write_report_files(res)
-    if scene.scene.kind == "fe" and scene.outputs.housing_field:
-        from study.pipeline.export import write_housing
-        write_housing(res)                          # from the cached ROM, rank 0 writes
-    pipe.comm.root_call(draw)                       # rank 0 writes the files
-    return res

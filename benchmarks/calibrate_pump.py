@@ -652,10 +652,10 @@ def branch_solutions(scene: Path, overrides: dict, cache: Path, work: Path,
                      speeds: list[float], amps_um, phases_deg):
     """The all-excitations run of ``scene`` with the TE ``amps_um`` at ``phases_deg`` over
     ``speeds`` ± 100 rpm, and its solution at each speed (solved there:
-    :func:`study.studies.excitations.solution_at`), for :class:`benchmarks.te_ipp.NonlinearIPP`.
+    :func:`study.studies.paper.measure.solution_at`), for :class:`benchmarks.te_ipp.NonlinearIPP`.
     Returns (run, {rpm: unknowns})."""
     import study
-    from study.studies.excitations import solution_at
+    from study.studies.paper.measure import solution_at
 
     run = study.run(scene, work, cache_dir=cache, until="hbm", overrides={
         **overrides, "hbm.stability": False, "outputs.plots": [],
@@ -790,8 +790,9 @@ def record(out: Path) -> dict:
 
 def paper_ipp_shares() -> list[float]:
     """The paper's shares of the turn at 0, 1, 2, 3 impacts per mesh period at 1070 rpm
-    (Fig. 18: 29, 16, 21, 34 %), from :data:`study.studies.paper.report.PAPER`."""
-    from study.studies.paper.report import PAPER, runs_fractions
+    (Fig. 18: 29, 16, 21, 34 %), from :data:`study.studies.paper.findings.PAPER`."""
+    from study.studies.paper.findings import PAPER
+    from study.studies.paper.report import runs_fractions
 
     fr = runs_fractions(PAPER["ipp_1070"].value)
     return [fr.get(n, 0.0) for n in range(4)]

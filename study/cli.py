@@ -158,6 +158,7 @@ def _progress(args) -> bool:
 def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> int:
     import study
     from study.pipeline.runs import SolverError
+    from study.scene.load import load_scene
 
     out = Path(args.out)
     cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
@@ -166,7 +167,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                   refresh=args.no_cache, progress=_progress(args), until=until)
         return EXIT_OK
     # validate every variant before any heavy work
-    scenes = [study.load_scene(scene_path, ov) for ov in variants]
+    scenes = [load_scene(scene_path, ov) for ov in variants]
     cache = cache or str(out.resolve().parent / ".geardyn-cache")  # shared with `run --out OUT`
     results, failed = [], []
     for ov, sc in zip(variants, scenes, strict=True):
@@ -196,10 +197,12 @@ def _report(args, scene_path: Path, overrides: dict) -> int:
 
 
 def _excitations(args, scene_path: Path, overrides: dict) -> int:
-    """``geardyn excitations``: three cases, comparison and paper.md (study.studies.excitations)."""
+    """``geardyn excitations``: three cases, their comparison (study.studies.excitations)
+    and paper.md (study.studies.paper)."""
     from study.pipeline.parallel import world
     from study.scene.load import load_scene
     from study.studies.excitations import run_cases, write_comparison
+    from study.studies.paper.report import write_paper_files
 
     scene = load_scene(scene_path, overrides)
     results, failed = run_cases(scene, args.out, cache_dir=args.cache or
@@ -207,6 +210,7 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
                                 refresh=args.no_cache, progress=_progress(args))
     if results:
         world().root_call(write_comparison, Path(args.out), scene, results)
+        world().root_call(write_paper_files, Path(args.out), scene, results)
     return EXIT_SOLVER if failed else EXIT_OK
 
 

@@ -43,7 +43,7 @@ def summary(result):
 
 
 def test_resonances_are_the_papers_within_3_percent(summary):
-    from study.studies.paper.report import PAPER, TOLERANCE
+    from study.studies.paper.findings import PAPER, TOLERANCE
 
     peaks = [p.rpm for p in summary.strongest(3)]
     paper = PAPER["resonances"].value
@@ -65,7 +65,7 @@ def test_resonances_are_the_papers_within_3_percent(summary):
 
 
 def test_grazings_and_windows_are_the_calibrated_ones(summary):
-    from study.studies.paper.report import PAPER, TOLERANCE
+    from study.studies.paper.findings import PAPER, TOLERANCE
 
     assert summary.grazing == pytest.approx(PAPER["grazing"].value, rel=TOLERANCE)
     assert len(summary.windows) == 2
@@ -76,7 +76,7 @@ def test_grazings_and_windows_are_the_calibrated_ones(summary):
 def _ipp_at(result, rpm):
     """Impacts per mesh period of the solution at ``rpm`` (solved there, as paper.md)."""
     from hbm import point_stats
-    from study.studies.excitations import solution_at
+    from study.studies.paper.measure import solution_at
 
     pt, how = solution_at(result, rpm)
     assert how != "nearest branch point"            # solved at that speed

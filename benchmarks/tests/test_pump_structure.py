@@ -59,12 +59,12 @@ def test_mesh_softening_is_the_single_mode_shift():
 
 
 def test_paper_md_measures_of_a_cached_rom():
-    """study.studies.excitations.rom_measures on an object with only the fields of the cached ROM
+    """study.studies.paper.measure.rom_measures on an object with only the fields of the cached ROM
     (RomData): the top mode of eq. (31) and the T.33 shift of the two-gear closed form."""
     from types import SimpleNamespace
 
     from reduction import coupled_modes, mesh_energy
-    from study.studies.excitations import rom_measures
+    from study.studies.paper.measure import rom_measures
 
     M, K, G = _two_gears()
     km = 2.0e8
@@ -85,7 +85,7 @@ def test_paper_md_measures_only_the_modes_the_mesh_harmonics_reach():
     from types import SimpleNamespace
 
     from reduction import coupled_modes, mesh_energy
-    from study.studies.excitations import rom_measures
+    from study.studies.paper.measure import rom_measures
 
     m, ks, mr, kt, km = 0.8, 1.0e6, 40.0, 6.0e8, 2.0e8
     M = np.diag([m, m, mr, mr])  # the two gears, then a heavy body on each

@@ -1,4 +1,4 @@
-"""``geardyn excitations``: the paper's three excitation cases (Sect. 4.2, Fig. 12–13).
+"""``geardyn excitations``: the three excitation cases of the paper (Sect. 4.2, Fig. 12–13).
 
 1. ``internal`` — internal excitation only: STE and time-varying mesh stiffness
    (TVMS) under the static load; ``[external]`` removed.
@@ -12,27 +12,31 @@ The three run on the same cached ROM (the mesh, FE and ROM stages do not depend 
 the excitation, :mod:`study.pipeline`), each into ``OUT/<case>/`` as a full run, then
 the comparison is written: ``excitations_forced_response.png`` (std curves overlaid),
 ``excitations.csv`` and ``excitations.md`` (grazing speeds per case, primary peak
-and vibro-impact span and their change against the internal-only case) and
-``paper.md`` (:mod:`study.studies.paper.report`).
+and vibro-impact span and their change against the internal-only case). The command
+also writes ``paper.md``, the comparison with the paper's findings
+(:mod:`study.studies.paper`), from these results.
 """
 from __future__ import annotations
 
 import copy
 import csv
 import logging
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from core.files import atomic_write
-from study.outputs.curves import Peak, kind_label, primary_peak, summarize_branch
+from study.outputs.curves import CurveSummary, Peak, kind_label, primary_peak, summarize_branch
+from study.pipeline.runs import SolverError
+from study.pipeline.stages import run_scene
 from study.scene.data import Scene
 from study.scene.errors import SceneError
 from study.scene.load import scene_from_dict
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["CASES", "case_scenes", "run_cases", "solution_at", "comparison_inputs",
+__all__ = ["CASES", "CaseCurves", "case_scenes", "run_cases", "case_curves",
            "write_comparison", "comparison_table"]
 
 #: Case name -> label (Fig. 12 legend).
@@ -112,9 +116,6 @@ def run_cases(scene: Scene, out: str | Path, cache_dir: str | None = None,
     Returns ``({case: RunResult}, [failed cases])``; a case whose continuation stopped
     early keeps its partial result when it has at least two points.
     """
-    import study
-    from study.pipeline.runs import SolverError
-
     scenes = case_scenes(scene)           # every case validated before any heavy work
     out = Path(out)
     cache = cache_dir or str(out.resolve().parent / ".geardyn-cache")  # as `run --out OUT`
@@ -122,7 +123,7 @@ def run_cases(scene: Scene, out: str | Path, cache_dir: str | None = None,
     for case, sc in scenes.items():
         logger.info("excitation case %r: %s", case, CASES[case])
         try:
-            results[case] = study.run(sc, out / case, cache_dir=cache, resume=resume,
+            results[case] = run_scene(sc, out / case, cache_dir=cache, resume=resume,
                                       refresh=refresh, progress=progress)
         except SolverError as exc:
             logger.error("case %s: %s", case, exc)
@@ -133,127 +134,37 @@ def run_cases(scene: Scene, out: str | Path, cache_dir: str | None = None,
     return results, failed
 
 
-def solution_at(result, rpm: float):
-    """The solution at ``rpm``: Newton at that speed from the nearest branch point
-    (stable preferred), or that point itself if Newton fails. Returns (Point, how)."""
-    from hbm import ConvergenceError
-    from study.outputs.points import nearest_point
+@dataclass
+class CaseCurves:
+    """The curve of each case (:class:`~study.outputs.curves.CurveSummary`), its primary
+    peak and, where the orbit there is unstable and time responses were asked for, what
+    the machine does there."""
 
-    _, pt = nearest_point(result, rpm)
-    if abs(pt.rpm - rpm) <= 1e-9 * rpm:
-        return pt, "branch point"
-    try:
-        p = result.problem.solve(rpm, x0=pt.unknowns, tol=result.scene.continuation.tolerance)
-    except ConvergenceError as exc:
-        logger.warning("no solution at %g rpm from the branch point at %.1f rpm (%s); using "
-                       "that point", rpm, pt.rpm, exc)
-        return pt, "nearest branch point"
-    return p, f"solved from the branch point at {pt.rpm:.1f} rpm"
+    #: case -> the features of its forced-response curve, in the order of :data:`CASES`
+    cases: dict[str, CurveSummary] = field(default_factory=dict)
+    #: case -> the primary peak: the internal-only curve's largest peak, and on the other
+    #: curves the largest peak near its speed (:func:`~study.outputs.curves.primary_peak`)
+    primary: dict[str, Peak | None] = field(default_factory=dict)
+    #: case -> (start speed [rpm], mesh-load std [N]) of the time response on the
+    #: unstable segment at the primary peak (``[outputs] attractor_transient_turns``)
+    machine: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
-def _stability_kind(result, point) -> str:
-    """Kind of :data:`hbm.stability.KINDS` of a solution off the branch ("" when the
-    Floquet analysis fails: logged, and the rows then say nothing of stability)."""
-    from hbm.stability import stability
-    try:
-        return stability(result.problem, point).kind
-    except Exception as exc:                    # noqa: BLE001 - reported, the table goes on
-        logger.warning("stability at %.1f rpm not computed: %s", point.rpm, exc)
-        return ""
-
-
-def _machine(result, point):
-    """(turns left out, turns analysed, envelope) of the time response from ``point``
-    when the scene asks for time responses (``[outputs] attractor_transient_turns`` > 0),
-    else None; a failed integration is logged and gives None."""
-    from study.outputs.attractors import scene_time_response
-
-    try:
-        tr = scene_time_response(result, point)
-    except (RuntimeError, ValueError) as exc:
-        logger.warning("time integration at %.1f rpm failed: %s", point.rpm, exc)
-        return None
-    return None if tr is None else (tr.transient, tr.window, tr.envelope)
-
-
-def _in_range(result, rpm: float) -> bool:
-    br = result.branch
-    return float(np.min(br.rpm)) <= rpm <= float(np.max(br.rpm))
-
-
-def _range_text(result) -> str:
-    br = result.branch
-    return f"outside the computed range {np.min(br.rpm):.0f}–{np.max(br.rpm):.0f} rpm"
-
-
-def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
-    """:class:`~study.studies.paper.report.PaperInputs` of the case results (IPP,
-    spectrum and mesh mode from the ``all`` case). ``solved``, if given, receives the
-    ``all`` case's solutions at the paper's speeds: ``{rpm: (Point, how, stability
-    kind)}``."""
-    from hbm import mesh_period_envelope, point_stats, spectrum
-    from study.outputs.curves import is_unstable
-    from study.studies.paper.report import IPP_KEYS, SPECTRUM_SPEEDS, IppAt, PaperInputs, SpectrumAt
-
-    inp = PaperInputs(scene.name, scene.load.torque, scene.static_load,
-                      calibration=dict(scene.calibration))
+def case_curves(results: dict) -> CaseCurves:
+    """:class:`CaseCurves` of the cases' results (``{case: RunResult}``)."""
+    out = CaseCurves()
     for case in CASES:
         if case in results:
-            inp.cases[case] = summarize_branch(results[case].branch)
-    pi = primary_peak(inp.cases["internal"]) if "internal" in inp.cases else None
-    for case, s in inp.cases.items():
-        inp.primary[case] = pi if case == "internal" else \
+            out.cases[case] = summarize_branch(results[case].branch)
+    pi = primary_peak(out.cases["internal"]) if "internal" in out.cases else None
+    for case, s in out.cases.items():
+        out.primary[case] = pi if case == "internal" else \
             (primary_peak(s, near=pi.rpm) if pi is not None else None)
-        peak = inp.primary[case]
+        peak = out.primary[case]
         for a in getattr(results[case], "attractors", []):
             if peak is not None and a.response is not None and a.segment.contains(peak.rpm):
-                inp.machine[case] = (a.rpm, a.response.std)
-    r = results.get("all")
-    if r is None:
-        return inp
-    solved = {} if solved is None else solved
-    for target in (*IPP_KEYS, *SPECTRUM_SPEEDS):
-        if target not in solved and _in_range(r, target):
-            p, how = solution_at(r, target)
-            solved[target] = (p, how, _stability_kind(r, p) if scene.hbm.stability else "")
-    for target in IPP_KEYS:
-        if target not in solved:
-            inp.ipp[target] = _range_text(r)
-            continue
-        p, how, kind = solved[target]
-        inp.ipp[target] = IppAt(target, p.rpm, point_stats(r.problem, p)[0].ipp, how, kind)
-    for target in SPECTRUM_SPEEDS:
-        if target not in solved:
-            inp.spectra[target] = _range_text(r)
-            continue
-        p, _, kind = solved[target]
-        sp = spectrum(r.problem, p)
-        unstable = is_unstable(kind)
-        inp.spectra[target] = SpectrumAt(p.rpm, sp["shaft_order"], sp["amplitude"],
-                                         scene.gear.teeth, sp["dte_amplitude"],
-                                         sp["peak_to_peak"], mesh_period_envelope(r.problem, p),
-                                         kind, _machine(r, p) if unstable else None)
-    rom = r.rom
-    if rom is not None and getattr(rom, "mesh_energy", None) is not None:
-        f_min = scene.gear.teeth * scene.continuation.speed[0] / 60.0  # H_Z, lowest speed
-        inp.mesh_mode, inp.reached_mode, inp.softening = rom_measures(
-            rom, scene.damping.modal_ratio, f_min)
-        inp.reached_from = f_min
-    return inp
-
-
-def rom_measures(rom, xi: float, f_min: float = 0.0) -> tuple[tuple[float, float], ...]:
-    """Of a cached ROM (:class:`study.fe_stages.RomData`): the mode with most mesh energy
-    ``(Hz, ρ)`` (eq. 31), the same among the modes at or above ``f_min`` [Hz] (those the
-    mesh harmonics reach), and the dynamic-factor peak near the latter with its shift
-    under k̄/2 ``(Hz, f½/f)`` (T.33), for modal damping ratio ``xi``."""
-    from reduction.coupled import mesh_softening
-
-    f, rho = np.asarray(rom.frequencies_hz), np.asarray(rom.mesh_energy)
-    j = int(np.argmax(rho))
-    k = int(np.argmax(np.where(f >= f_min, rho, 0.0)))
-    return ((float(f[j]), float(rho[j])), (float(f[k]), float(rho[k])),
-            mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, xi, f_min=f_min))
+                out.machine[case] = (a.rpm, a.response.std)
+    return out
 
 
 def _change(new: float | None, ref: float | None) -> float | None:
@@ -270,7 +181,7 @@ def _flag(kind: str) -> str:
     return f" (**unstable**: {kind_label(kind)})" if kind else ""
 
 
-def _rows(inp) -> list[dict]:
+def _rows(inp: CaseCurves) -> list[dict]:
     si = inp.cases.get("internal")
     pi: Peak | None = inp.primary.get("internal")
     rows = []
@@ -298,7 +209,7 @@ def _rows(inp) -> list[dict]:
     return rows
 
 
-def comparison_table(inp) -> str:
+def comparison_table(inp: CaseCurves) -> str:
     """Markdown table of the cases (Fig. 12–13): peaks, grazings, span, changes."""
     lines = ["| case | primary peak (N at rpm) | change | largest std (N at rpm) | change | "
              "grazing (rpm) | impacts (rpm) | span (rpm) | change |",
@@ -327,40 +238,14 @@ def _atomic_text(path: Path, write) -> Path:
     return path
 
 
-def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
-    """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
-    the paper's time-series speeds (:data:`~study.studies.paper.report.FIGURES`) that the
-    range holds."""
-    from study.outputs.curves import is_unstable
-    from study.plots.point import time_series_plot
-    from study.studies.paper.report import FIGURES
-
-    names = {}
-    for rpm, fig in FIGURES.items():
-        if rpm not in solved:
-            continue
-        p, _, kind = solved[rpm]
-        note = f" — unstable orbit ({kind_label(kind)})" if is_unstable(kind) else ""
-        name = f"paper_{rpm:.0f}rpm.png"
-        time_series_plot(result.problem, p, out / name,
-                         title=f"{scene.name}, all excitations: {p.rpm:.0f} rpm (cf. the "
-                               f"paper's {fig}){note}")
-        names[rpm] = name
-    return names
-
-
 def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, Path]:
-    """``excitations_forced_response.png``, ``excitations.csv``, ``excitations.md``,
-    ``paper.md`` and the time series at the paper's speeds (``paper_<rpm>rpm.png``) in
+    """``excitations_forced_response.png``, ``excitations.csv`` and ``excitations.md`` in
     ``out`` (rank 0 under mpirun)."""
     from study.plots.speed import forced_response_overlay
-    from study.studies.paper.report import write_paper
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    solved: dict[float, tuple] = {}
-    inp = comparison_inputs(scene, results, solved)
-    inp.figures = _time_series_figures(out, scene, results.get("all"), solved)
+    inp = case_curves(results)
     cases = [c for c in CASES if c in results]
     png = forced_response_overlay([results[c].branch for c in cases],
                                   [CASES[c] for c in cases],
@@ -390,7 +275,6 @@ def write_comparison(out: str | Path, scene: Scene, results: dict) -> dict[str, 
             f"({', '.join(f'`{c}/`' for c in cases)}).\n\n"
             "![excitation cases](excitations_forced_response.png)\n")
     path_md = _atomic_text(out / "excitations.md", lambda f: f.write(text))
-    path_paper = write_paper(out, inp)
-    logger.info("wrote %s, %s, %s and %s", png, path_csv, path_md, path_paper)
-    return {"png": png, "csv": path_csv, "md": path_md, "paper": path_paper}
+    logger.info("wrote %s, %s and %s", png, path_csv, path_md)
+    return {"png": png, "csv": path_csv, "md": path_md}
 

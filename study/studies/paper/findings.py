@@ -1,16 +1,10 @@
-"""The paper's Sect. 4 findings (constants, each with its section and figure) and the
-run quantities :mod:`study.studies.paper.report` sets beside them (plain dataclasses)."""
+"""The paper's Sect. 4 findings: constants, each with the section and figure it is
+stated in, and the speeds at which the paper describes its solutions."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import numpy as np
-
-from hbm import MeshPeriodEnvelope
-from study.outputs.curves import CurveSummary, Peak
-
-__all__ = ["TOLERANCE", "Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES",
-           "IppAt", "SpectrumAt", "PaperInputs"]
+__all__ = ["TOLERANCE", "Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES"]
 
 #: Relative agreement asked for by issue 14 (speeds within 3 %).
 TOLERANCE = 0.03
@@ -71,75 +65,3 @@ SPECTRUM_SPEEDS = (PAPER["hz_speed"].value, PAPER["h2_speed"].value)
 
 #: The paper's time-series figure at each speed it describes.
 FIGURES = {1070.0: "Fig. 18", 1700.0: "Fig. 17", 2970.0: "Fig. 15", 6875.0: "Fig. 16"}
-
-
-@dataclass(frozen=True)
-class IppAt:
-    """IPP sequence of one solution: target and actual speed (rpm), how it was obtained,
-    and its ``stability`` (a kind of :data:`hbm.stability.KINDS`; "" not computed)."""
-
-    target: float
-    rpm: float
-    ipp: np.ndarray
-    how: str
-    stability: str = ""
-
-
-@dataclass(frozen=True)
-class SpectrumAt:
-    """Harmonics at one speed per shaft order: mesh load ``amplitude`` (N) and dynamic
-    transmission error ``dte`` (m); ``peak_to_peak`` of the mesh load in time (N);
-    ``envelope`` its mesh-period envelope over one turn (the slow modulation);
-    ``stability`` as :attr:`IppAt.stability`; ``machine`` see below."""
-
-    rpm: float
-    orders: np.ndarray
-    amplitude: np.ndarray
-    teeth: int
-    dte: np.ndarray
-    peak_to_peak: float
-    envelope: MeshPeriodEnvelope | None = None
-    stability: str = ""
-    #: when the orbit is unstable and time responses are asked for (``[outputs]
-    #: attractor_transient_turns``): (turns left out, turns analysed, the envelope of
-    #: the time response from the orbit), the machine's modulation
-    machine: tuple[int, int, MeshPeriodEnvelope] | None = None
-
-    def at(self, order: int, dte: bool = False) -> float:
-        """Amplitude of one shaft order (0 if the set lacks it)."""
-        a = self.dte if dte else self.amplitude
-        sel = self.orders == order
-        return float(a[sel][0]) if np.any(sel) else 0.0
-
-    def largest(self, dte: bool = False) -> int:
-        """Shaft order of the largest harmonic above the mean."""
-        a = self.dte if dte else self.amplitude
-        sel = self.orders > 0
-        return int(self.orders[sel][int(np.argmax(a[sel]))])
-
-
-@dataclass
-class PaperInputs:
-    """What :func:`paper_markdown` compares; every run quantity optional."""
-
-    scene: str
-    torque: float
-    static_load: float
-    cases: dict[str, CurveSummary] = field(default_factory=dict)
-    primary: dict[str, Peak | None] = field(default_factory=dict)
-    ipp: dict[float, IppAt | str] = field(default_factory=dict)
-    #: at the speeds of :data:`SPECTRUM_SPEEDS`, or why not
-    spectra: dict[float, SpectrumAt | str] = field(default_factory=dict)
-    mesh_mode: tuple[float, float] | None = None
-    #: the same among the modes the mesh harmonics reach (f >= ``reached_from`` Hz)
-    reached_mode: tuple[float, float] | None = None
-    reached_from: float = 0.0
-    #: dynamic-factor peak [Hz] and its shift ratio under k̄/2 (T.33)
-    softening: tuple[float, float] | None = None
-    #: per case, (start speed [rpm], mesh-load std [N]) of the time response on the
-    #: unstable segment at the primary peak (``[outputs] attractor_transient_turns``)
-    machine: dict[str, tuple[float, float]] = field(default_factory=dict)
-    #: per speed of :data:`FIGURES`, the file name of the run's time-series plot there
-    figures: dict[float, str] = field(default_factory=dict)
-    #: the scene's ``[calibration]``: :data:`PAPER` key -> what the scene was fitted to
-    calibration: dict[str, str] = field(default_factory=dict)

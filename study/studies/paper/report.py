@@ -1,7 +1,8 @@
 """``paper.md``: the findings of the paper's Sect. 4 beside those of a run.
 
-The paper's figures are constants here, each with the section and figure it comes
-from; the run's values are measured from its curves (:mod:`study.outputs.curves`): the
+The paper's figures are the constants of :mod:`~study.studies.paper.findings`, each with
+the section and figure it comes from; the run's values are measured from its curves
+(:mod:`study.outputs.curves`, :mod:`~study.studies.paper.measure`): the
 resonance speeds are the most prominent local maxima of the mesh-load std, the
 grazing speeds those located by the continuation, the span the length of the speed
 intervals with impacts. Nothing of the run is typed in. Written by
@@ -10,6 +11,7 @@ three excitation cases the Sect. 4.2 comparison needs.
 """
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import NamedTuple
 
@@ -24,21 +26,14 @@ from study.outputs.curves import (
     is_unstable,
     kind_label,
 )
-from study.studies.paper.findings import (
-    FIGURES,
-    IPP_KEYS,
-    PAPER,
-    SPECTRUM_SPEEDS,
-    TOLERANCE,
-    IppAt,
-    PaperInputs,
-    Reference,
-    SpectrumAt,
-)
+from study.scene.data import Scene
+from study.studies.paper.findings import FIGURES, IPP_KEYS, PAPER, TOLERANCE
+from study.studies.paper.measure import IppAt, PaperInputs, SpectrumAt, comparison_inputs
 
-__all__ = ["Reference", "PAPER", "IPP_KEYS", "SPECTRUM_SPEEDS", "FIGURES", "IppAt",
-           "SpectrumAt", "PaperInputs", "Row", "paper_markdown", "write_paper", "format_ipp",
-           "runs_fractions", "TOLERANCE"]
+logger = logging.getLogger(__name__)
+
+__all__ = ["Row", "paper_markdown", "write_paper", "write_paper_files", "format_ipp",
+           "runs_fractions"]
 
 
 class Row(NamedTuple):
@@ -398,4 +393,39 @@ def write_paper(out: str | Path, inp: PaperInputs) -> Path:
     path = Path(out) / "paper.md"
     with atomic_write(path, "w") as f:
         f.write(paper_markdown(inp))
+    return path
+
+
+def _time_series_figures(out: Path, scene: Scene, result, solved: dict) -> dict[float, str]:
+    """``paper_<rpm>rpm.png``: the time series of the ``all`` case's solution at each of
+    the paper's time-series speeds (:data:`~study.studies.paper.findings.FIGURES`) that the
+    range holds."""
+    from study.plots.point import time_series_plot
+
+    names = {}
+    for rpm, fig in FIGURES.items():
+        if rpm not in solved:
+            continue
+        p, _, kind = solved[rpm]
+        note = f" — unstable orbit ({kind_label(kind)})" if is_unstable(kind) else ""
+        name = f"paper_{rpm:.0f}rpm.png"
+        time_series_plot(result.problem, p, out / name,
+                         title=f"{scene.name}, all excitations: {p.rpm:.0f} rpm (cf. the "
+                               f"paper's {fig}){note}")
+        names[rpm] = name
+    return names
+
+
+def write_paper_files(out: str | Path, scene: Scene, results: dict) -> Path:
+    """``paper.md`` of the excitation cases' results (``{case: RunResult}``,
+    :func:`study.studies.excitations.run_cases`) and the time series at the paper's
+    speeds (``paper_<rpm>rpm.png``) in ``out`` (rank 0 under mpirun); returns the path
+    of ``paper.md``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    solved: dict[float, tuple] = {}
+    inp = comparison_inputs(scene, results, solved)
+    inp.figures = _time_series_figures(out, scene, results.get("all"), solved)
+    path = write_paper(out, inp)
+    logger.info("wrote %s", path)
     return path

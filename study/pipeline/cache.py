@@ -67,7 +67,9 @@ def source_hash(*modules: str) -> str:
     package's subpackages included.
 
     Computed once per process: a process runs the code it imported, even if the
-    files change on disk meanwhile.
+    files change on disk meanwhile. A name that is no module raises
+    :class:`ModuleNotFoundError` (a module moved without its stage keys following would
+    otherwise drop out of the key unnoticed).
     """
     import importlib.util
 
@@ -75,8 +77,7 @@ def source_hash(*modules: str) -> str:
     for name in modules:
         spec = importlib.util.find_spec(name)
         if spec is None or spec.origin is None:
-            h.update(f"missing:{name}".encode())
-            continue
+            raise ModuleNotFoundError(f"source_hash: no module {name!r} to hash", name=name)
         origin = Path(spec.origin)
         root = origin.parent
         files = sorted(root.rglob("*.py")) if origin.name == "__init__.py" else [origin]

@@ -1,5 +1,9 @@
-"""study: scene files, the cached pipeline (mesh → fe → rom → hbm → export), the
-``geardyn`` command line, results files and plots.
+"""study: scene files, the cached pipeline (mesh → fe → rom → hbm → export), its results
+files and plots, studies of many runs and the ``geardyn`` command line.
+
+Subpackages, each importing only those before it (docs/architecture.md):
+:mod:`study.scene` → :mod:`study.outputs` → :mod:`study.plots` → :mod:`study.pipeline`
+→ :mod:`study.studies`, then :mod:`study.cli` on top.
 
 Python API (same as ``geardyn run``)::
 

@@ -7,7 +7,7 @@ its value (with its unit when the field name does not carry it) and what is allo
     module = -0.001 m: must be > 0
 
 :class:`InputError` is that error (a :class:`ValueError`); packages derive their own
-input errors from it (``study.errors.SceneError`` for scene files). :func:`check_range`
+input errors from it (``study.scene.errors.SceneError`` for scene files). :func:`check_range`
 refuses a number outside its range with that message.
 """
 from __future__ import annotations

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from core.units import FE_SUFFIXES, TO_SI
-from study.errors import SceneError
-from study.scene_check import suggest
+from study.scene.check import suggest
+from study.scene.errors import SceneError
 
 __all__ = ["FEParams", "fe_parameters"]
 

@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from study import fields
-from study.errors import SceneError
 from study.fe_params import FEParams, fe_parameters
 from study.model import build_problem
-from study.parallel import world
-from study.points import nearest_point
+from study.outputs import fields
+from study.outputs.points import nearest_point
+from study.pipeline.parallel import world
+from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)
 

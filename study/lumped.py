@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from study.scene_data import Scene
+from study.scene.data import Scene
 
 __all__ = ["disk_inertia", "gear_inertias", "equivalent_mass", "sdof_matrices",
            "sdof_forcing"]

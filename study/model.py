@@ -11,7 +11,7 @@ import logging
 import numpy as np
 
 from study.lumped import sdof_forcing, sdof_matrices
-from study.scene_data import Scene
+from study.scene.data import Scene
 
 logger = logging.getLogger(__name__)
 

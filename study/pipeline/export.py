@@ -1,0 +1,117 @@
+"""Export stage: ``results.h5``, PNG plots and ``report.md`` of a run."""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from study import fe_stages
+from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.pipeline.parallel import world
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["write_partial", "export", "write_housing", "write_report_files",
+           "write_attractor_files"]
+
+
+def _settings(result) -> dict:
+    c = result.scene.continuation
+    return {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+
+
+def _extra(result):
+    nvh = getattr(result, "nvh", None)
+    if result.rom is None and nvh is None:
+        return None
+
+    def extra(f) -> None:
+        if result.rom is not None:
+            fe_stages.write_rom_group(f, result)
+        if nvh is not None:
+            write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+    return extra
+
+
+def write_partial(result, branch) -> None:
+    """(Re)write results.h5 with the branch so far (checkpoint; atomic)."""
+    from study.outputs.results import write_results
+
+    write_results(result.results, result.scene, result.problem, branch,
+                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
+
+
+def export(result, figures: bool = True, housing: bool = True) -> None:
+    """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
+    fields, plots and report.md the scene asks for (``housing=False``: no housing
+    fields, e.g. for an incomplete curve).
+
+    Under mpirun (:mod:`study.pipeline.parallel`) rank 0 writes every file."""
+    comm = world()
+    result.nvh = compute_nvh(result)
+    comm.root_call(write_partial, result, result.branch)
+    logger.info("wrote %s", result.results)
+    comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
+                   result.nvh)
+    if housing:
+        write_housing(result, figures)
+    if figures:
+        comm.root_call(_figures, result)
+
+
+def write_housing(result, figures: bool = True) -> None:
+    """The housing fields the scene asks for (FE scenes, ``[outputs] housing_field_rpm``)
+    and, with ``figures`` and the ``housing`` plot, their renderings; collective under
+    mpirun (rank 0 writes)."""
+    if result.rom is None or not result.scene.outputs.housing_field:
+        return
+    fields = fe_stages.housing_fields(result)
+    result.figures += fields
+    if figures and "housing" in result.scene.outputs.plots:
+        world().root_call(_render, result, fields)
+
+
+def _render(result, fields: list[Path]) -> None:
+    from study.plots.render import render_housing_isolated
+    for x in fields:
+        if x.name.startswith(("housing_orders_", "housing_surface_")):
+            continue
+        png = render_housing_isolated(x, x.with_suffix(".png"))
+        if png is not None:
+            result.figures.append(png)
+
+
+def _figures(result) -> None:
+    from study.plots.figures import draw_all
+
+    result.figures += draw_all(result)
+    if result.scene.outputs.report:
+        write_report_files(result)
+    else:                       # time responses asked for are kept without report.md too
+        write_attractor_files(result)
+
+
+def write_attractor_files(result) -> None:
+    """The time responses at the unstable segments when the scene asks for them
+    (``[outputs] attractor_transient_turns``): ``result.attractors``, attractors.csv and
+    ``/attractors`` of results.h5."""
+    from study.outputs.attractors import attractors, write_attractors_csv, write_attractors_group
+
+    result.attractors = attractors(result)
+    if result.attractors:
+        write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
+        write_attractors_group(result.results, result.attractors)
+
+
+def write_report_files(result) -> Path:
+    """report.md, with the time responses at the unstable segments and their files
+    (:func:`write_attractor_files`)."""
+    from study.outputs import report
+
+    write_attractor_files(result)
+    p = report.write_report(result)
+    logger.info("wrote %s", p)
+    return p
+
+
+def out_path(result, name: str) -> Path:
+    return Path(result.out) / name

@@ -435,6 +435,8 @@ class TorusBasis(RealLayout):
         neg = vm[..., -1] > n[-1] // 2
         vm = np.where(neg[..., None], (-v) % n, vm)
         flat = np.ravel_multi_index(tuple(np.moveaxis(vm, -1, 0)), self._half_shape(grid))
+        if math.prod(self._half_shape(grid)) < 2 ** 31:
+            flat = flat.astype(np.int32)          # the product tables are (nS, nS) of them
         return flat, neg
 
     def _placement(self, grid: tuple[int, ...]):
@@ -454,7 +456,9 @@ class TorusBasis(RealLayout):
             conj = last <= 0                     # -k is (both when k_d = 0)
             fa, _ = self._flat(k[direct], grid)
             fb, _ = self._flat(-k[conj], grid)
-            cache[grid] = (ids[direct], fa, ids[conj], fb, ~direct)
+            negative = last[conj] < 0            # read conjugated from -k in the analysis
+            cache[grid] = (ids[direct], fa, ids[conj], fb, ids[conj][negative],
+                           fb[negative])
         return cache[grid]
 
     def synthesize(self, xr: np.ndarray, n_time=None) -> np.ndarray:
@@ -462,7 +466,7 @@ class TorusBasis(RealLayout):
         real layout (..., n_real), by one inverse real d-dimensional FFT; shape
         ``(..., N_1, ..., N_d)``."""
         grid = self.grid if n_time is None else tuple(int(v) for v in n_time)
-        ia, fa, ib, fb, _ = self._placement(grid)
+        ia, fa, ib, fb, _, _ = self._placement(grid)
         xc = self.to_complex(xr)
         lead = xc.shape[:-1]
         half = self._half_shape(grid)
@@ -480,7 +484,7 @@ class TorusBasis(RealLayout):
         x = np.asarray(x, dtype=float)
         d = self.dimension
         grid = x.shape[-d:]
-        ia, fa, ib, fb, negative = self._placement(grid)
+        ia, fa, _, _, ineg, fneg = self._placement(grid)
         lead = x.shape[:-d]
         ntot = math.prod(grid)
         spec = np.fft.rfftn(x, axes=tuple(range(-d, 0))).reshape(lead + (-1,))
@@ -488,9 +492,7 @@ class TorusBasis(RealLayout):
         xc[..., 0] = spec[..., 0].real / ntot
         xc[..., ia] = spec[..., fa] * (2.0 / ntot)
         # harmonics with k_d < 0 are read from -k (conjugated); k_d = 0 already from k
-        ib_neg = ib[negative[ib - 1]]
-        fb_neg = fb[negative[ib - 1]]
-        xc[..., ib_neg] = np.conj(spec[..., fb_neg]) * (2.0 / ntot)
+        xc[..., ineg] = np.conj(spec[..., fneg]) * (2.0 / ntot)
         return self.to_real(xc)
 
     def grid_rows(self, nodes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Mesh phasing in a gear train: the phase of each mesh's cycle (stiffness, transmission
 error) from the angular position of the teeth and of the mating gears (docs/theory.md,
-§14.4, T.39-T.44).
+§14.5, T.41-T.47).
 
 Two meshes on one gear — an idler driven by one gear and driving another, or the two
 gears of an intermediate shaft — are not in phase: where a tooth pair of each mesh sits on
@@ -47,7 +47,7 @@ def working_radius(pair: GearPair, gear: int) -> float:
 
 
 def tooth_half_angle(pair: GearPair, gear: int, radius: float) -> float:
-    """Half the angular thickness of a tooth of gear ``gear`` at ``radius`` (rad, T.39):
+    """Half the angular thickness of a tooth of gear ``gear`` at ``radius`` (rad, T.41):
 
         ψ(r) = (π/2 + 2 x tan α_n) / z + inv α_t − inv α_r,   cos α_r = r_b / r,
 
@@ -66,7 +66,7 @@ def tooth_half_angle(pair: GearPair, gear: int, radius: float) -> float:
 def pitch_point_phase(pair: GearPair, gear: int, centre_angle: float,
                       tooth_angle: float = 0.0) -> float:
     """Phase (rad, [0, 2π)) of the mesh cycle counted from a pair's passage through the
-    pitch point C (T.41): ``Z (γ − α)`` with γ the angle of the loaded flank of a tooth at
+    pitch point C (T.43): ``Z (γ − α)`` with γ the angle of the loaded flank of a tooth at
     the working pitch circle and α that of C (the mate's centre), both on gear ``gear``.
 
     Parameters
@@ -94,7 +94,7 @@ def mesh_phase(pair: GearPair, gear: int, centre_angle: float,
                tooth_angle: float = 0.0) -> float:
     """Mesh phase (rad, [0, 2π)) in the scene's convention (the module) at the instant when
     a tooth of gear ``gear`` has its centreline at ``tooth_angle`` and the mating gear's
-    centre is at ``centre_angle`` (T.42)::
+    centre is at ``centre_angle`` (T.44)::
 
         θ = 2π (s_C − s_A)/p_b − π (ε_α − ⌊ε_α⌋) + Z (γ − α),
 
@@ -111,7 +111,7 @@ def mesh_phase(pair: GearPair, gear: int, centre_angle: float,
 
 def relative_phase(first: tuple, second: tuple, tooth_angle: float = 0.0) -> float:
     """Phase of the second mesh minus the first's (rad, [0, 2π)) when both are measured on
-    one gear (an idler, T.43): ``first`` and ``second`` are ``(pair, gear, centre_angle)``
+    one gear (an idler, T.45 with T.44): ``first`` and ``second`` are ``(pair, gear, centre_angle)``
     for each mesh, the gear being the shared one in both pairs (same tooth count)."""
     (p1, g1, a1), (p2, g2, a2) = first, second
     z1, z2 = p1.teeth[_check_gear(g1) - 1], p2.teeth[_check_gear(g2) - 1]
@@ -126,7 +126,7 @@ def relative_phase(first: tuple, second: tuple, tooth_angle: float = 0.0) -> flo
 def idler_phase_difference(n_teeth: int, angle: float) -> float:
     """Closed form for an idler of standard teeth (no profile shift, standard centre
     distances, no backlash) driven at the first pitch point and driving at the second,
-    ``angle`` (rad) after it in the idler's sense of rotation (T.44): the phase of the
+    ``angle`` (rad) after it in the idler's sense of rotation (T.46): the phase of the
     second mesh minus the first's, both counted from a pair at its pitch point,
 
         Δθ_C = π − Z Δα   (mod 2π)

@@ -1,4 +1,4 @@
-"""gears.train: mesh phasing from the geometry (docs/theory.md §14.4, T.39-T.44) against
+"""gears.train: mesh phasing from the geometry (docs/theory.md §14.5, T.41-T.46) against
 the closed form for an idler (issue 36 item 5c) and against a brute-force construction:
 the involute flanks of the shared gear built point by point, the gear rotated, and the
 instants found where the number of tooth pairs on each mesh's path of contact changes
@@ -146,7 +146,7 @@ def _pair(z1: int, z2: int, x1: float = 0.0, x2: float = 0.0) -> GearPair:
     ((31, 31), (0.25, 0.25), -1.0, 0.05),
 ])
 def test_mesh_phase_against_brute_force(gear, teeth, shift, centre, tooth):
-    """mesh_phase (T.42) equals the phase of the brute-force construction to 1e-9 rad,
+    """mesh_phase (T.44) equals the phase of the brute-force construction to 1e-9 rad,
     either gear of the pair, with profile shifts (working pressure angle != 20 deg)."""
     pair = _pair(*teeth, *shift)
     brute = BruteForceMesh(pair, gear, centre, tooth).phase()
@@ -156,7 +156,7 @@ def test_mesh_phase_against_brute_force(gear, teeth, shift, centre, tooth):
 def test_idler_closed_form_and_brute_force():
     """An idler of 31 teeth driven by a 19-tooth gear and driving a 47-tooth gear, the two
     mates 128.3 degrees apart on it: the pitch-point phases differ by pi - Z Delta alpha
-    (T.44), and the scene-convention phases (T.43) by the brute-force difference."""
+    (T.46), and the scene-convention phases (T.44) by the brute-force difference."""
     z = 31
     first, second = _pair(19, z), _pair(z, 47)          # idler driven, then driving
     a1, a2 = 0.4, 0.4 + math.radians(128.3)

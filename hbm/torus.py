@@ -72,13 +72,16 @@ def canonical(k) -> tuple[int, ...]:
 
 def default_grid_size(top: int) -> int:
     """Samples along one base of the torus grid for a largest harmonic ``top`` of it: the
-    smallest power of two >= max(8, 4 top + 4).
+    periodic rule (:func:`hbm.basis.default_n_time`) along each base, the smallest power
+    of two >= max(8, 8 top + 4).
 
     A product of two signals reaches 2 top, and projecting it back onto harmonics <= top
-    without aliasing needs N > 3 top; the margin is for the kinks of a dead zone (the
-    periodic rule of :func:`hbm.basis.default_n_time` takes 8 top + 4, the corrected AFT
-    of T.13a makes 4 top + 4 enough along each base: tests/test_hbm_torus.py)."""
-    need = max(8, 4 * int(top) + 4)
+    without aliasing needs N > 3 top; the kinks of a dead zone add a slowly decaying tail,
+    hence the margin. Measured (tests/test_hbm_torus.py, docs/hbm.md): with contact loss
+    4 top + 4 leaves an aliasing error of 1.6e-4 on the mesh-load std where 8 top + 4 has
+    1e-5; in permanent contact (smooth products) 4 top + 4 gives the same solution to
+    1e-12 at 2^-d of the samples — pass such a grid explicitly there."""
+    need = max(8, 8 * int(top) + 4)
     return int(2 ** int(np.ceil(np.log2(need))))
 
 
@@ -109,7 +112,8 @@ class TorusBasis(RealLayout):
         zero vector; a vector given twice (or with its negative) is refused. Stored sorted.
     grid
         Samples ``(N_1, ..., N_d)`` of the AFT along each base, each ``N_j > 2 max |k_j|``
-        (no two retained harmonics alias); default :func:`default_grid_size` of each.
+        (no two retained harmonics alias); default :func:`default_grid_size` of each (the
+        periodic rule along each base).
     names
         A name per base (``"mesh 1"``, ``"shaft 2"``), default ``"base j"``.
     vectors

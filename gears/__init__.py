@@ -11,7 +11,9 @@
   (tooth compliance, flank modifications and deviations, ISO 1328 classes, the LTCA,
   Harris maps, contact patterns, mesh and shaft-order series);
 - :mod:`gears.te_table` — measured or third-party TE and stiffness tables as Fourier
-  series.
+  series;
+- :mod:`gears.train` — mesh phasing in a train: the phase of each mesh's cycle from the
+  tooth positions and the angles of the mating gears (idlers, intermediate shafts).
 
 See docs/gears.md. SI units throughout.
 """
@@ -69,6 +71,14 @@ from .tooth import (
     pair_compliance,
     tooth_compliance,
 )
+from .train import (
+    idler_phase_difference,
+    mesh_phase,
+    pitch_point_phase,
+    relative_phase,
+    tooth_half_angle,
+    working_radius,
+)
 
 __all__ = [
     "GearPair", "contact_path_length", "involute", "inverse_involute",
@@ -85,4 +95,6 @@ __all__ = [
     "LtcaCase", "LtcaResult", "solve_ltca", "HarrisMap", "harris_map", "ContactPattern",
     "contact_pattern", "mesh_series", "order_series", "scene_coefficients",
     "MeshTable", "mesh_table", "read_mesh_table", "table_series",
+    "idler_phase_difference", "mesh_phase", "pitch_point_phase", "relative_phase",
+    "tooth_half_angle", "working_radius",
 ]

@@ -4,7 +4,9 @@ Solves ``M q'' + C q' + K q + sum_e g_e f_e(g_e^T q, t) = f_ex(t)`` (eq. 4, 13-1
 periodic responses over a speed range: a linear system with any number of nonlinear
 elements (:mod:`hbm.elements`: the gear mesh's dead zone with TVMS and loaded TE, a
 cubic spring), each acting along its direction; a harmonic basis of any fundamental that
-divides the excitation and element frequencies (:mod:`hbm.basis`); AFT, exact
+divides the excitation and element frequencies (:mod:`hbm.basis`), or of several
+independent base frequencies on a torus (:mod:`hbm.torus`, a gear train's meshes and
+shafts with hunting ratios); AFT, exact
 condensation onto the elements' deflections, Newton corrector (dense or matrix-free),
 pseudo-arc-length continuation of any residual (:mod:`hbm.continuation`), grazing (eq. 30)
 and fold detection, stability (:mod:`hbm.stability`), post-processing and independent
@@ -34,14 +36,15 @@ from .records import Record
 from .stability import floquet_exponents
 from .sweep import PointMonitor, trace
 from .system import Excitation, LinearSystem
+from .torus import TorusBasis, train_basis
 from .units import RPM_TO_RAD_S
 
 __all__ = [
     "Branch", "ConvergenceError", "CubicSpring", "Element", "ElementCurve", "Excitation",
     "GearMesh", "GrazingPoint", "HBMProblem", "HarmonicSet", "LinearSystem",
     "MeshPeriodEnvelope", "Point", "PointMonitor", "RPM_TO_RAD_S", "Record", "ShootingCheck",
-    "TimeSeries", "common_fundamental", "continue_branch", "floquet_exponents",
+    "TimeSeries", "TorusBasis", "common_fundamental", "continue_branch", "floquet_exponents",
     "full_residual", "impacts_per_mesh_period", "ipp_sequence", "make_element",
     "mesh_period_envelope", "point_stats", "quasi_static_delta", "shooting_error",
-    "spectrum", "time_series", "trace",
+    "spectrum", "time_series", "trace", "train_basis",
 ]

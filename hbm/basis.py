@@ -22,13 +22,14 @@ import numbers
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SET_KINDS", "HarmonicSet", "as_ratio", "combination_offsets", "common_fundamental",
-           "complex_mul", "default_n_time", "mul_rows", "real_blocks"]
+__all__ = ["SET_KINDS", "Basis", "HarmonicSet", "RealLayout", "as_ratio", "combination_offsets",
+           "common_fundamental", "complex_mul", "default_n_time", "mul_rows", "real_blocks"]
 
 # How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
 SET_KINDS = ("combinations", "bands", "contiguous")
@@ -107,8 +108,130 @@ def common_fundamental(*ratios) -> Fraction:
     return Fraction(num, den)
 
 
+class Basis(Protocol):
+    """What the harmonic balance (:class:`hbm.problem.HBMProblem`, the condensations,
+    :mod:`hbm.krylov`) asks of a harmonic basis; :class:`HarmonicSet` (one fundamental,
+    periodic responses) and :class:`hbm.torus.TorusBasis` (d independent base
+    frequencies, multi-dimensional AFT on a torus grid) both satisfy it.
+
+    A signal is ``x = Re sum_k x_k exp(i k . theta)`` over the retained indices ``k``
+    (``indices``; the first is the mean), real layout ``[x_0, Re x_k1, Im x_k1, ...]``
+    (:class:`RealLayout`); index ``k`` has the frequency ``frequency_index[k] * ratio *
+    Omega`` (an integer multiple of the exact ``ratio``, possibly negative or zero on a
+    torus). ``n_time`` is the AFT grid (an int, or a shape on a torus), ``synthesize`` /
+    ``analyse`` go between the real layout and samples on it by FFT,
+    ``multiplication_matrix`` and ``grid_rows``/``galerkin_columns`` give the Galerkin
+    matrix of a product by samples (the Jacobian blocks), ``element_step`` /
+    ``base_phase`` where an element's base frequency sits and its phase on the grid,
+    ``index_of`` the index of an excitation's frequency. ``periodic``: Floquet theory
+    and the one-period post-processing apply (one fundamental).
+    """
+
+    indices: tuple
+    ratio: Fraction
+    fundamental: str
+    n_time: Any
+    periodic: bool
+
+    @property
+    def dimension(self) -> int: ...
+
+    @property
+    def n_harmonics(self) -> int: ...
+
+    @property
+    def n_real(self) -> int: ...
+
+    @property
+    def contiguous(self) -> bool: ...
+
+    @property
+    def rate(self) -> float: ...
+
+    @property
+    def frequency_index(self) -> tuple[int, ...]: ...
+
+    def fundamental_rad_s(self, omega: float) -> float: ...
+
+    def index_of(self, key) -> Any: ...
+
+    def element_step(self, ratio, harmonics, label: str) -> Any: ...
+
+    def base_phase(self, step, n_time=None) -> np.ndarray: ...
+
+    def to_real(self, xc: np.ndarray) -> np.ndarray: ...
+
+    def to_complex(self, xr: np.ndarray) -> np.ndarray: ...
+
+    def synthesize(self, xr: np.ndarray, n_time=None) -> np.ndarray: ...
+
+    def analyse(self, x: np.ndarray) -> np.ndarray: ...
+
+    def aft_matrices(self, n_time=None) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def multiplication_matrix(self, s: np.ndarray) -> np.ndarray: ...
+
+    def grid_rows(self, nodes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray: ...
+
+    def galerkin_columns(self, rows: np.ndarray, n_time: int) -> np.ndarray: ...
+
+
+class RealLayout:
+    """The real layout of the Fourier coefficients of one signal, shared by the bases:
+    ``[x_0, Re x_k1, Im x_k1, Re x_k2, Im x_k2, ...]`` (index 0 real)."""
+
+    @property
+    def n_harmonics(self) -> int:
+        """Number of harmonic indices (complex coefficients per signal)."""
+        return len(self.indices)
+
+    @property
+    def n_real(self) -> int:
+        """Real unknowns per signal: ``2 * n_harmonics - 1`` (index 0 is real)."""
+        return 2 * len(self.indices) - 1
+
+    def to_real(self, xc: np.ndarray) -> np.ndarray:
+        """Complex coefficients (..., n_harmonics) -> real layout (..., n_real)."""
+        xc = np.asarray(xc)
+        out = np.empty(xc.shape[:-1] + (self.n_real,))
+        out[..., 0] = xc[..., 0].real
+        out[..., 1::2] = xc[..., 1:].real
+        out[..., 2::2] = xc[..., 1:].imag
+        return out
+
+    def to_complex(self, xr: np.ndarray) -> np.ndarray:
+        """Real layout (..., n_real) -> complex coefficients (..., n_harmonics)."""
+        xr = np.asarray(xr, dtype=float)
+        out = np.empty(xr.shape[:-1] + (self.n_harmonics,), dtype=complex)
+        out[..., 0] = xr[..., 0]
+        out[..., 1:] = xr[..., 1::2] + 1j * xr[..., 2::2]
+        return out
+
+    def galerkin_columns(self, rows: np.ndarray, n_time: int) -> np.ndarray:
+        """Columns of the Galerkin analysis matrix ``A`` (n_real, m) at the samples whose
+        synthesis ``rows`` are given, on a grid of ``n_time`` samples in all."""
+        w = np.where(np.arange(self.n_real) == 0, 1.0, 2.0) / n_time
+        return rows.T * w[:, None]
+
+    def product_matrix(self, sh: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Real-layout matrix of ``x -> Galerkin(s x)`` from the DFT coefficients of the
+        samples ``s``: ``sh`` at each index ``k`` (nS,), ``p = s_hat[k - l]`` and
+        ``q = s_hat[k + l]`` (nS, nS - 1) for the indices ``l`` but the first.
+
+        With ``w_0 = 1``, ``w_k = 2`` and ``x_l = a_l + i b_l``: ``y_k = w_k (s_hat_k x_0
+        + 1/2 sum_l (s_hat_{k-l} + s_hat_{k+l}) a_l + i/2 sum_l (s_hat_{k-l} -
+        s_hat_{k+l}) b_l)``.
+        """
+        wk = np.where(np.arange(sh.size) == 0, 1.0, 2.0)[:, None]
+        dc = np.empty((sh.size, self.n_real), dtype=complex)
+        dc[:, 0] = wk[:, 0] * sh
+        dc[:, 1::2] = 0.5 * wk * (p + q)
+        dc[:, 2::2] = 0.5j * wk * (p - q)
+        return self.to_real(dc.T).T
+
+
 @dataclass(frozen=True)
-class HarmonicSet:
+class HarmonicSet(RealLayout):
     """Explicit set of harmonic indices of the fundamental ``w0 = ratio * Omega``.
 
     Parameters
@@ -239,15 +362,18 @@ class HarmonicSet:
         return cls(sorted(idx), ratio=ratio, fundamental=fundamental, n_time=n_time)
 
     # ------------------------------------------------------------------ helpers
-    @property
-    def n_harmonics(self) -> int:
-        """Number of harmonic indices (complex coefficients per signal)."""
-        return len(self.indices)
+    #: one fundamental: a periodic response (Floquet theory, one-period post-processing)
+    periodic: ClassVar[bool] = True
 
     @property
-    def n_real(self) -> int:
-        """Real unknowns per signal: ``2 * n_harmonics - 1`` (index 0 is real)."""
-        return 2 * len(self.indices) - 1
+    def dimension(self) -> int:
+        """Number of base frequencies: 1."""
+        return 1
+
+    @property
+    def frequency_index(self) -> tuple[int, ...]:
+        """Frequency of each index in units of the fundamental: the indices."""
+        return self.indices
 
     @property
     def max_index(self) -> int:
@@ -278,6 +404,29 @@ class HarmonicSet:
                 f"use a common submultiple (hbm.common_fundamental)")
         return int(q)
 
+    def element_step(self, ratio, harmonics, label: str) -> int:
+        """Harmonic index of an element's base frequency ``ratio * Omega`` (:meth:`step_of`)
+        with its parameters' top harmonic (of ``harmonics``, the harmonics of its base
+        frequency it holds) checked against the AFT grid; a warning names the harmonics
+        the set does not hold."""
+        step = self.step_of(ratio, label)
+        top = max(harmonics, default=0) * step
+        if 2 * top >= self.n_time:
+            raise ValueError(
+                f"harmonics.n_time = {self.n_time}: too few samples for harmonic "
+                f"{max(harmonics, default=0)} of {label} (index {top}); need > {2 * top}")
+        missing = [m for m in harmonics if m * step not in self.indices]
+        if missing:
+            logger.warning("%s: harmonics %s of its base frequency are not in the harmonic "
+                           "set; their direct contribution is only seen through products",
+                           label, sorted(set(missing)))
+        return step
+
+    def base_phase(self, step: int, n_time: int | None = None) -> np.ndarray:
+        """The phase ``step * tau`` (rad) of a base frequency of index ``step`` on a grid of
+        ``n_time`` samples of one period (default the AFT's)."""
+        return self.time_grid(n_time) * step
+
     def fundamental_rad_s(self, omega: float) -> float:
         """Fundamental angular frequency ``w0 = ratio * Omega`` (rad/s)."""
         return self.rate * omega
@@ -298,23 +447,6 @@ class HarmonicSet:
         r = self.ratio
         return float(r.numerator) if r.denominator == 1 else float(r)
 
-    def to_real(self, xc: np.ndarray) -> np.ndarray:
-        """Complex coefficients (..., n_harmonics) -> real layout (..., n_real)."""
-        xc = np.asarray(xc)
-        out = np.empty(xc.shape[:-1] + (self.n_real,))
-        out[..., 0] = xc[..., 0].real
-        out[..., 1::2] = xc[..., 1:].real
-        out[..., 2::2] = xc[..., 1:].imag
-        return out
-
-    def to_complex(self, xr: np.ndarray) -> np.ndarray:
-        """Real layout (..., n_real) -> complex coefficients (..., n_harmonics)."""
-        xr = np.asarray(xr, dtype=float)
-        out = np.empty(xr.shape[:-1] + (self.n_harmonics,), dtype=complex)
-        out[..., 0] = xr[..., 0]
-        out[..., 1:] = xr[..., 1::2] + 1j * xr[..., 2::2]
-        return out
-
     def aft_matrices(self, n_time: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Synthesis ``E`` (N, n_real) and Galerkin analysis ``A`` (n_real, N).
 
@@ -324,6 +456,21 @@ class HarmonicSet:
         n = self.n_time if n_time is None else int(n_time)
         e = self.synthesis_rows(2.0 * np.pi * np.arange(n) / n)
         return e, self.galerkin_columns(e, n)
+
+    def grid_rows(self, nodes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """Rows of the synthesis matrix at the samples ``nodes`` of a grid of ``shape``
+        (``(N,)``): :meth:`synthesis_rows` at ``tau = 2 pi nodes / N``."""
+        return self.synthesis_rows(2.0 * np.pi * nodes / shape[-1])
+
+    def multiplication_matrix(self, s: np.ndarray) -> np.ndarray:
+        """Real-layout matrix of ``x -> Galerkin(s(tau) x(tau))`` on a grid of samples
+        ``s`` (N,): ``A diag(s) E`` built from the DFT of s by index gathering (circular
+        convolution), O(N log N + n_real^2) (:meth:`RealLayout.product_matrix`)."""
+        n = s.size
+        sh = np.fft.fft(s) / n
+        k = self.index_array
+        return self.product_matrix(sh[k % n], sh[(k[:, None] - k[None, 1:]) % n],
+                                   sh[(k[:, None] + k[None, 1:]) % n])
 
     def synthesis_rows(self, tau: np.ndarray) -> np.ndarray:
         """Rows of the synthesis matrix at normalised times ``tau`` (rad), (m, n_real):
@@ -335,12 +482,6 @@ class HarmonicSet:
         e[:, 1::2] = np.cos(np.outer(tau, k))
         e[:, 2::2] = -np.sin(np.outer(tau, k))
         return e
-
-    def galerkin_columns(self, rows: np.ndarray, n_time: int) -> np.ndarray:
-        """Columns of the Galerkin analysis matrix ``A`` (n_real, m) at the samples whose
-        synthesis ``rows`` are given, on a grid of ``n_time`` samples per period."""
-        w = np.where(np.arange(self.n_real) == 0, 1.0, 2.0) / n_time
-        return rows.T * w[:, None]
 
     @cached_property
     def index_array(self) -> np.ndarray:

@@ -22,7 +22,7 @@ from .problem import HBMProblem
 from .system import Excitation, LinearSystem
 from .units import RPM_TO_RAD_S
 
-__all__ = ["Geared3", "modal_damping", "synthetic_rom"]
+__all__ = ["Geared3", "TwoStage", "modal_damping", "synthetic_rom"]
 
 RB1, RB2 = 0.047, 0.047          # base radii (m)
 J1, J2, M1 = 1.5e-3, 1.5e-3, 1.2  # gear inertias (kg m^2), gear-1 mass (kg)
@@ -134,3 +134,108 @@ def synthetic_rom(n_cm: int, clustered: bool, zeta: float = 0.02, km: float = 5e
     exc = Excitation(n, constant={0: f0})
     return HBMProblem(LinearSystem(m, c, k), [mesh], exc, HarmonicSet.build(Z, harmonics),
                       "loa")
+
+
+@dataclass
+class TwoStage:
+    """Lumped torsional two-stage reducer: three shafts (inertias J1, J2, J3, rotations
+    theta_i in each shaft's own sense of rotation), two dead-zone meshes with their own
+    TVMS, unloaded TE and backlash (docs/hbm.md, "Several base frequencies").
+
+    Gear 1 (``teeth[0]``) on the input shaft drives gear 2 (``teeth[1]``) on the
+    intermediate shaft, gear 3 (``teeth[2]``) there drives gear 4 (``teeth[3]``) on the
+    output shaft: ``Delta_1 = rb1 theta1 - rb2 theta2``, ``Delta_2 = rb3 theta2 -
+    rb4 theta3``. The input torque drives, the output torque balances it; no shaft is
+    restrained (the rigid rotation of the train is unloaded, dropped at zero frequency).
+    Modal damping ``zeta`` in the modes of ``sum_e k_bar_e g_e g_e^T`` (eq. 17-19).
+    Mesh e: ``k_e(phi) = k_bar (1 + a cos phi)``, ``e_e(phi) = te cos(phi)`` at its mesh phase
+    ``phi = Z rho Omega t + phase_e``; ``shaft_forcing``: torque ripples ``{shaft index:
+    (order, amplitude N m)}`` at shaft orders of the input (0) or output (2) shaft.
+    """
+
+    teeth: tuple[int, int, int, int] = (20, 30, 15, 45)
+    module: float = 3e-3
+    inertias: tuple[float, float, float] = (2e-3, 4e-3, 3e-2)
+    stiffness: tuple[float, float] = (3e8, 3e8)
+    variation: tuple[float, float] = (0.2, 0.2)
+    te: tuple[float, float] = (4e-6, 4e-6)
+    backlash: tuple[float, float] = (10e-6, 10e-6)
+    torque: float = 50.0
+    zeta: float = 0.05
+    phases: tuple[float, float] = (0.0, 0.0)
+    shaft_forcing: tuple = ()
+
+    @property
+    def base_radii(self) -> np.ndarray:
+        """r_b of the four gears (m), pressure angle 20 degrees."""
+        return 0.5 * self.module * np.asarray(self.teeth, dtype=float) * np.cos(np.pi / 9)
+
+    @property
+    def speeds(self) -> tuple:
+        """Shaft speeds over the input's, exact: (1, Z1/Z2, Z1 Z3/(Z2 Z4))."""
+        from fractions import Fraction
+
+        z1, z2, z3, z4 = self.teeth
+        return (Fraction(1), Fraction(z1, z2), Fraction(z1 * z3, z2 * z4))
+
+    @property
+    def mesh_ratios(self) -> tuple:
+        """Mesh frequencies over Omega: (Z1, Z3 Z1/Z2)."""
+        return (self.teeth[0] * self.speeds[0], self.teeth[2] * self.speeds[1])
+
+    @property
+    def directions(self) -> tuple[np.ndarray, np.ndarray]:
+        rb = self.base_radii
+        return np.array([rb[0], -rb[1], 0.0]), np.array([0.0, rb[2], -rb[3]])
+
+    @property
+    def static_loads(self) -> tuple[float, float]:
+        """Transmitted mesh forces (N): T / rb1 and that times rb2 / rb3."""
+        rb = self.base_radii
+        f1 = self.torque / rb[0]
+        return f1, f1 * rb[1] / rb[2]
+
+    def system(self) -> LinearSystem:
+        m = np.diag(np.asarray(self.inertias, dtype=float))
+        kp = sum(k * np.outer(g, g) for k, g in zip(self.stiffness, self.directions,
+                                                     strict=True))
+        return LinearSystem(m, modal_damping(m, kp, self.zeta), np.zeros((3, 3)))
+
+    def meshes(self) -> list[GearMesh]:
+        out = []
+        for e, (g, z, rho) in enumerate(zip(self.directions, (self.teeth[0], self.teeth[2]),
+                                            self.speeds[:2], strict=True)):
+            k = self.stiffness[e]
+            out.append(GearMesh(direction=g, n_teeth=z,
+                                stiffness={0: k, 1: k * self.variation[e]},
+                                te={1: self.te[e]}, backlash=self.backlash[e],
+                                speed_ratio=rho, name=f"mesh {e + 1}",
+                                phase=self.phases[e]))
+        return out
+
+    def excitation(self) -> Excitation:
+        """The driving torque and its balancing load, plus the shaft torque ripples
+        (keys: shaft orders times the shaft's speed)."""
+        rb = self.base_radii
+        load = self.torque * rb[1] * rb[3] / (rb[0] * rb[2])
+        const = {0: np.array([self.torque, 0.0, -load])}
+        for shaft, order, amp in self.shaft_forcing:
+            vec = np.zeros(3)
+            vec[shaft] = amp
+            key = order * self.speeds[shaft]
+            const[key] = const.get(key, np.zeros(3)) + vec
+        return Excitation(3, constant=const)
+
+    def problem(self, harmonics, **kwargs) -> HBMProblem:
+        """The HBM problem on the basis ``harmonics`` (a HarmonicSet or a TorusBasis)."""
+        return HBMProblem(self.system(), self.meshes(), self.excitation(), harmonics,
+                          **kwargs)
+
+    def resonance_rpm(self) -> np.ndarray:
+        """Speeds (rpm) where mesh 1's frequency meets each elastic natural frequency."""
+        s = self.system()
+        kp = sum(k * np.outer(g, g) for k, g in zip(self.stiffness, self.directions,
+                                                     strict=True))
+        w2 = sla.eigh(kp, s.M, eigvals_only=True)
+        w = np.sqrt(w2[w2 > 1e-6 * w2.max()])
+        return w / float(self.mesh_ratios[0]) / RPM_TO_RAD_S

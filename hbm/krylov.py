@@ -243,7 +243,7 @@ class LoaJacobian(_KrylovSolvable):
                                                    for st in sts)
         if not fast:
             if not kinks:
-                sts = [ElementStiffness(st.samples, KinkCorrection.none(st.samples.size))
+                sts = [ElementStiffness(st.samples, KinkCorrection.none(st.samples.shape))
                        for st in sts]
             mats = [self.stiffness_matrix(st) for st in sts]
         if ne == 1:

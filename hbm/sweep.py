@@ -44,6 +44,14 @@ class PointMonitor:
 
     def __init__(self, problem: HBMProblem, stability: bool = True,
                  process: bool | None = None) -> None:
+        if stability and not problem.periodic:
+            raise ValueError(
+                "stability = True: Floquet theory is for periodic responses; on a torus of "
+                f"{problem.harmonics.dimension} base frequencies the response is "
+                "quasi-periodic and its stability (Lyapunov exponents of the torus) is not "
+                "computed: trace with stability=False (folds are still located; each point "
+                "is written stable=False, floquet_max_real=NaN, floquet_kind=-1: not "
+                "computed)")
         self.problem = problem
         self.stability = stability
         self._process = wanted(problem, stability, process)
@@ -105,11 +113,15 @@ class PointMonitor:
             self.basis = stab.basis
             v = Verdict.of(stab)
             return Measurement(v.stable, v.max_real, v.code, v.consistent, stats)
+        if not problem.periodic:           # not computed (see __init__)
+            return Measurement(False, float("nan"), -1, True, stats)
         return Measurement(True, 0.0, 0, True, stats)
 
     def test_value(self, index: int, unknowns: np.ndarray) -> float:
         ev = self.events[index]
         pb = self.problem
+        if not pb.periodic:
+            return element_statistics(pb, unknowns)[ev.element][ev.statistic]
         synth, samples = pb.fine_grid(pb.fine_periods())
         delta = (synth @ pb.delta_real(unknowns))[ev.element]
         el = pb.elements[ev.element]
@@ -154,7 +166,7 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
           min_step: float = 1e-6, max_step: float = 0.05, tol: float = 1e-8,
           max_points: int = 2000, max_iter: int = 12,
           on_point: Callable[[Branch], None] | None = None, resume: Branch | None = None,
-          stability: bool = True, overshoot: float = 0.25,
+          stability: bool | None = None, overshoot: float = 0.25,
           grazing_tol_rpm: float | None = None, start_fallback: bool = True,
           stability_process: bool | None = None,
           retry_steps: tuple[float, ...] = RETRY_STEPS,
@@ -167,7 +179,10 @@ def trace(problem: HBMProblem, rpm_start: float, rpm_end: float, *, step: float 
     problem
         The HBM problem.
     stability
-        Compute the stability of every point (:func:`hbm.stability.stability`).
+        Compute the stability of every point (:func:`hbm.stability.stability`). None (the
+        default): on a periodic basis yes, on a torus basis no (refused when True there:
+        Floquet theory does not apply to a quasi-periodic response; the points are then
+        written ``stable=False``, ``floquet_max_real=NaN``, ``floquet_kind=-1``).
     stability_process
         Measure the stability in a second process while the corrector looks for
         the next point (:mod:`hbm.stability.process`; bitwise the same verdicts).
@@ -184,6 +199,8 @@ resume, overshoot, grazing_tol_rpm, start_fallback, retry_steps, start
     Branch
         Never holds an unconverged point; ``status``/``message`` say why it stopped.
     """
+    if stability is None:
+        stability = problem.periodic
     return continue_branch(problem, PointMonitor(problem, stability, stability_process),
                            rpm_start, rpm_end, step=step, min_step=min_step,
                            max_step=max_step, tol=tol, max_points=max_points,

@@ -74,6 +74,19 @@ class LinearSystem:
         return self.M.shape[0]
 
 
+def _key(key, name: str):
+    """An excitation key: an exact frequency ratio (:func:`hbm.basis.as_ratio`, >= 0), or
+    on a torus basis a lattice vector, a tuple of integers (all zero: the ratio 0)."""
+    if isinstance(key, tuple):
+        if not key or any(isinstance(v, bool) or not isinstance(v, (int, np.integer))
+                          for v in key):
+            raise ValueError(f"{name} = {key!r}: a lattice vector must be a tuple of "
+                             "integers")
+        k = tuple(int(v) for v in key)
+        return as_ratio(0, name, positive=False) if not any(k) else k
+    return as_ratio(key, name, positive=False)
+
+
 @dataclass(frozen=True)
 class Excitation:
     """External forcing ``f(t) = Re sum_p (F_p + Omega^2 U_p) exp(i p Omega t)``.
@@ -86,7 +99,9 @@ class Excitation:
         {frequency ratio p >= 0: complex (n,) vector F_p} (N); p = 0 is the static
         load (must be real). The keys are exact ratios of the reference speed Omega
         (int, :class:`fractions.Fraction`): shaft order k of a shaft turning at
-        ``rho Omega`` is ``p = k rho``.
+        ``rho Omega`` is ``p = k rho``. On a torus basis (:class:`hbm.torus.TorusBasis`)
+        a key may also be a lattice vector ``k`` (a tuple of integers, canonical: first
+        non-zero component > 0): the term ``Re F_k exp(i k . theta)``.
     omega_squared
         {frequency ratio p: complex (n,) vector U_p} (N s^2) for loads growing with
         Omega^2 (unbalance, aerodynamic).
@@ -106,7 +121,7 @@ class Excitation:
                 raise ValueError(f"excitation.{name} = {d!r}: must be a dict {{order: vector}}")
             out = {}
             for key, vec in d.items():
-                p = as_ratio(key, f"excitation.{name} key", positive=False)
+                p = _key(key, f"excitation.{name} key")
                 v = np.asarray(vec, dtype=complex).ravel()
                 if v.shape != (n,):
                     raise ValueError(

@@ -41,12 +41,16 @@ __all__ = ["Element", "ElementStiffness", "EventTest", "KinkCorrection", "Statis
 @dataclass(frozen=True)
 class Statistic:
     """A per-point statistic of an element kind: its name, unit and type; ``per_period``:
-    one value per base period of the element over the fundamental period (an array)."""
+    one value per base period of the element over the fundamental period (an array);
+    ``temporal``: it needs the samples in time order (impacts: a loss of contact followed
+    by contact), so on a torus basis it is measured along the time line rather than over
+    the torus grid (:func:`hbm.post.torus.torus_statistics`)."""
 
     name: str
     unit: str = ""
     integer: bool = False
     per_period: bool = False
+    temporal: bool = False
 
 
 @dataclass(frozen=True)
@@ -66,49 +70,63 @@ class EventTest:
 class KinkCorrection:
     """Sub-sample correction of a sampled force and of its derivative.
 
-    ``values`` (N) is added to the force samples; ``nodes`` are the first samples ``j``
-    of the intervals ``(j, j+1)`` (periodic) over which the law has a kink (a dead zone's
-    ``+-b``); ``blocks[i]`` (2, 4) is the derivative of the corrections at samples
-    ``(j, j+1)`` with respect to the deflection at ``(j-1, j, j+1, j+2)`` (N/m). See
-    :func:`hbm.elements.contact_law.kink_correction` (T.13a).
+    ``values`` (shaped like the samples) is added to the force samples; ``nodes`` are the
+    first samples ``j`` (flat indices) of the intervals ``(j, j+1)`` (periodic) over
+    which the law has a kink (a dead zone's ``+-b``); ``blocks[i]`` (2, 4) is the
+    derivative of the corrections at samples ``(j, j+1)`` with respect to the deflection
+    at ``(j-1, j, j+1, j+2)`` (N/m). See :func:`hbm.elements.contact_law.kink_correction`
+    (T.13a). On a torus grid (samples of shape ``(N_1, ..., N_d)``) the intervals run
+    along the last axis, periodic within each row of ``period = N_d`` samples (0: the
+    whole grid is one row, a period of one fundamental).
     """
 
     values: np.ndarray
     nodes: np.ndarray
     blocks: np.ndarray
+    period: int = 0
 
     def columns(self, n: int) -> np.ndarray:
-        """Sample indices ``(j-1, j, j+1, j+2)`` of each block, (m, 4)."""
-        return (self.nodes[:, None] + np.arange(-1, 3)[None, :]) % n
+        """Sample indices ``(j-1, j, j+1, j+2)`` of each block, (m, 4) (flat, on a grid of
+        ``n`` samples)."""
+        length = self.period or n
+        col = self.nodes % length
+        return (self.nodes - col)[:, None] + (col[:, None] + np.arange(-1, 3)[None, :]) % length
+
+    def successors(self, n: int) -> np.ndarray:
+        """Flat indices of the samples ``j + 1`` after the nodes (periodic in their row)."""
+        length = self.period or n
+        col = self.nodes % length
+        return self.nodes - col + (col + 1) % length
 
     def apply(self, x: np.ndarray) -> np.ndarray:
         """The derivative times samples ``x`` (N/m times m)."""
-        n = x.shape[-1]
-        cols, succ = self._indices(n)
-        xc = x[cols]                                               # (m, 4)
-        y = np.zeros_like(x)
+        xf = x.reshape(-1)
+        cols, succ = self._indices(xf.size)
+        xc = xf[cols]                                              # (m, 4)
+        y = np.zeros_like(xf)
         # the nodes are distinct, and so are their successors: no repeated index per call
         y[self.nodes] += np.einsum("mc,mc->m", self.blocks[:, 0], xc)
         y[succ] += np.einsum("mc,mc->m", self.blocks[:, 1], xc)
-        return y
+        return y.reshape(x.shape)
 
     def _indices(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`columns` and the successors of the nodes on a grid of ``n`` (kept: a
         GMRES solve applies the same correction tens of times)."""
         cached = self.__dict__.get("_indices_cache")
         if cached is None or cached[0] != n:
-            cached = (n, self.columns(n), (self.nodes + 1) % n)
+            cached = (n, self.columns(n), self.successors(n))
             object.__setattr__(self, "_indices_cache", cached)
         return cached[1], cached[2]
 
     def scaled(self, factor: float) -> KinkCorrection:
         """The correction times ``factor`` (the contact-law homotopy)."""
-        return KinkCorrection(factor * self.values, self.nodes, factor * self.blocks)
+        return KinkCorrection(factor * self.values, self.nodes, factor * self.blocks,
+                              self.period)
 
     @classmethod
-    def none(cls, n: int) -> KinkCorrection:
-        """No correction on a grid of ``n`` samples."""
-        return cls(np.zeros(n), np.zeros(0, dtype=int), np.zeros((0, 2, 4)))
+    def none(cls, shape) -> KinkCorrection:
+        """No correction on a grid of ``shape`` samples (an int: one period of them)."""
+        return cls(np.zeros(shape), np.zeros(0, dtype=int), np.zeros((0, 2, 4)))
 
 
 @dataclass(frozen=True)

@@ -83,19 +83,25 @@ def kink_correction(p: np.ndarray, k: np.ndarray, b: float) -> KinkCorrection:
       between the samples (central differences), so that it moves continuously from
       one interval to the next.
 
-    Intervals without a crossing are unchanged. The sum is the trapezoidal rule of a
-    function without kinks: O(h^3) per crossing instead of O(h^2), and C1 (checked
-    against finite differences and the Omega -> dense-grid limit in
-    tests/test_hbm_aft_kinks.py).
+    Intervals without a crossing are unchanged. On a torus grid (``p`` of shape
+    ``(N_1, ..., N_d)``) the intervals run along the last axis, periodic in each row,
+    so that every row's sum, hence the whole grid's, is C1 in the samples. The sum is
+    the trapezoidal rule of a function without kinks: O(h^3) per crossing instead of
+    O(h^2), and C1 (checked against finite differences and the Omega -> dense-grid limit
+    in tests/test_hbm_aft_kinks.py).
     """
     n = p.size
+    period = p.shape[-1]
+    nxt = np.roll(p, -1, axis=-1)
     nodes = np.flatnonzero((np.sign(p - b) + np.sign(p + b))
-                           != (np.sign(np.roll(p, -1) - b) + np.sign(np.roll(p, -1) + b)))
+                           != (np.sign(nxt - b) + np.sign(nxt + b)))
     if nodes.size == 0:
-        return KinkCorrection.none(n)
-    cols = (nodes[:, None] + np.arange(-1, 3)[None, :]) % n
-    pm, a, z, pp = (p[cols[:, c]] for c in range(4))
-    ka, kz = k[cols[:, 1]], k[cols[:, 2]]
+        return KinkCorrection.none(p.shape)
+    corr = KinkCorrection(np.zeros(0), nodes, np.zeros((0, 2, 4)), period)
+    cols = corr.columns(n)
+    pf, kf = p.reshape(-1), np.broadcast_to(k, p.shape).reshape(-1)
+    pm, a, z, pp = (pf[cols[:, c]] for c in range(4))
+    ka, kz = kf[cols[:, 1]], kf[cols[:, 2]]
     d = z - a
     ga, sa, psa = _shape(a, b)
     gz, sz, psz = _shape(z, b)
@@ -122,11 +128,11 @@ def kink_correction(p: np.ndarray, k: np.ndarray, b: float) -> KinkCorrection:
     delta = d1 + d2
     values = np.zeros(n)
     np.add.at(values, nodes, delta * (1.0 - th))
-    np.add.at(values, (nodes + 1) % n, delta * th)
+    np.add.at(values, corr.successors(n), delta * th)
     blocks = np.empty((nodes.size, 2, 4))
     blocks[:, 0] = dd * (1.0 - th)[:, None] - delta[:, None] * dth
     blocks[:, 1] = dd * th[:, None] + delta[:, None] * dth
-    return KinkCorrection(values, nodes, blocks)
+    return KinkCorrection(values.reshape(p.shape), nodes, blocks, period)
 
 
 def in_contact_fraction(p0: np.ndarray, p1: np.ndarray, thr: float) -> np.ndarray:
@@ -151,9 +157,13 @@ def impacts_per_mesh_period(loss: np.ndarray, mesh_step: int) -> np.ndarray:
 
 
 def refined_minimum(y: np.ndarray) -> float:
-    """Minimum of a periodic sampled signal refined by a parabola through 3 samples."""
+    """Minimum of a periodic sampled signal refined by a parabola through 3 samples (on a
+    torus grid, along the last axis through the smallest sample)."""
     i = int(np.argmin(y))
-    ym, y0, yp = y[i - 1], y[i], y[(i + 1) % y.size]
+    n = y.shape[-1]                       # along the last axis (a row of a torus grid)
+    row = y.reshape(-1, n)[i // n]
+    i %= n
+    ym, y0, yp = row[i - 1], row[i], row[(i + 1) % n]
     curv = ym - 2 * y0 + yp
     if curv > 0:
         return float(y0 - (yp - ym) ** 2 / (8 * curv))

@@ -71,7 +71,7 @@ class CubicSpring(Element):
         f = k3 * d2 * delta
         if not stiffness:
             return f, None
-        return f, ElementStiffness(3.0 * k3 * d2, KinkCorrection.none(delta.size))
+        return f, ElementStiffness(3.0 * k3 * d2, KinkCorrection.none(delta.shape))
 
     def load(self, delta: np.ndarray, samples=None, corrected: bool = False) -> np.ndarray:
         return self.linear * delta + self.cubic * delta * delta * delta

@@ -98,14 +98,18 @@ class GearMesh(Element):
         Speed of that gear over the reference speed Omega, exact (default 1).
     name
         A label (outputs, messages).
+    phase
+        Mesh phase at t = 0 (rad): the stiffness and TE at time t are those at the mesh
+        phase ``Z rho Omega t + phase`` (two meshes on one gear: their relative phasing
+        from the geometry, :func:`gears.train.mesh_phase`; default 0).
     """
 
     kind = "gear_mesh"
     statistics = (Statistic("mesh_load_std", "N"), Statistic("mesh_load_max", "N"),
                   Statistic("contact", integer=True), Statistic("contact_loss_fraction"),
-                  Statistic("impacts_per_mesh_period"), Statistic("margin_active", "m"),
-                  Statistic("margin_reverse", "m"),
-                  Statistic("ipp", integer=True, per_period=True))
+                  Statistic("impacts_per_mesh_period", temporal=True),
+                  Statistic("margin_active", "m"), Statistic("margin_reverse", "m"),
+                  Statistic("ipp", integer=True, per_period=True, temporal=True))
     # margin_active > 0: permanent contact on the driving flank, its sign is phi_GR of
     # eq. (30); margin_reverse > 0: the back flank is hit
     tests = (EventTest("active", "margin_active", onset_positive=False),
@@ -120,6 +124,7 @@ class GearMesh(Element):
     te_kind: str = "unloaded"
     speed_ratio: Fraction = Fraction(1)
     name: str = "gear mesh"
+    phase: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", check_direction("mesh", self.direction))
@@ -146,6 +151,9 @@ class GearMesh(Element):
         object.__setattr__(self, "speed_ratio", as_ratio(self.speed_ratio, "mesh.speed_ratio"))
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"mesh.name = {self.name!r}: must be a non-empty string")
+        if isinstance(self.phase, bool) or not np.isfinite(float(self.phase)):
+            raise ValueError(f"mesh.phase = {self.phase!r}: must be a finite angle (rad)")
+        object.__setattr__(self, "phase", float(self.phase))
         phase = 2 * np.pi * np.arange(4096) / 4096
         kmin = float(np.min(mesh_signal(k, phase)))
         if kmin <= 0:
@@ -191,6 +199,10 @@ class GearMesh(Element):
         return e
 
     def sample(self, phase: np.ndarray) -> MeshSamples:
+        """Stiffness and TE at the base phases ``phase`` (rad), i.e. at the mesh phases
+        ``phase + self.phase``."""
+        if self.phase:
+            phase = phase + self.phase
         return MeshSamples(self.stiffness_at(phase), self.error_at(phase))
 
     # ------------------------------------------------------------------ force
@@ -208,7 +220,7 @@ class GearMesh(Element):
         k, b = samples.k, self.backlash
         p = delta - samples.e
         if law == 0.0 or not corrected:
-            kinks = KinkCorrection.none(p.size)
+            kinks = KinkCorrection.none(p.shape)
         else:
             kinks = kink_correction(p, k, b)
         if law == 0.0:
@@ -244,8 +256,11 @@ class GearMesh(Element):
         loaded = self.te_kind == "loaded"
         fs = self.static_load
         b = self.backlash
+        offset = self.phase
 
         def f(delta: float, ph: float) -> float:
+            if offset:
+                ph = ph + offset
             km = sum((c * np.exp(1j * mi * ph)).real for mi, c in k_coef)
             e = sum((c * np.exp(1j * mi * ph)).real for mi, c in te_coef)
             if loaded:

@@ -42,6 +42,7 @@ def time_series(problem: HBMProblem, point: Point, n_periods: int = 1,
     ``samples_per_period`` rounded up to a whole number per base period of every element
     (default four times the AFT grid).
     """
+    problem.require_periodic("time_series")
     if int(n_periods) != n_periods or n_periods < 1:
         raise ValueError(f"n_periods = {n_periods!r}: must be an integer >= 1")
     n = problem.fine_periods(samples_per_period)
@@ -69,6 +70,7 @@ def spectrum(problem: HBMProblem, point: Point, n_time: int | None = None,
     f = Re sum f_k exp(i k w0 t)), ``dte_amplitude`` (m, |Delta_k| likewise) and
     ``peak_to_peak`` (N, of the force in time).
     """
+    problem.require_periodic("spectrum")
     n = problem.fine_periods(n_time)
     delta, el, smp = _element_signals(problem, point, n, element)
     f = el.load(delta, smp)

@@ -18,6 +18,7 @@ import numpy as np
 from ..elements.contact_law import impacts_per_mesh_period
 from ..problem import HBMProblem, Point
 from ..records import Record
+from .torus import torus_statistics
 
 __all__ = ["MeshPeriodEnvelope", "element_statistics", "impacts_per_mesh_period",
            "ipp_sequence", "mesh_period_envelope", "point_stats", "unknowns_of"]
@@ -30,7 +31,10 @@ def unknowns_of(point: Point | np.ndarray) -> np.ndarray:
 
 def element_statistics(problem: HBMProblem, unknowns: np.ndarray,
                        n_time: int | None = None) -> list[dict[str, Any]]:
-    """Every element's statistics at the unknowns ``unknowns`` (one dict per element)."""
+    """Every element's statistics at the unknowns ``unknowns`` (one dict per element); on
+    a torus basis :func:`hbm.post.torus.torus_statistics`."""
+    if not problem.periodic:
+        return torus_statistics(problem, unknowns, n_time)
     n = problem.fine_periods(n_time)
     synth, samples = problem.fine_grid(n)
     deltas = synth @ problem.delta_real(unknowns)
@@ -116,6 +120,7 @@ def mesh_period_envelope(problem: HBMProblem, point: Point | np.ndarray,
         ``problem.steps[element]`` values each: Z over a shaft turn when the fundamental
         is the shaft frequency, one when it is the mesh frequency.
     """
+    problem.require_periodic("mesh_period_envelope")
     step = problem.steps[element]
     if not step:
         raise ValueError(f"mesh_period_envelope: {problem.labels[element]} has no base "

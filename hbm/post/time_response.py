@@ -79,6 +79,7 @@ def modal_model(problem: HBMProblem, rpm: float) -> ModalModel:
     ValueError
         If ``rpm`` is not > 0, or a rigid mode of ``K'`` is loaded.
     """
+    problem.require_periodic("time_response.modal_model")
     if not np.isfinite(rpm) or rpm <= 0:
         raise ValueError(f"rpm = {rpm!r}: must be > 0")
     s = problem.system

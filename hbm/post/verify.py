@@ -42,6 +42,8 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
     float
         max_i ||R_i|| / scale_i (dimensionless).
     """
+    if not problem.periodic:
+        return _torus_full_residual(problem, point)
     hs = problem.harmonics
     s = problem.system
     q = problem.recover(point)                                   # (n, nS)
@@ -57,6 +59,31 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
         f_t = el.load(g @ coords, smp, corrected)                # f_e(Delta_e(tau_j))
         fk = np.fft.rfft(f_t)[k] / n_t * np.where(k == 0, 1.0, 2.0)  # f_e,k
         loads.append(np.outer(g, fk))
+    w = problem.kS * hs.rate * point.omega
+    forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)
+    terms = [s.K @ q, -(w ** 2) * (s.M @ q), 1j * w * (s.C @ q), *loads, -forcing]
+    r = np.sum(terms, axis=0)
+    scale = np.max([np.linalg.norm(t, axis=1) for t in terms], axis=0)
+    live = scale > 0
+    if not np.any(live):
+        return 0.0
+    return float(np.max(np.linalg.norm(r[live], axis=1) / scale[live]))
+
+
+def _torus_full_residual(problem: HBMProblem, point: Point) -> float:
+    """:func:`full_residual` on a torus basis: the coordinates synthesised on the torus
+    grid, every element's full force analysed there (d-dimensional FFTs), frequencies
+    ``(k . r) Omega``."""
+    hs = problem.harmonics
+    s = problem.system
+    q = problem.recover(point)                                   # (n, nS)
+    coords = hs.synthesize(hs.to_real(q))                        # (n, N_1, ..., N_d)
+    corrected = problem.aft == "corrected"
+    loads = []
+    for el, g, smp in zip(problem.elements, problem.directions, problem.samples,
+                          strict=True):
+        f_t = el.load(np.tensordot(g, coords, axes=1), smp, corrected)
+        loads.append(np.outer(g, hs.to_complex(hs.analyse(f_t))))
     w = problem.kS * hs.rate * point.omega
     forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)
     terms = [s.K @ q, -(w ** 2) * (s.M @ q), 1j * w * (s.C @ q), *loads, -forcing]
@@ -116,6 +143,7 @@ def shooting_error(problem: HBMProblem, point: Point, periods: int = 1,
     samples_per_period
         Comparison samples per period.
     """
+    problem.require_periodic("shooting_error (one fundamental period)")
     import time
 
     from scipy.integrate import solve_ivp
@@ -197,6 +225,7 @@ def quasi_static_delta(problem: HBMProblem) -> np.ndarray:
     the linear solution, with halving steps. Only the static load may be applied (no
     shaft-order forcing).
     """
+    problem.require_periodic("quasi_static_delta")
     from scipy.optimize import brentq
 
     if np.any(problem.Fc[1:] != 0) or np.any(problem.Fu != 0):

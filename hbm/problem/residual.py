@@ -31,6 +31,7 @@ from ..elements.base import Element, ElementStiffness
 from ..krylov import Preconditioners
 from ..modes import modes, static_deflection
 from ..system import Excitation, LinearSystem
+from ..torus import TorusBasis
 from ..units import RPM_TO_RAD_S
 from . import fixed_speed
 from .fixed_speed import Point
@@ -97,9 +98,9 @@ def _check_inputs(system, elements, excitation, harmonics, condensation: str,
     if not isinstance(excitation, Excitation):
         raise ValueError(
             f"problem.excitation = {type(excitation).__name__}: must be an Excitation")
-    if not isinstance(harmonics, HarmonicSet):
-        raise ValueError(
-            f"problem.harmonics = {type(harmonics).__name__}: must be a HarmonicSet")
+    if not isinstance(harmonics, (HarmonicSet, TorusBasis)):
+        raise ValueError(f"problem.harmonics = {type(harmonics).__name__}: must be a "
+                         "HarmonicSet or a TorusBasis")
     if condensation not in CONDENSATIONS:
         raise ValueError(
             f"problem.condensation = {condensation!r}: must be 'none', 'gear' or 'loa'")
@@ -130,26 +131,6 @@ def _forcing(excitation, hs: HarmonicSet, n: int) -> tuple[np.ndarray, np.ndarra
                     f"indices {list(hs.indices)[:12]}...)")
             arr[pos[idx]] += vec
     return fc, fu
-
-
-def _element_step(el: Element, hs: HarmonicSet, label: str) -> int:
-    """Harmonic index of the element's base frequency (0 for a time-invariant one), with
-    its parameters' top harmonic checked against the AFT grid."""
-    if el.base_ratio is None:
-        return 0
-    step = hs.step_of(el.base_ratio, label)
-    harms = el.parameter_harmonics
-    top = max(harms, default=0) * step
-    if 2 * top >= hs.n_time:
-        raise ValueError(
-            f"harmonics.n_time = {hs.n_time}: too few samples for harmonic "
-            f"{max(harms, default=0)} of {label} (index {top}); need > {2 * top}")
-    missing = [m for m in harms if m * step not in hs.indices]
-    if missing:
-        logger.warning("%s: harmonics %s of its base frequency are not in the harmonic set; "
-                       "their direct contribution is only seen through products", label,
-                       sorted(set(missing)))
-    return step
 
 
 class HBMProblem:
@@ -199,10 +180,13 @@ class HBMProblem:
         self.n_dof = n
         self.n_elements = len(elements)
         self.labels = tuple(f"elements[{i}] ({el.name})" for i, el in enumerate(elements))
-        self.steps = tuple(_element_step(el, hs, lab)
+        self.steps = tuple(0 if el.base_ratio is None else
+                           hs.element_step(el.base_ratio, el.parameter_harmonics, lab)
                            for el, lab in zip(elements, self.labels, strict=True))
-        self.kS = np.asarray(hs.indices, dtype=float)
-        self.harmonic_indices = np.asarray(hs.indices, dtype=np.int64)
+        # frequency of each retained index in units of hs.ratio Omega (the index itself
+        # for a HarmonicSet; k . w / w_unit, possibly negative or 0, on a torus)
+        self.kS = np.asarray(hs.frequency_index, dtype=float)
+        self.harmonic_indices = np.asarray(hs.frequency_index, dtype=np.int64)
         self.nS = hs.n_harmonics
         self.nr = hs.n_real
 
@@ -287,8 +271,9 @@ class HBMProblem:
         den = np.empty((self.w2.size, w.size), dtype=complex)
         den.real = self.w2[:, None] - (w ** 2)[None, :]
         den.imag = w[None, :] * self.cj[:, None]
-        zero = self.rigid & (self.kS[0] == 0)                  # harmonic 0 only
-        den[zero, 0] = 1.0
+        # static columns: index 0 (and, on a torus, combinations of zero frequency)
+        zero = np.ix_(self.rigid, np.flatnonzero(self.kS == 0))
+        den[zero] = 1.0
         mag2 = den.real * den.real  # 1/den = conj(den)/|den|^2: half NumPy's complex division
         mag2 += den.imag * den.imag
         if not np.all(mag2):
@@ -296,7 +281,7 @@ class HBMProblem:
                 f"Omega = {omega:.6g} rad/s hits an undamped natural frequency exactly")
         inv = np.conjugate(den, out=den)
         inv *= np.reciprocal(mag2, out=mag2)
-        inv[zero, 0] = 0.0
+        inv[zero] = 0.0
         dinv = inv * inv            # -inv^2 d den/dOmega, d den/dOmega = kd (-2 w + i c_j)
         dinv *= (2.0 * w)[None, :] - 1j * self.cj[:, None]
         dinv *= kd[None, :]
@@ -320,8 +305,8 @@ class HBMProblem:
     def _sample(self, n_time: int) -> tuple:
         """Every element's parameters on a grid of ``n_time`` instants of one fundamental
         period (base phase ``step * tau``)."""
-        tau = self.harmonics.time_grid(n_time)
-        return tuple(el.sample(tau * step) if step else None
+        hs = self.harmonics
+        return tuple(el.sample(hs.base_phase(step, n_time)) if step else None
                      for el, step in zip(self.elements, self.steps, strict=True))
 
     def forces(self, delta_r: np.ndarray, jacobian: bool = True, law: float = 1.0):
@@ -367,32 +352,20 @@ class HBMProblem:
         if kc.nodes.size == 0:
             return out
         n = st.samples.size
-        rows = np.stack([kc.nodes, (kc.nodes + 1) % n], axis=1)
+        rows = np.stack([kc.nodes, kc.successors(n)], axis=1)
         cols = kc.columns(n)
         nodes = np.unique(np.concatenate([rows.ravel(), cols.ravel()]))
         pr, pc = np.searchsorted(nodes, rows), np.searchsorted(nodes, cols)
         d = np.zeros((nodes.size, nodes.size))
         np.add.at(d, (pr[:, :, None], pc[:, None, :]), kc.blocks)
-        e = self.harmonics.synthesis_rows(2.0 * np.pi * nodes / n)
+        e = self.harmonics.grid_rows(nodes, st.samples.shape)
         return out + self.harmonics.galerkin_columns(e, n) @ (d @ e)
 
     def multiplication_matrix(self, s: np.ndarray) -> np.ndarray:
-        """Real-layout matrix of ``x -> Galerkin(s(tau) x(tau))`` on the AFT grid.
-
-        Equal to ``A diag(s) E`` but built from the DFT of s by index gathering
-        (circular convolution), O(N log N + n_real^2).
-        """
-        n = s.size
-        sh = np.fft.fft(s) / n
-        k = self.harmonic_indices
-        wk = np.where(k == 0, 1.0, 2.0)[:, None]
-        p = sh[(k[:, None] - k[None, 1:]) % n]
-        q = sh[(k[:, None] + k[None, 1:]) % n]
-        dc = np.empty((k.size, self.nr), dtype=complex)
-        dc[:, 0] = wk[:, 0] * sh[k % n]
-        dc[:, 1::2] = 0.5 * wk * (p + q)
-        dc[:, 2::2] = 0.5j * wk * (p - q)
-        return self.harmonics.to_real(dc.T).T
+        """Real-layout matrix of ``x -> Galerkin(s x)`` on the AFT grid: ``A diag(s) E``
+        built from the DFT of s by index gathering (circular convolution),
+        O(N log N + n_real^2) (the basis's :meth:`multiplication_matrix`)."""
+        return self.harmonics.multiplication_matrix(s)
 
     # ------------------------------------------------------------------ condensation
     @property
@@ -518,9 +491,36 @@ class HBMProblem:
                                         self._sample(n_time))
         return self._fine_cache[n_time]
 
-    def fine_periods(self, n_time: int | None = None) -> int:
+    @property
+    def periodic(self) -> bool:
+        """True for a periodic response (a :class:`HarmonicSet`), False on a torus
+        (:class:`hbm.torus.TorusBasis`: several independent base frequencies)."""
+        return self.harmonics.periodic
+
+    def require_periodic(self, what: str) -> None:
+        """Refuse ``what`` (a one-period computation: Floquet stability, shooting, the
+        response over one fundamental period) on a torus basis, saying why."""
+        if not self.periodic:
+            hs = self.harmonics
+            raise ValueError(
+                f"{what}: needs a periodic response (one fundamental, a HarmonicSet); this "
+                f"problem's basis is a torus of {hs.dimension} base frequencies "
+                f"({', '.join(hs.names)}): its response is quasi-periodic on the torus "
+                "(docs/hbm.md, 'Several base frequencies'; hbm.post.torus for its "
+                "statistics and its time line)")
+
+    def require_torus(self, what: str) -> None:
+        """Refuse ``what`` (a computation on the torus) on a periodic basis."""
+        if self.periodic:
+            raise ValueError(f"{what}: needs a torus basis (hbm.torus.TorusBasis); this "
+                             "problem is periodic (use the one-period post-processing)")
+
+    def fine_periods(self, n_time=None):
         """A sample count over one fundamental period, at least ``n_time`` (default four
-        times the AFT grid's), that every element's base period divides evenly."""
+        times the AFT grid's), that every element's base period divides evenly; on a torus
+        the statistics grid (:meth:`hbm.torus.TorusBasis.refined_grid`)."""
+        if not self.periodic:
+            return self.harmonics.refined_grid(n_time)
         step = math.lcm(*(s for s in self.steps if s), 1)
         n = 4 * self.harmonics.n_time if n_time is None else int(n_time)
         return step * int(np.ceil(n / step))

@@ -113,6 +113,7 @@ def floquet_exponents(problem: HBMProblem, point: Point, max_size: int = 600,
     exponents : ndarray of complex
         The selected 2 m exponents.
     """
+    problem.require_periodic("Floquet exponents (Hill)")
     if method == "monodromy":
         st = stability(problem, point)
         return st.max_real, st.exponents

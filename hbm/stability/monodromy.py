@@ -335,6 +335,7 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     -------
     MonodromyResult
     """
+    problem.require_periodic("the monodromy (Floquet exponents)")
     period = 2 * np.pi / problem.harmonics.fundamental_rad_s(point.omega)
     # the monodromy's resolution follows the dynamics, not the harmonic count: the
     # AFT grid up to 2048 steps per period, refined below when the sign needs it

@@ -97,6 +97,7 @@ def stability(problem: HBMProblem, point: Point, start: np.ndarray | None = None
     the sign of its tangent's speed component, T.9a in docs/theory.md); else it is
     computed from the dense ``T(0)`` (an LU of the harmonic-balance size).
     """
+    problem.require_periodic("Floquet stability")
     res = monodromy_exponents(problem, point, start=start)
     w0 = problem.harmonics.fundamental_rad_s(point.omega)
     exps, max_real = res.exponents, res.max_real

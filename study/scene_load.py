@@ -14,12 +14,12 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from core.errors import show
+from core.errors import show, suggest
 from gears.excitation import perfect_teeth_ste, rectangular_mesh_stiffness
 from gears.iso6336 import approximate_virtual_teeth, single_stiffness
 from study.errors import SceneError, StageUnavailable
 from study.fe_params import fe_parameters
-from study.scene_check import check_known, check_table, suggest
+from study.scene_check import check_known, check_table
 from study.scene_data import (
     Accelerometer,
     AcousticsData,

@@ -1,33 +1,45 @@
-"""Scene -> HBM inputs: gear mesh, harmonic set, excitation and the HBM problem.
+"""Scene -> HBM inputs: gear meshes, harmonic set, excitation and the HBM problem.
 
-The linear part (M, C, K) and the line of action G come from :mod:`study.lumped` or from
-a ROM; this module adds what the scene says about the mesh and the excitation (eq. 12–16)
-and builds the :class:`hbm.HBMProblem` with the gear mesh as its one element.
+The linear part (M, C, K), the directions of the gear meshes and the forcing come from
+the scene's machine (:mod:`machines`: a lumped machine's linear system, or an FE
+machine's ROM); this module adds what the scene says about each mesh and the excitation
+(eq. 12–16) and builds the :class:`hbm.HBMProblem` with one gear-mesh element per mesh
+of the machine.
 """
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import numpy as np
 
-from study.lumped import sdof_forcing, sdof_matrices
+from machines import FEMachine, LinearModel, Machine, machine_for
 from study.scene_data import Scene
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["gear_mesh", "harmonic_set", "lumped_problem", "build_problem"]
+__all__ = ["gear_meshes", "harmonic_set", "build_problem", "scene_problem"]
 
 
-def gear_mesh(scene: Scene, G):
-    """The :class:`hbm.GearMesh` of the scene along the line of action ``G`` (k_m and TE
-    per mesh harmonic, SI)."""
+def gear_meshes(scene: Scene, machine: Machine, G) -> list:
+    """One :class:`hbm.GearMesh` per mesh of the machine, along its column of ``G``
+    ``(n, E)`` (k_m and TE per mesh harmonic from the scene, static load from the
+    machine's torque path, SI)."""
     from hbm import GearMesh
 
+    G = np.asarray(G)
+    specs = machine.gear_meshes
+    if G.ndim != 2 or G.shape[1] != len(specs):
+        raise ValueError(f"G.shape = {G.shape}: must be (n, {len(specs)}), one direction per "
+                         "gear mesh of the machine")
     te = scene.transmission_error
-    return GearMesh(direction=np.asarray(G), n_teeth=scene.gear.teeth,
-                    stiffness=scene.mesh_stiffness.coefficients(),
-                    te=te.coefficients(), backlash=scene.gear.backlash,
-                    static_load=scene.static_load, te_kind=te.kind)
+    loads = machine.static_mesh_loads()
+    return [GearMesh(direction=np.ascontiguousarray(G[:, e]), n_teeth=m.teeth,
+                     stiffness=scene.mesh_stiffness.coefficients(),
+                     te=te.coefficients(), backlash=scene.gear.backlash,
+                     static_load=loads[e], te_kind=te.kind, speed_ratio=m.speed_ratio,
+                     name=m.name)
+            for e, m in enumerate(specs)]
 
 
 def harmonic_set(scene: Scene):
@@ -51,19 +63,26 @@ def harmonic_set(scene: Scene):
                              n_time=n_time, kind=h.harmonic_set)
 
 
-def build_problem(scene: Scene, M, C, K, G, constant: dict, omega_squared: dict | None = None):
-    """Assemble :class:`hbm.HBMProblem` from a linear model and forcing vectors."""
+def build_problem(scene: Scene, machine: Machine, linear: LinearModel):
+    """Assemble :class:`hbm.HBMProblem` from the machine's linear model and forcing."""
     from hbm import Excitation, HBMProblem, LinearSystem
 
-    system = LinearSystem(np.asarray(M), np.asarray(C), np.asarray(K))
-    exc = Excitation(system.n_dof, constant=constant, omega_squared=omega_squared or {})
-    return HBMProblem(system, [gear_mesh(scene, G)], exc, harmonic_set(scene),
+    system = LinearSystem(np.asarray(linear.M), np.asarray(linear.C), np.asarray(linear.K))
+    exc = Excitation(system.n_dof, constant=linear.constant,
+                     omega_squared=linear.omega_squared or {})
+    return HBMProblem(system, gear_meshes(scene, machine, linear.G), exc, harmonic_set(scene),
                       condensation=scene.hbm.condensation,
                       linear_solver=scene.hbm.linear_solver)
 
 
-def lumped_problem(scene: Scene):
-    """HBM problem of a lumped (single-DOF) scene."""
-
-    M, C, K, G = sdof_matrices(scene)
-    return build_problem(scene, M, C, K, G, sdof_forcing(scene))
+def scene_problem(scene: Scene, rom_dir: str | Path | None = None):
+    """(HBMProblem, RomData or None) of a scene: a lumped machine's own linear system, or
+    an FE machine's ROM read from its cached rom folder ``rom_dir``."""
+    machine = machine_for(scene)
+    if isinstance(machine, FEMachine):
+        if rom_dir is None:
+            raise ValueError(f"scene.kind = {scene.scene.kind!r}: the problem is built on a "
+                             "ROM; give its cached folder (rom_dir)")
+        rom = machine.load_rom(Path(rom_dir))
+        return build_problem(scene, machine, machine.linear_model(rom)), rom
+    return build_problem(scene, machine, machine.linear_model()), None

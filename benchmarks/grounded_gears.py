@@ -196,8 +196,8 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from fem.lumped import disk_mass
     from fem.pump import GearParams
     from hbm import trace
-    from reduction import modal_damping
     from machines import LinearModel, machine_for
+    from reduction import modal_damping
     from study.curves import primary_peak, summarize_branch
     from study.excitations import case_scenes
     from study.model import build_problem

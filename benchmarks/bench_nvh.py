@@ -37,8 +37,8 @@ def main(argv: list[str] | None = None) -> dict:
     from fem import post
     from machines import machine_for
     from reduction import load_basis, reconstruct
-    from study.acoustics import erp_harmonics
-    from study.export import point_at
+    from study.outputs.acoustics import erp_harmonics
+    from study.outputs.points import point_at
     from study.pipeline import Pipeline
 
     t0 = time.perf_counter()

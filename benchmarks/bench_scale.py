@@ -84,7 +84,7 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu",
     """One ``reduce`` in this process (one rank of mpirun, or serial)."""
     import reduction
     import study
-    from study.parallel import world
+    from study.pipeline.parallel import world
 
     comm = world()
     times = _StageTimes()

@@ -243,7 +243,7 @@ def sdof_case(work: Path, quick: bool = False) -> SceneCase:
     """The SDOF scene: permanent contact (1200 rpm), single-sided (1650 rpm) and
     double-sided impacts (2200 rpm, upper branch), located on the scene's own branch."""
     import study
-    from study.model import scene_problem
+    from study.pipeline.model import scene_problem
 
     res = study.run(SDOF_SCENE, work / "sdof", until="hbm", cache_dir=work / "cache")
     base = res.problem
@@ -264,8 +264,8 @@ def pump_case(work: Path, cache: Path, quick: bool = False) -> SceneCase:
     """The coarse pump ROM (from the stage cache): permanent contact (700 rpm) and
     single-sided impacts (1200 rpm); the scene's load gives no double-sided ones."""
     import study
-    from study.model import scene_problem
     from study.pipeline import Pipeline
+    from study.pipeline.model import scene_problem
 
     scene = study.load_scene(PUMP_SCENE)
     pl = Pipeline(scene, work / "pump", cache_dir=cache, progress=False)

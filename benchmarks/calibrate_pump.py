@@ -12,7 +12,7 @@ error") explicit:
 * **against**: the three resonance speeds of the paper's Fig. 14 (1070, 1570, 3000 rpm:
   H_3Z, H_2Z and H_Z of the mode with most mesh energy), measured as the three most
   prominent local maxima of the mesh-load std of the all-excitations curve
-  (:meth:`study.curves.CurveSummary.strongest`, as ``paper.md`` measures them);
+  (:meth:`study.outputs.curves.CurveSummary.strongest`, as ``paper.md`` measures them);
 * everything else ``geardyn excitations`` prints in ``paper.md`` (grazings, windows,
   external-excitation effect, IPP, 6875 rpm) is *not* seen by the calibration.
 
@@ -178,7 +178,7 @@ def scene_digest(scene: Path, sets: dict) -> str:
     ``"scene"``), so that a record made on another version of the file (its rotors, mesh,
     n_CM, TE shape, continuation steps, ...) is never reused, and shown by
     :func:`settings_note`."""
-    from study.scene_load import resolved_table
+    from study.scene.load import resolved_table
 
     body = resolved_table(scene, sets)
     for path in DIGEST_SKIP:
@@ -230,7 +230,7 @@ def evaluate(amps: tuple[float, ...], extra: dict, out: Path, cache: Path,
     H_3Z) and the overrides ``extra`` (the TE phases among them, if given); the curve
     summary as plain data."""
     import study
-    from study.curves import summarize_branch
+    from study.outputs.curves import summarize_branch
     from study.pipeline import SolverError
 
     ov = {**extra, "transmission_error.amplitudes_um": [float(a) for a in amps]}
@@ -596,7 +596,7 @@ def screen(scene: Path, extra: dict, cache: Path, samples: int, starts: int, see
     3+ impacts per mesh period), or with ``objective = "coexist"`` for contact and
     3-IPP in one turn; kept as ``ipp`` with the linear IPP of each."""
     from benchmarks import te_margin as tm
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     lo, hi = extra.get("continuation.speed_rpm", (500.0, 7000.0))
     ov = basis_overrides(extra)
@@ -652,10 +652,10 @@ def branch_solutions(scene: Path, overrides: dict, cache: Path, work: Path,
                      speeds: list[float], amps_um, phases_deg):
     """The all-excitations run of ``scene`` with the TE ``amps_um`` at ``phases_deg`` over
     ``speeds`` ± 100 rpm, and its solution at each speed (solved there:
-    :func:`study.excitations.solution_at`), for :class:`benchmarks.te_ipp.NonlinearIPP`.
+    :func:`study.studies.paper.measure.solution_at`), for :class:`benchmarks.te_ipp.NonlinearIPP`.
     Returns (run, {rpm: unknowns})."""
     import study
-    from study.excitations import solution_at
+    from study.studies.paper.measure import solution_at
 
     run = study.run(scene, work, cache_dir=cache, until="hbm", overrides={
         **overrides, "hbm.stability": False, "outputs.plots": [],
@@ -790,8 +790,9 @@ def record(out: Path) -> dict:
 
 def paper_ipp_shares() -> list[float]:
     """The paper's shares of the turn at 0, 1, 2, 3 impacts per mesh period at 1070 rpm
-    (Fig. 18: 29, 16, 21, 34 %), from :data:`study.paper.PAPER`."""
-    from study.paper import PAPER, runs_fractions
+    (Fig. 18: 29, 16, 21, 34 %), from :data:`study.studies.paper.findings.PAPER`."""
+    from study.studies.paper.findings import PAPER
+    from study.studies.paper.report import runs_fractions
 
     fr = runs_fractions(PAPER["ipp_1070"].value)
     return [fr.get(n, 0.0) for n in range(4)]

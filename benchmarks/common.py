@@ -82,7 +82,7 @@ def scene_overrides(items: list[str]) -> dict[str, Any]:
     """``--set SECTION.KEY=VALUE`` items -> one override dict, parsed and checked as
     ``geardyn --set`` does (:func:`study.cli.parse_sets`); one value per key."""
     from study.cli import parse_sets
-    from study.errors import SceneError
+    from study.scene.errors import SceneError
 
     variants = parse_sets(items)
     if len(variants) != 1:

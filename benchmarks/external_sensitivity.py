@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.files import atomic_write
-from study.scene_load import load_scene
+from study.scene.load import load_scene
 
 log = logging.getLogger("external_sensitivity")
 

@@ -20,7 +20,7 @@ DOF, so this is exact for lumped parts),
   translations (u1, u2),
 
 recomputes the 5 % modal damping (eq. 17–19) and runs the three excitation cases of
-``geardyn excitations`` (their overrides, :func:`study.excitations.case_scenes`) with
+``geardyn excitations`` (their overrides, :func:`study.studies.excitations.case_scenes`) with
 the cheap 3/1 set on that ROM. Everything else — k̄, TE, loads, the harmonic set — is
 the scene's (``--set`` overrides apply first; ``--te-scale`` then multiplies the loaded
 STE amplitudes). Output: one JSON line per case with the curve summary, the primary
@@ -198,11 +198,11 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from hbm import trace
     from machines import LinearModel, machine_for
     from reduction import modal_damping
-    from study.curves import primary_peak, summarize_branch
-    from study.excitations import case_scenes
-    from study.model import build_problem
+    from study.outputs.curves import primary_peak, summarize_branch
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.pipeline.model import build_problem
+    from study.scene.load import load_scene
+    from study.studies.excitations import case_scenes
 
     g = GearParams()
     blank = disk_mass(g.blank_outer_radius(1), g.bore_radius, g.face_width, g.density)
@@ -240,7 +240,7 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
                    stability=sc.hbm.stability)
         s = summaries[case] = summarize_branch(br)
         best = s.strongest(3)
-        # the primary peak as geardyn excitations takes it (study.excitations): the
+        # the primary peak as geardyn excitations takes it (study.studies.excitations): the
         # largest of the internal-only curve, on the others the largest within ±15 %
         pi = primary_peak(summaries["internal"]) if "internal" in summaries else None
         pk = primary_peak(s) if case == "internal" or pi is None else \

@@ -45,6 +45,7 @@ def render(results: Path = RESULTS) -> str:
         "Times are medians of repeated runs on the machine named in each section; ratios are",
         "measured side by side in the same run. Nothing here is a pass/fail test.",
         "",
+        *_summary(results),
     ]
     for path in sorted(results.glob("*.json")):
         data = json.loads(path.read_text())
@@ -63,7 +64,22 @@ def render(results: Path = RESULTS) -> str:
     return "\n".join(out)
 
 
-_HEADER_KEYS = {"benchmark", "command", "summary", "machine", "tables"}
+_HEADER_KEYS = {"benchmark", "command", "summary", "machine", "tables", "headline"}
+
+
+def _summary(results: Path) -> list[str]:
+    """The one-screen summary: every benchmark's ``headline`` figures (a mapping
+    figure -> value, ratios measured in one run), one row each."""
+    rows = []
+    for path in sorted(results.glob("*.json")):
+        data = json.loads(path.read_text())
+        for figure, value in (data.get("headline") or {}).items():
+            rows.append(f"| {data.get('benchmark', path.stem)} | {figure} | {_fmt(value)} |")
+    if not rows:
+        return []
+    return ["## Summary: headline figures", "",
+            "Each from the section of its benchmark below (same-run ratios).", "",
+            "| benchmark | figure | value |", "|---|---|---|", *rows, ""]
 
 
 def _flatten(row: dict[str, Any], prefix: str = "") -> dict[str, Any]:

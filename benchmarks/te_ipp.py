@@ -37,7 +37,7 @@ def with_te(problem: HBMProblem, amps_um: ArrayLike, phases_deg: ArrayLike) -> H
         Any problem; its TE mean, kind (loaded/unloaded) and everything else are kept.
     amps_um, phases_deg
         Amplitudes (µm, >= 0) and phases (deg) of TE harmonics 1, 2, ..., in the scene's
-        convention ``a_k exp(i phi_k)`` (``study.scene_data``).
+        convention ``a_k exp(i phi_k)`` (``study.scene.data``).
 
     Returns
     -------

@@ -89,12 +89,12 @@ def build_basis(scene_path: Path, overrides: dict, rpm: np.ndarray, cache: Path,
     """Linear solutions of the scene at ``rpm`` for no TE harmonics and for each unit
     harmonic (real and imaginary), from the cached ROM; with ``case`` (``"internal"``,
     ``"external"``, ``"all"``) those of that excitation case of
-    :func:`study.excitations.case_scenes`."""
+    :func:`study.studies.excitations.case_scenes`."""
     from hbm.problem.fixed_speed import initial_guess
     from hbm.units import RPM_TO_RAD_S
-    from study.excitations import case_scenes
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
+    from study.studies.excitations import case_scenes
 
     def problem(amps, phases):
         ov = {**overrides, "transmission_error.amplitudes_um": list(amps),

@@ -44,10 +44,10 @@ DEFAULT_OUT = RESULTS / "ti_attractor_pump_paper.json"
 
 def case_scene(path: Path, case: str):
     """The scene of an excitation case: ``all`` as it is, ``internal`` as
-    :func:`study.excitations.case_scenes` makes it (``[external]`` removed; its HBM
+    :func:`study.studies.excitations.case_scenes` makes it (``[external]`` removed; its HBM
     fundamental is then the mesh frequency)."""
     import study
-    from study.excitations import case_scenes
+    from study.studies.excitations import case_scenes
 
     scene = study.load_scene(path)
     if case == "all":
@@ -115,7 +115,7 @@ def trace_attractor(problem, scene, point, ends: tuple[float, float]) -> dict:
     up to ``ends[1]`` rpm with the scene's continuation settings and stability; per
     direction its reach, largest std, unstable segments and arrays."""
     import hbm
-    from study.curves import unstable_segments
+    from study.outputs.curves import unstable_segments
 
     c = scene.continuation
     out = {}

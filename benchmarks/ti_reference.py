@@ -77,8 +77,8 @@ def reference_key(scene_path: Path, cache_dir: Path) -> dict[str, str | None]:
     Computing the keys hashes inputs and sources only; nothing is built.
     """
     import study
-    from study.cache import stage_key
     from study.pipeline import Pipeline, hbm_inputs
+    from study.pipeline.cache import stage_key
 
     scene_path = Path(scene_path).resolve()
     scene = study.load_scene(scene_path)

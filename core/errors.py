@@ -7,9 +7,9 @@ its value (with its unit when the field name does not carry it) and what is allo
     module = -0.001 m: must be > 0
 
 :class:`InputError` is that error (a :class:`ValueError`); packages derive their own
-input errors from it (``study.errors.SceneError`` for scene files). :func:`check_range`
-refuses a number outside its range with that message, and :func:`suggest` adds the
-closest allowed name to a message about an unknown one.
+input errors from it (``study.scene.errors.SceneError`` for scene files).
+:func:`check_range` refuses a number outside its range with that message, and
+:func:`suggest` adds the closest allowed name to a message about an unknown one.
 """
 from __future__ import annotations
 

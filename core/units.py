@@ -1,7 +1,7 @@
 """The one unit table of scene files: key suffix -> factor to SI.
 
 Scene keys carry their unit as a suffix (``backlash_um``, ``torque_Nm``); the schema of
-:mod:`study.scene_schema` names each field's unit from :data:`TO_SI`, and the free FE
+:mod:`study.scene.schema` names each field's unit from :data:`TO_SI`, and the free FE
 sections (:mod:`machines.pump.params`) accept the suffixes :data:`FE_SUFFIXES` on the
 FE packages' dataclass fields. The factors live here, in the bottom layer, so that every
 package converts with the same table (SI inside the code).

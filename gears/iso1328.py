@@ -1,21 +1,20 @@
 """Flank tolerances of ISO 1328-1:2013 and the deviations a tolerance class allows.
 
 :func:`iso1328_tolerances` evaluates the standard's tolerance formulas for a class (T.30);
-:class:`Deviations` are the profile and helix deviations of a pair that the loaded tooth
-contact analysis (:mod:`gears.ltca`) puts between the flanks (T.27), and
-:func:`class_deviations` gives them an assumed shape at a class's tolerances
-(docs/theory.md §13.3). Pure Python, µm in the tolerances, m in the deviations.
+:func:`class_deviations` gives the flanks (:class:`gears.flank.Flank`) an assumed shape
+at a class's tolerances (docs/theory.md §13.3). Pure Python, µm in the tolerances, m in
+the deviations.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-from core.errors import InputError
+from core.errors import InputError, check_range
 
-from .spur import SpurPair
+from .flank import Flank
+from .pair import GearPair
 
-__all__ = ["iso1328_tolerances", "Deviations", "class_deviations"]
+__all__ = ["iso1328_tolerances", "class_deviations"]
 
 
 def _iso1328_round(v: float) -> float:
@@ -51,45 +50,28 @@ def iso1328_tolerances(module_mm: float, diameter_mm: float, face_width_mm: floa
     return {k: _iso1328_round(v) for k, v in raw.items()}
 
 
-@dataclass(frozen=True)
-class Deviations:
-    """Flank deviations of the two gears (m); positive = material added (ISO sign).
-
-    ``profile_slope[i]``: linear deviation of gear i+1 rising by this amount from the
-    start of its active profile to its tip (a profile slope deviation f_Hα).
-    ``profile_form[i]``: parabolic deviation of gear i+1, zero at both ends of the active
-    profile and this value at its middle (a form deviation f_fα; negative = material
-    removed in the middle, positive = barrelled).
-    ``helix_slope``: relative helix slope deviation of the pair across the face width
-    (linear in the axial coordinate, mean zero, total range this value; for a 1:1 pair
-    the two gears' f_Hβ add when their signs differ).
-    """
-
-    profile_slope: tuple[float, float] = (0.0, 0.0)
-    profile_form: tuple[float, float] = (0.0, 0.0)
-    helix_slope: float = 0.0
-
-
-def class_deviations(pair: SpurPair, grade: int, *, fraction: float = 1.0,
+def class_deviations(pair: GearPair, grade: int, *, fraction: float = 1.0,
                      slope_signs: tuple[int, int] = (1, -1),
                      form_signs: tuple[int, int] = (1, 1),
-                     helix: bool = True) -> tuple[Deviations, dict[str, float]]:
-    """Deviations of size ``fraction`` × the ISO 1328-1:2013 class-``grade`` tolerances.
+                     helix: bool = True) -> tuple[tuple[Flank, Flank], dict[str, float]]:
+    """Flank deviations of size ``fraction`` × the ISO 1328-1:2013 class-``grade``
+    tolerances of gear 1 (its reference diameter, the module and face width).
 
     Assumed shape (docs/theory.md §13.3): on each gear a linear profile slope deviation of
     size f_HαT with sign ``slope_signs[i]`` (opposite signs by default: the largest
     mismatch the class allows; equal signs cancel on a 1:1 pair), a parabolic form
     deviation of depth f_fαT with sign ``form_signs[i]`` (barrelled by default), and,
-    when ``helix``, a relative helix slope of f_HβT across the face. Returns the
-    deviations and the tolerances (µm) they come from.
+    when ``helix``, a lead slope of f_HβT on gear 1 (the pair's mismatch across the
+    face). A sign 0 leaves that deviation out. Returns the two gears' :class:`Flank` and
+    the tolerances (µm) they come from.
     """
-    if not (0.0 <= fraction <= 2.0):
-        raise InputError(f"fraction = {fraction!r}: allowed [0, 2]")
-    tol = iso1328_tolerances(pair.module * 1e3, 2e3 * pair.pitch_radius,
+    check_range("fraction", fraction, lo=0.0, hi=2.0)
+    tol = iso1328_tolerances(pair.module * 1e3, 2e3 * pair.pitch_radii[0],
                              pair.face_width * 1e3, grade)
     um = 1e-6 * fraction
-    dev = Deviations(
-        profile_slope=(slope_signs[0] * tol["f_HaT"] * um, slope_signs[1] * tol["f_HaT"] * um),
-        profile_form=(form_signs[0] * tol["f_faT"] * um, form_signs[1] * tol["f_faT"] * um),
-        helix_slope=tol["f_HbT"] * um if helix else 0.0)
-    return dev, tol
+    flanks = tuple(
+        Flank(profile_slope=slope_signs[i] * tol["f_HaT"] * um,
+              profile_form=form_signs[i] * tol["f_faT"] * um,
+              lead_slope=tol["f_HbT"] * um if (helix and i == 0) else 0.0)
+        for i in range(2))
+    return flanks, tol

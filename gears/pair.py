@@ -5,7 +5,9 @@ module, normal pressure angle, helix angle and hand, profile shifts, face width,
 addendum/dedendum factors or tip/root radii) and derives what the dynamics and the tooth
 contact need: pitch, base, tip and root radii, the working pressure angle and centre
 distance, the path of contact on the line of action and the transverse, overlap and
-total contact ratios (ISO 21771 notation; docs/gears.md, equations G.1-G.8).
+total contact ratios (ISO 21771 notation; docs/gears.md, equations G.1-G.8), the
+involute form radii of the generating rack (G.9) and :meth:`GearPair.check_mesh`, which
+refuses interference and a total contact ratio below 1.
 
 :func:`pair_frame` is the gear-pair frame of the paper's Fig. 1 (docs/theory.md, T.1)
 and :func:`line_of_action_vector` the restriction of the projection vector G to the
@@ -173,6 +175,10 @@ class GearPair:
     tip_diameters, root_diameters : tuple of float, optional
         (d_a1, d_a2) and (d_f1, d_f2) (m) as drawn or measured; otherwise from the
         rack (:attr:`tip_radii`, :attr:`root_radii`).
+    root_radius_coef : float
+        ρ_fP / m_n, the tip radius of the generating tool (the root fillet radius of
+        the basic rack; 0.38 for ISO 53 profile A): sets where the involute ends
+        (:attr:`form_radii`).
 
     Notes
     -----
@@ -191,6 +197,7 @@ class GearPair:
     dedendum_coef: float = 1.25
     tip_diameters: tuple[float, float] | None = None
     root_diameters: tuple[float, float] | None = None
+    root_radius_coef: float = 0.38
 
     def __post_init__(self) -> None:
         if len(self.teeth) != 2:
@@ -210,6 +217,8 @@ class GearPair:
             check_range(f"profile_shift[{i}]", x, lo=-2.0, hi=2.0)
         check_range("addendum_coef", self.addendum_coef, lo=0.0, lo_open=True)
         check_range("dedendum_coef", self.dedendum_coef, lo=0.0, lo_open=True)
+        check_range("root_radius_coef", self.root_radius_coef, lo=0.0,
+                    hi=self.dedendum_coef)
         for name in ("tip_diameters", "root_diameters"):
             values = getattr(self, name)
             if values is not None:
@@ -281,6 +290,34 @@ class GearPair:
                      for r, x in zip(self.pitch_radii, self.profile_shift, strict=True))
 
     @property
+    def form_radii(self) -> tuple[float, float]:
+        """Involute form radii r_Ffi (m): where the generating rack's straight flank ends
+        on each gear (ISO 21771), below them the root fillet (G.9)::
+
+            L_Ff = r sin α_t − (h_fP − x m_n − ρ_fP (1 − sin α_n)) / sin α_t,
+            r_Ff = √(r_b² + L_Ff²)
+
+        L_Ff is the roll length of the form circle (:meth:`roll_length`); L_Ff < 0 is
+        an undercut tooth, whose involute starts at the base circle (r_Ff = r_b)."""
+        return tuple(math.hypot(rb, max(length, 0.0)) for rb, length in
+                     zip(self.base_radii, self.form_roll_lengths, strict=True))
+
+    @property
+    def form_roll_lengths(self) -> tuple[float, float]:
+        """L_Ffi (m), the roll lengths of the form circles (G.9); negative when the rack
+        undercuts the tooth."""
+        a_n, a_t = self.pressure_angle, self.transverse_pressure_angle
+        h = (self.dedendum_coef - self.root_radius_coef * (1.0 - math.sin(a_n))) * self.module
+        return tuple(r * math.sin(a_t) - (h - x * self.module) / math.sin(a_t)
+                     for r, x in zip(self.pitch_radii, self.profile_shift, strict=True))
+
+    @staticmethod
+    def roll_length(base_radius: float, radius: float) -> float:
+        """Roll length L = √(r² − r_b²) (m) of the involute point at ``radius``: its
+        distance from the base tangent point along the line of action."""
+        return math.sqrt(max(radius * radius - base_radius * base_radius, 0.0))
+
+    @property
     def base_pitch(self) -> float:
         """Transverse base pitch p_bt = π m_t cos α_t (m)."""
         return math.pi * self.transverse_module * math.cos(self.transverse_pressure_angle)
@@ -343,6 +380,50 @@ class GearPair:
     def total_contact_ratio(self) -> float:
         """ε_γ = ε_α + ε_β (G.8)."""
         return self.transverse_contact_ratio + self.overlap_ratio
+
+    @property
+    def active_roll_lengths(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """((L_1 start, L_1 end), (L_2 start, L_2 end)) (m): the active profile of each
+        gear as roll lengths, from where the mate's tip meets it (start of active
+        profile, SAP) to its own tip: gear 1 from s_A to s_E, gear 2 from T_1T_2 − s_E
+        to T_1T_2 − s_A."""
+        s_a, s_e = self.path
+        line = self.line_of_action_length
+        return (s_a, s_e), (line - s_e, line - s_a)
+
+    def check_mesh(self) -> None:
+        """Refuse a pair that cannot run as an involute mesh (InputError naming which).
+
+        - *Interference*: the mate's tip reaches a gear below its involute form circle
+          (SAP roll length < L_Ff, G.9), i.e. into the root fillet or below the base
+          circle (undercut or tip interference);
+        - *contact ratio below 1*: the total contact ratio ε_γ = ε_α + ε_β (G.8) is
+          below 1, so some positions have no pair in contact (for a spur pair ε_γ =
+          ε_α; a helical pair with ε_α < 1 runs when the overlap makes up for it).
+        """
+        for i, ((start, _), l_ff, r_ff) in enumerate(zip(
+                self.active_roll_lengths, self.form_roll_lengths, self.form_radii,
+                strict=True), start=1):
+            other = 3 - i
+            if start < max(l_ff, 0.0) - 1e-12 * self.module:
+                where = (f"at d = {2e3 * math.hypot(self.base_radii[i - 1], start):.4f} mm"
+                         if start >= 0.0 else "below its base circle")
+                raise InputError(
+                    f"interference: the tip of gear {other} (d_a{other} = "
+                    f"{2e3 * self.tip_radii[other - 1]:.4f} mm) meets gear {i} {where} "
+                    f"(roll length {start * 1e3:.4f} mm), below its involute form circle "
+                    f"d_Ff{i} = {2e3 * r_ff:.4f} mm (roll length {max(l_ff, 0.0) * 1e3:.4f}"
+                    f" mm): shorten the tip of gear {other} or shift gear {i} positively",
+                    field=f"tip_diameters[{other}]", value=2.0 * self.tip_radii[other - 1],
+                    unit="m", allowed=f"a tip meeting gear {i} above d_Ff{i}")
+        eps_a, eps_b = self.transverse_contact_ratio, self.overlap_ratio
+        if eps_a + eps_b < 1.0:
+            which = ("transverse contact ratio ε_α (spur pair: ε_γ = ε_α)" if eps_b == 0.0
+                     else f"total contact ratio ε_γ = ε_α + ε_β = {eps_a:.4f} + {eps_b:.4f}")
+            raise InputError(f"{which} = {eps_a + eps_b:.4f}: must be >= 1 (no pair in "
+                             "contact over part of the mesh period)",
+                             field="contact_ratio", value=eps_a + eps_b,
+                             allowed=">= 1")
 
     # ---------------------------------------------------------------- frame and G
 

@@ -1,8 +1,11 @@
-"""Parametric gmsh (OpenCASCADE) models of the pump: shafts and housing, meshed in
-10-node tetrahedra with every region a later stage needs tagged.
+"""gmsh (OpenCASCADE) models meshed in 10-node tetrahedra with every region a later
+stage needs tagged: the parametric pump (shafts and housing), and imported parts (CAD
+files or existing volume meshes) with their bearing seats and mounts found from what a
+scene states about them.
 
-Never imports dolfinx. See docs/geometry.md for the frame, parameters, group
-names and presets, and :mod:`geometry.pump` for the hand-over to DOLFINx.
+Never imports dolfinx. See docs/geometry.md for the frame, parameters, group names and
+presets, docs/cad-import.md for imported parts, and :mod:`geometry.pump` for the
+hand-over to DOLFINx.
 
 The public names are resolved on first use (PEP 562), so importing the package or
 one of its light modules (``geometry.params``) does not load gmsh.
@@ -14,10 +17,17 @@ from typing import TYPE_CHECKING, Any
 
 #: public name -> submodule defining it
 _WHERE = {
+    "CadPart": "cad", "HealOptions": "cad", "LENGTH_UNITS": "cad", "ImportedSolid": "cad",
+    "import_part": "cad", "write_step": "cad",
     "build_housing": "housing",
+    "import_cad": "imported", "import_mesh": "imported",
+    "BearingSeat": "locate", "Mount": "locate", "MountReport": "locate",
+    "SeatReport": "locate",
+    "MeshPart": "meshfile",
     "write_msh": "io",
     "mesh_volume": "meshing",
-    "MeshedModel": "model", "PartEntities": "model", "QualityReport": "model",
+    "ImportedModel": "model", "MeshedModel": "model", "PartEntities": "model",
+    "QualityReport": "model",
     "SHAFT_NAMES": "params", "HousingParams": "params", "MeshOptions": "params",
     "PumpParams": "params", "ShaftParams": "params", "preset": "params",
     "build_pump": "pump", "build_single_shaft": "pump",
@@ -27,7 +37,17 @@ _WHERE = {
 }
 
 __all__ = [
+    "LENGTH_UNITS",
+    "BearingSeat",
+    "CadPart",
+    "HealOptions",
     "HousingParams",
+    "ImportedModel",
+    "ImportedSolid",
+    "MeshPart",
+    "Mount",
+    "MountReport",
+    "SeatReport",
     "MeshOptions",
     "MeshedModel",
     "PartEntities",
@@ -42,18 +62,26 @@ __all__ = [
     "finalize_gmsh",
     "gmsh_session",
     "housing_volume",
+    "import_cad",
+    "import_mesh",
+    "import_part",
     "mesh_volume",
     "part_volumes",
     "preset",
     "shaft_volume",
     "write_msh",
+    "write_step",
 ]
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
+    from .cad import LENGTH_UNITS, CadPart, HealOptions, ImportedSolid, import_part, write_step
     from .housing import build_housing
+    from .imported import import_cad, import_mesh
     from .io import write_msh
+    from .locate import BearingSeat, Mount, MountReport, SeatReport
+    from .meshfile import MeshPart
     from .meshing import mesh_volume
-    from .model import MeshedModel, PartEntities, QualityReport
+    from .model import ImportedModel, MeshedModel, PartEntities, QualityReport
     from .params import (
         SHAFT_NAMES,
         HousingParams,

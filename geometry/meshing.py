@@ -101,7 +101,8 @@ def configure(opts: MeshOptions) -> None:
     set_("Mesh.SaveAll", 0)
 
 
-def _points_of(dim_tags: list[tuple[int, int]]) -> list[tuple[int, int]]:
+def points_of(dim_tags: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The geometry points ``(0, tag)`` on the closure of the given entities, sorted."""
     pts = gmsh.model.getBoundary(dim_tags, combined=False, oriented=False, recursive=True)
     return sorted({(d, abs(t)) for d, t in pts if d == 0})
 
@@ -110,16 +111,16 @@ def set_part_size(part: PartEntities, size: float,
                   local: dict[str, float] | None = None) -> None:
     """Prescribe ``size`` [m] at every point of a part, then ``local[group]`` [m]
     at the points of the named surface groups (local refinement)."""
-    pts = set(_points_of([(3, part.volume)]))
+    pts = set(points_of([(3, part.volume)]))
     embedded = [(d, t) for d, t in gmsh.model.mesh.getEmbedded(3, part.volume) if d <= 1]
     if embedded:
         pts |= {p for p in embedded if p[0] == 0}
-        pts |= set(_points_of([p for p in embedded if p[0] == 1]))
+        pts |= set(points_of([p for p in embedded if p[0] == 1]))
     gmsh.model.mesh.setSize(sorted(pts), size)
     for name, s in (local or {}).items():
         tags = part.surfaces.get(name, [])
         if tags:
-            gmsh.model.mesh.setSize(_points_of([(2, t) for t in tags]), s)
+            gmsh.model.mesh.setSize(points_of([(2, t) for t in tags]), s)
 
 
 def _sicn_per_element() -> dict[int, float]:

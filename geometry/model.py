@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -104,3 +105,70 @@ class MeshedModel:
             return self.groups[name][1]
         except KeyError:
             raise KeyError(f"unknown group {name!r}; known: {sorted(self.groups)}") from None
+
+
+@dataclass
+class ImportedModel:
+    """A model built from imported parts (CAD files or volume meshes), alive in gmsh.
+
+    It hands to ``fem`` what :class:`MeshedModel` does (``groups`` and ``centres``, read
+    by :func:`fem.load_meshed_model`), plus what was found in the files.
+
+    Attributes
+    ----------
+    groups : dict[str, tuple[int, int]]
+        Physical-group name -> ``(dim, physical tag)``: one volume per part (its name),
+        one surface per seat (``{part}/bore_{seat}``) and per mount (``{part}/{mount}``
+        or ``{part}/{mount}_{k}`` per patch).
+    centres : dict[str, np.ndarray]
+        Seat group -> seat centre on its axis [m]; mount group -> area centroid [m].
+    quality : QualityReport
+    parts : dict[str, Any]
+        Part name -> :class:`geometry.cad.ImportedSolid` (box, volume, area, notes).
+    seats : dict[str, Any]
+        Seat name -> :class:`geometry.locate.SeatReport`.
+    mounts : dict[str, Any]
+        Mount name -> :class:`geometry.locate.MountReport`.
+    mesh_options : MeshOptions or None
+        The options of a meshed CAD import; None for a mesh file.
+    model_name : str
+    part_volumes : dict[str, float]
+        Part -> volume of the solid [m^3] (CAD) or of its tetrahedra (mesh file).
+    estimated_elements : int
+        Tetrahedra estimated before meshing (0 for a mesh file).
+    """
+
+    groups: dict[str, tuple[int, int]]
+    centres: dict[str, np.ndarray]
+    quality: QualityReport
+    parts: dict[str, Any]
+    seats: dict[str, Any]
+    mounts: dict[str, Any]
+    mesh_options: MeshOptions | None
+    model_name: str
+    part_volumes: dict[str, float] = field(default_factory=dict)
+    estimated_elements: int = 0
+
+    def tag(self, name: str) -> int:
+        """Physical tag of group ``name`` (``KeyError`` lists the known names)."""
+        try:
+            return self.groups[name][1]
+        except KeyError:
+            raise KeyError(f"unknown group {name!r}; known: {sorted(self.groups)}") from None
+
+    def seat_groups(self) -> dict[str, str]:
+        """Seat name -> its surface group."""
+        return {k: r.group for k, r in self.seats.items()}
+
+    def mount_groups(self) -> dict[str, list[str]]:
+        """Mount name -> its surface group(s)."""
+        return {k: list(r.groups) for k, r in self.mounts.items()}
+
+    def report(self) -> str:
+        """What was read and found, one line each (for logs and the CLI)."""
+        lines = [p.summary() for p in self.parts.values()]
+        lines += [n for p in self.parts.values() for n in p.notes]
+        lines += [r.summary() for r in self.seats.values()]
+        lines += [r.summary() for r in self.mounts.values()]
+        lines.append(f"mesh: {self.quality.summary()}")
+        return "\n".join(lines)

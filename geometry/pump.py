@@ -29,7 +29,7 @@ from .housing import build_housing
 from .meshing import check_sizes, generate, set_part_size
 from .model import MeshedModel, PartEntities
 from .params import SHAFT_NAMES, MeshOptions, PumpParams, ShaftParams, preset
-from .session import ensure_initialized
+from .session import ensure_initialized, new_model
 from .shaft import build_shaft
 
 log = logging.getLogger(__name__)
@@ -43,14 +43,6 @@ VOLUME_TAGS = {"shaft_in": 1, "shaft_out": 2, "housing": 3}
 HOUSING_SIZE_PER_WALL = 8.0
 SHAFT_SIZE_PER_DIAMETER = 2.0
 SURFACE_TAG0 = 101  # surface physical tags are numbered from here in group order
-
-
-def _new_model(name: str) -> None:
-    if name in gmsh.model.list():
-        gmsh.model.setCurrent(name)
-        gmsh.model.remove()
-    gmsh.model.add(name)
-    gmsh.model.setCurrent(name)
 
 
 def _add_groups(volumes: dict[str, PartEntities]) -> dict[str, tuple[int, int]]:
@@ -155,7 +147,7 @@ def build_pump(params: PumpParams | None = None, mesh_options: MeshOptions | Non
     params.validate()
     opts.validate()
     ensure_initialized(verbose)
-    _new_model(model_name)
+    new_model(model_name)
     volumes: dict[str, PartEntities] = {}
     for s in SHAFT_NAMES:
         volumes[f"shaft_{s}"] = build_shaft(params.shaft(s), s, params.shaft_origin(s))
@@ -204,7 +196,7 @@ def build_single_shaft(params: ShaftParams | None = None,
     params.validate(f"shaft_{name}")
     opts.validate()
     ensure_initialized(verbose)
-    _new_model(model_name)
+    new_model(model_name)
     part = build_shaft(params, name, origin)
     set_part_size(part, opts.shaft_size, _shaft_local_sizes(name, opts))
     return _finish({f"shaft_{name}": part}, opts, params, model_name)

@@ -32,6 +32,15 @@ def ensure_initialized(verbose: bool = False) -> None:
     gmsh.option.setNumber("General.Verbosity", 5 if verbose else 2)
 
 
+def new_model(name: str) -> None:
+    """Make ``name`` the current gmsh model, empty (an existing one is replaced)."""
+    if name in gmsh.model.list():
+        gmsh.model.setCurrent(name)
+        gmsh.model.remove()
+    gmsh.model.add(name)
+    gmsh.model.setCurrent(name)
+
+
 def finalize_gmsh() -> None:
     """Finalise gmsh if it was initialised through this module (outside a session)."""
     if _state["owner"] and _state["depth"] == 0:

@@ -18,7 +18,7 @@ columns are the local axes in the global frame). A mesh's ``vector`` is eq. (11)
 approach along the line of action is ``Δ = vectorᵀ (q_1, q_2)``. Speeds are exact
 ratios (:class:`fractions.Fraction`) to the reference shaft's speed Ω.
 
-A machine is built from a validated scene (``study.scene_data.Scene``, read by attribute:
+A machine is built from a validated scene (``study.scene.data.Scene``, read by attribute:
 this package imports nothing of :mod:`study`) and refuses bad input with
 :class:`core.errors.InputError`.
 """
@@ -182,7 +182,7 @@ class Machine(ABC):
 
     Parameters
     ----------
-    scene : study.scene_data.Scene
+    scene : study.scene.data.Scene
         A validated scene (read by attribute).
     """
 

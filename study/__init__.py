@@ -1,5 +1,9 @@
-"""study: scene files, the cached pipeline (mesh → fe → rom → hbm → export), the
-``geardyn`` command line, results files and plots.
+"""study: scene files, the cached pipeline (mesh → fe → rom → hbm → export), its results
+files and plots, studies of many runs and the ``geardyn`` command line.
+
+Subpackages, each importing only those before it (docs/architecture.md):
+:mod:`study.scene` → :mod:`study.outputs` → :mod:`study.plots` → :mod:`study.pipeline`
+→ :mod:`study.studies`, then :mod:`study.cli` on top.
 
 Python API (same as ``geardyn run``)::
 
@@ -23,8 +27,8 @@ except (ImportError, PackageNotFoundError):  # pragma: no cover
 
 __all__ = ["run", "load_scene", "SceneError", "__version__"]
 
-from study.errors import SceneError  # noqa: E402
-from study.scene_load import load_scene  # noqa: E402
+from study.scene.errors import SceneError  # noqa: E402
+from study.scene.load import load_scene  # noqa: E402
 
 
 def run(scene: str | Path | Any, out: str | Path, *, overrides: dict | None = None,
@@ -55,13 +59,13 @@ def run(scene: str | Path | Any, out: str | Path, *, overrides: dict | None = No
     -------
     study.pipeline.RunResult
     """
-    from study.pipeline import run_scene
-    from study.scene_data import Scene
+    from study.pipeline.stages import run_scene
+    from study.scene.data import Scene
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     if isinstance(scene, Scene) and overrides:
-        from study.scene_load import scene_from_dict
-        from study.scene_overrides import apply_overrides
+        from study.scene.load import scene_from_dict
+        from study.scene.overrides import apply_overrides
         sc = scene_from_dict(apply_overrides(scene.raw, overrides), scene.name, scene.text)
     return run_scene(sc, out, cache_dir=cache_dir, resume=resume, refresh=refresh,
                      progress=progress, until=until)

@@ -16,7 +16,7 @@
                                         # one ROM; comparison and paper.md in DIR
 
 ``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
-(:mod:`study.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
+(:mod:`study.pipeline.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
 same exit code on every rank; ``convergence`` refuses (exit 2).
 
 Exit codes: 0 success; 2 invalid input (scene, option or value: the message names
@@ -35,7 +35,7 @@ import re
 import sys
 from pathlib import Path
 
-from study.errors import SceneError
+from study.scene.errors import SceneError
 
 EXIT_OK, EXIT_INTERNAL, EXIT_INPUT, EXIT_SOLVER, EXIT_UNAVAILABLE, EXIT_IO = 0, 1, 2, 3, 4, 5
 EXIT_INTERRUPTED = 130
@@ -84,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def parse_sets(items: list[str]) -> list[dict]:
     """``["a.b=1,2", "c.d=x"]`` -> list of override dicts (Cartesian product)."""
-    from study.scene_overrides import parse_set_values
+    from study.scene.overrides import parse_set_values
 
     axes = []
     for item in items:
@@ -157,7 +157,8 @@ def _progress(args) -> bool:
 
 def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> int:
     import study
-    from study.pipeline import SolverError
+    from study.pipeline.runs import SolverError
+    from study.scene.load import load_scene
 
     out = Path(args.out)
     cache = args.cache or os.environ.get("GEARDYN_CACHE") or None
@@ -166,7 +167,7 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                   refresh=args.no_cache, progress=_progress(args), until=until)
         return EXIT_OK
     # validate every variant before any heavy work
-    scenes = [study.load_scene(scene_path, ov) for ov in variants]
+    scenes = [load_scene(scene_path, ov) for ov in variants]
     cache = cache or str(out.resolve().parent / ".geardyn-cache")  # shared with `run --out OUT`
     results, failed = [], []
     for ov, sc in zip(variants, scenes, strict=True):
@@ -182,24 +183,26 @@ def _run_variants(args, scene_path: Path, variants: list[dict], until: str) -> i
                     and len(exc.result.branch) > 1:
                 results.append((ov, exc.result))
     if results and until == "export":
-        from study.parallel import world
-        from study.variants import write_variants
+        from study.pipeline.parallel import world
+        from study.studies.variants import write_variants
         world().root_call(write_variants, out, results)
     return EXIT_SOLVER if failed else EXIT_OK
 
 
 def _report(args, scene_path: Path, overrides: dict) -> int:
-    from study.variants import report_from_results
+    from study.pipeline.replay import report_from_results
     report_from_results(scene_path, Path(args.out), overrides,
                         cache=args.cache or os.environ.get("GEARDYN_CACHE"))
     return EXIT_OK
 
 
 def _excitations(args, scene_path: Path, overrides: dict) -> int:
-    """``geardyn excitations``: three cases, comparison and paper.md (study.excitations)."""
-    from study.excitations import run_cases, write_comparison
-    from study.parallel import world
-    from study.scene_load import load_scene
+    """``geardyn excitations``: three cases, their comparison (study.studies.excitations)
+    and paper.md (study.studies.paper)."""
+    from study.pipeline.parallel import world
+    from study.scene.load import load_scene
+    from study.studies.excitations import run_cases, write_comparison
+    from study.studies.paper.report import write_paper_files
 
     scene = load_scene(scene_path, overrides)
     results, failed = run_cases(scene, args.out, cache_dir=args.cache or
@@ -207,13 +210,15 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
                                 refresh=args.no_cache, progress=_progress(args))
     if results:
         world().root_call(write_comparison, Path(args.out), scene, results)
+        world().root_call(write_paper_files, Path(args.out), scene, results)
     return EXIT_SOLVER if failed else EXIT_OK
 
 
 def _convergence(args, scene_path: Path) -> int:
     """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
-    from study.convergence import KNOB_KEYS, run_convergence
-    from study.scene_overrides import parse_set_values
+    from study.scene.overrides import parse_set_values
+    from study.studies.convergence.knobs import KNOB_KEYS
+    from study.studies.convergence.sweep import run_convergence
 
     knobs: dict[str, list] = {}
     for item in args.knob:
@@ -250,7 +255,7 @@ def _dispatch(args) -> int:
     scene_path = Path(args.scene)
     variants = parse_sets(args.set)
     cmd = args.command
-    from study.parallel import world
+    from study.pipeline.parallel import world
 
     if cmd != "convergence" and (args.knob or args.only or args.tol != 1e-2):
         raise SceneError(f"{cmd}: --knob, --only and --tol are options of `geardyn "
@@ -279,17 +284,17 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: usage errors -> 2, --help -> 0
         return int(exc.code or 0)
-    from study.parallel import world
+    from study.pipeline.parallel import world
 
     comm = world()
     _setup_logging(args.quiet, args.verbose, comm.rank)
     code, exc = _main(args)
     if exc is None:
         return code
-    from study.pipeline import StageUnavailable
+    from study.scene.errors import StageUnavailable
 
     # raised identically on every rank (scene validation runs on every rank; rank-0
-    # sections share their errors, study.parallel): rank 0 alone reports it
+    # sections share their errors, study.pipeline.parallel): rank 0 alone reports it
     agreed = isinstance(exc, (SceneError, StageUnavailable)) or \
         bool(getattr(exc, "collective", False))
     if comm.rank != 0 and agreed:
@@ -315,7 +320,8 @@ def _main(args) -> tuple[int, BaseException | None]:
 def _exit_code(exc: BaseException) -> int:
     """Log ``exc`` and return its exit code (module docstring)."""
     from hbm import ConvergenceError
-    from study.pipeline import SolverError, StageUnavailable
+    from study.pipeline.runs import SolverError
+    from study.scene.errors import StageUnavailable
 
     if isinstance(exc, SceneError):
         logger.error("invalid input: %s", exc)

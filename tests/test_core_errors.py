@@ -6,7 +6,7 @@ import pickle
 import pytest
 
 from core.errors import InputError, check_range, range_text, show, suggest
-from study.errors import SceneError
+from study.scene.errors import SceneError
 
 
 def test_message_names_field_value_unit_and_range() -> None:

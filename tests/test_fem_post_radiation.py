@@ -100,7 +100,7 @@ def test_box_translation_closed_form():
 
 def test_pulsating_sphere_converges():
     R0, u0, omega = 1.0, 1e-6, 2 * math.pi * 200.0
-    from study.acoustics import sphere_erp
+    from study.outputs.acoustics import sphere_erp
 
     errs = []
     for h in (0.5, 0.25, 0.125):

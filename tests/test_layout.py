@@ -29,7 +29,7 @@ ALLOWED_PROJECT = {
     "study": {"core", "gears", "machines", "hbm", "fem"},
 }
 #: The fem modules study may import: the XDMF writer and the block size of the housing
-#: field files (study.fields writes the fields from the arrays the rom stage cached).
+#: field files (study.outputs.fields writes the fields from the arrays the rom stage cached).
 STUDY_FEM_MODULES = {"fem.post.xdmf", "fem.post.fields"}
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
@@ -198,6 +198,121 @@ def test_cycle_finder_sees_function_local_and_relative_imports(tmp_path: Path) -
     (pkg / "c.py").write_text("def h():\n    from pkg import __version__\n")
     assert find_cycle(module_graph(tmp_path, "pkg")) is None
 
+
+
+# ------------------------------------------------------------------ study's subpackages
+
+#: The subpackages of ``study``, bottom first (docs/architecture.md): a module imports
+#: modules of its own subpackage or of those before it, never of one after it. ``cli``
+#: is study's top: ``cli.py`` and ``__main__.py`` (and the ``__init__`` facade).
+STUDY_LAYERS = ("scene", "outputs", "plots", "pipeline", "studies", "cli")
+#: Modules at study's top, by the layer they belong to (an entry whose file is gone
+#: fails). The FE stages, the FE parameter sections and the lumped model went to
+#: ``machines/``, the scene -> hbm problem glue to ``study.pipeline.model``.
+STUDY_TOP = {"study.cli": "cli", "study.__main__": "cli"}
+
+
+def study_layer(module: str) -> str:
+    """The layer of a module of ``study``: its subpackage, or its entry of ``STUDY_TOP``."""
+    parts = module.split(".")
+    if len(parts) > 2 and parts[1] in STUDY_LAYERS:
+        return parts[1]
+    if module not in STUDY_TOP:
+        raise KeyError(f"{module} is in none of study's subpackages {STUDY_LAYERS[:-1]}")
+    return STUDY_TOP[module]
+
+
+def test_study_is_cut_into_its_subpackages() -> None:
+    graph = module_graph(ROOT, "study")
+    for module in graph:
+        study_layer(module)
+    assert set(STUDY_TOP) <= set(graph), f"stale STUDY_TOP entries: {set(STUDY_TOP) - set(graph)}"
+    folders = {p.parent.name for p in (ROOT / "study").glob("*/__init__.py")}
+    assert folders == set(STUDY_LAYERS) - {"cli"}
+
+
+def upward_imports(graph: dict[str, dict[str, int]], layer) -> list[str]:
+    """``a (line n) -> b`` for each import of ``graph`` from a lower layer to a higher one
+    (``layer`` gives a module's layer, an index into ``STUDY_LAYERS``)."""
+    return [f"{a} (line {line}) -> {b}" for a, edges in sorted(graph.items())
+            for b, line in sorted(edges.items()) if layer(b) > layer(a)]
+
+
+def test_study_subpackages_import_downwards() -> None:
+    """scene -> outputs -> plots -> pipeline -> studies -> cli: no module imports one of a
+    later subpackage (function-local imports included)."""
+    rank = {name: i for i, name in enumerate(STUDY_LAYERS)}
+    up = upward_imports(module_graph(ROOT, "study"), lambda m: rank[study_layer(m)])
+    assert not up, "imports against the order of study's subpackages: " + "; ".join(up)
+
+
+
+def test_upward_import_finder() -> None:
+    """report.md's module importing a plot module (as it did) is against the order."""
+    rank = {name: i for i, name in enumerate(STUDY_LAYERS)}
+    graph = {"study.outputs.report": {"study.plots.common": 14, "study.scene.data": 9},
+             "study.plots.common": {"study.outputs.curves": 20}, "study.outputs.curves": {},
+             "study.scene.data": {}, "study.cli": {"study.pipeline.stages": 3},
+             "study.pipeline.stages": {"study.pipeline.model": 238},
+             "study.pipeline.model": {}}
+    assert upward_imports(graph, lambda m: rank[study_layer(m)]) == [
+        "study.outputs.report (line 14) -> study.plots.common"]
+
+def facade_imports(root: Path, package: str) -> dict[str, list[str]]:
+    """Names that a module of ``package`` imports from a (sub)package's ``__init__``
+    rather than from the module that holds them: ``from pkg.sub import name`` where
+    ``pkg/sub/`` is a package and ``name`` is none of its modules or subpackages (and no
+    dunder such as ``__version__``); relative imports resolved, function-local included."""
+    def is_package(dotted: str) -> bool:
+        return (root.joinpath(*dotted.split(".")) / "__init__.py").is_file()
+
+    def is_module(dotted: str) -> bool:
+        path = root.joinpath(*dotted.split("."))
+        return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+    out: dict[str, list[str]] = {}
+    for path in sorted((root / package).rglob("*.py")):
+        here = _module_name(root, package, path)
+        if path.name != "__init__.py":
+            here = here.rsplit(".", 1)[0]
+        found = []
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            if node.level:
+                base = here.split(".")[: len(here.split(".")) - node.level + 1]
+                src = ".".join(base + ([node.module] if node.module else []))
+            else:
+                src = node.module or ""
+            if src.split(".")[0] != package or not is_package(src):
+                continue
+            found += [f"{src}:{a.name}" for a in node.names
+                      if not (a.name.startswith("__") and a.name.endswith("__"))
+                      and not is_module(f"{src}.{a.name}")]
+        if found:
+            out[path.relative_to(root).as_posix()] = found
+    return out
+
+
+def test_study_imports_a_name_from_the_module_that_holds_it() -> None:
+    """The ``__init__`` of study, study.scene and study.pipeline re-export an API for users
+    (tests, benchmarks, scripts); inside study a name comes from its own module, so that
+    an import shows the module it depends on (and the order above sees it)."""
+    found = facade_imports(ROOT, "study")
+    assert not found, f"names imported through a package's __init__: {found}"
+
+
+def test_facade_import_finder(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("__version__ = '1'\n")
+    (pkg / "sub" / "__init__.py").write_text("from pkg.sub.a import f\n")
+    (pkg / "sub" / "a.py").write_text("def f():\n    return 1\n")
+    (pkg / "b.py").write_text("from pkg.sub import f\nfrom pkg.sub import a\n"
+                              "from pkg import __version__, sub\n")
+    (pkg / "sub" / "c.py").write_text("def g():\n    from . import f\n    from .a import f\n")
+    assert facade_imports(tmp_path, "pkg") == {"pkg/b.py": ["pkg.sub:f"],
+                                               "pkg/sub/c.py": ["pkg.sub:f"]}
 
 def test_pyproject_declares_packages_and_entry_point() -> None:
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())

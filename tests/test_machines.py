@@ -65,7 +65,7 @@ def test_registry_picks_the_machine_of_the_scene_kind(sdof_scene, pump_scene):
 
 
 def test_the_scene_schema_offers_the_registered_kinds():
-    from study.scene_schema import SCHEMA
+    from study.scene.schema import SCHEMA
 
     assert set(SCHEMA["scene"]["kind"].choices) == set(machines.kinds())
     assert set(SCHEMA["lumped"]["model"].choices) == set(machines.models("lumped"))
@@ -176,8 +176,8 @@ def test_pump_stage_keys_hash_the_inputs_they_hashed_before(pump_scene, tmp_path
     code modules differ: the machine's instead of study/fe_stages.py)."""
     import dataclasses
 
-    from study.cache import source_hash, stage_key
     from study.pipeline import Pipeline
+    from study.pipeline.cache import source_hash, stage_key
 
     s = pump_scene
     old_mesh = {"geometry": s.fe.get("geometry", {}), "mesh": s.fe.get("mesh", {}),
@@ -204,8 +204,8 @@ def test_pump_fe_sections_are_refused_as_scene_errors(pump_scene):
     """The machine refuses a bad FE key (core InputError); the scene loader reports it as
     a SceneError with the same message (exit code 2)."""
     from machines.pump import FEParameterError, fe_parameters
-    from study.errors import SceneError
     from study.scene import load_scene
+    from study.scene.errors import SceneError
 
     with pytest.raises(FEParameterError, match=r"^materials\.housing_EE: unknown key "
                        r"\(did you mean 'housing_E'\?\)"):

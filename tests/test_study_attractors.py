@@ -1,5 +1,5 @@
 """``[outputs] attractor_transient_turns``: time integration at the unstable segments of
-a run, in report.md (study.attractors), on the single-DOF scene whose curve has amplitude
+a run, in report.md (study.outputs.attractors), on the single-DOF scene whose curve has amplitude
 jumps (folds) and a period-doubling segment."""
 
 from pathlib import Path
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import study
-from study.scene_load import load_scene
+from study.scene.load import load_scene
 
 SDOF = Path(__file__).resolve().parents[1] / "scenes" / "gear-pair-sdof.toml"
 OVERRIDES = {"outputs.attractor_transient_turns": 2, "outputs.attractor_window_turns": 2,
@@ -24,7 +24,7 @@ def run(tmp_path_factory):
 
 
 def test_each_unstable_segment_has_its_time_response_in_the_report(run):
-    from study.report import summary
+    from study.outputs.report import summary
 
     segs = summary(run)["unstable_segments"]
     kinds = {u.kind for u in segs}
@@ -92,8 +92,8 @@ def test_from_a_jump_the_response_lands_on_a_stable_orbit_of_the_curve(run):
 
 
 def test_a_failed_integration_is_said_in_the_report(run, monkeypatch):
-    import study.attractors as sa
-    from study.report import summary, unstable_lines
+    import study.outputs.attractors as sa
+    from study.outputs.report import summary, unstable_lines
 
     def fail(*args, **kwargs):
         raise RuntimeError("solve_ivp failed after 3 turns: step size too small")
@@ -109,7 +109,7 @@ def test_report_from_results_gives_the_same_time_responses(run):
     """``geardyn report`` (report_from_results) integrates again from the saved branch:
     the same attractors.csv, bitwise, and the same ``/attractors`` in results.h5, whose
     branch it leaves as it was."""
-    from study.variants import report_from_results
+    from study.pipeline.replay import report_from_results
 
     def stored():
         with h5py.File(run.out / "results.h5", "r") as f:
@@ -129,7 +129,7 @@ def test_time_responses_are_kept_without_report(run, tmp_path):
     import dataclasses
     import shutil
 
-    from study.export import _figures
+    from study.pipeline.export import _figures
 
     out = tmp_path / "run"
     shutil.copytree(run.out, out)

@@ -17,14 +17,10 @@ import numpy as np
 import pytest
 
 from hbm import GrazingPoint
-from study.convergence import (
-    curve_error,
-    grazing_error,
-    plan,
-    recommend,
-    run_convergence,
-)
 from study.scene import SceneError, load_scene
+from study.studies.convergence.knobs import plan
+from study.studies.convergence.measures import curve_error, grazing_error, recommend
+from study.studies.convergence.sweep import run_convergence
 
 ROOT = Path(__file__).resolve().parents[1]
 SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
@@ -185,7 +181,7 @@ def test_a_stage_cached_by_a_plain_run_keeps_its_cost(tmp_path):
     import json
 
     import study
-    from study.cache import StageCache
+    from study.pipeline.cache import StageCache
 
     cache = tmp_path / "cache"
     r = study.run(SDOF, tmp_path / "plain", cache_dir=cache,
@@ -209,7 +205,7 @@ def test_failed_settings_are_said_with_their_points(tmp_path):
     """Settings whose continuation stops early keep their partial points in the table,
     and convergence.md says why each failed and that the knob has no recommendation
     (the row read 'points 0', the Recommendation section was empty)."""
-    from study.runs import SolverError
+    from study.pipeline.runs import SolverError
 
     with pytest.raises(SolverError, match="settings failed: harmonics=4, harmonics=8"):
         run_convergence(SDOF, tmp_path / "o", knobs={"harmonics": [4, 8]}, only=["harmonics"],

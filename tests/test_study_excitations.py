@@ -44,7 +44,7 @@ def run(tmp_path_factory):
 
 
 def test_case_scenes():
-    from study.excitations import case_scenes
+    from study.studies.excitations import case_scenes
 
     base = load_scene(SCENE)
     sc = case_scenes(base)
@@ -63,7 +63,7 @@ def test_case_scenes():
 
 
 def test_refuses_scenes_without_both_excitations(tmp_path):
-    from study.excitations import case_scenes
+    from study.studies.excitations import case_scenes
 
     p = _geardyn("excitations", str(ROOT / "scenes" / "gear-pair-sdof.toml"), "--out",
                  str(tmp_path / "o"), check=False)

@@ -76,7 +76,7 @@ def test_rom_key_hashes_the_code_that_writes_the_rom_files(tmp_path, monkeypatch
     """The rom stage writes radiation.h5 and housing.h5 with fem.post: its key hashes
     fem.post's sources (fem's own top-level modules reach it through the fe key; the hbm
     key takes the rom key, so a change there reruns the continuation too)."""
-    import study.pipeline as pl
+    import study.pipeline.stages as pl
     from study.scene import load_scene
 
     asked: list[tuple[str, ...]] = []
@@ -222,7 +222,7 @@ def test_housing_fields_read_back(pump_runs):
     import meshio
 
     from reduction import load_basis
-    from study.export import nearest_point
+    from study.outputs.points import nearest_point
 
     _, _, r1 = pump_runs
     i, pt = nearest_point(r1, 620.0)
@@ -330,8 +330,8 @@ def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):
     instead of one block the files hold the same values (to round-off of the products)."""
     from fem import post
     from fem.post import fields as post_fields
-    from study import fields
-    from study.export import nearest_point
+    from study.outputs import fields
+    from study.outputs.points import nearest_point
 
     _, _, r1 = pump_runs
     _, pt = nearest_point(r1, 620.0)
@@ -359,7 +359,7 @@ def test_accelerometers(pump_runs):
     from dolfinx import geometry as dgeo
 
     from reduction import load_basis, reconstruct
-    from study.export import point_at
+    from study.outputs.points import point_at
 
     _, _, r1 = pump_runs
     with h5py.File(r1.results, "r") as f:
@@ -404,7 +404,7 @@ def test_housing_files_pyvista(pump_runs):
 
     from dolfinx import fem as dfem
 
-    from study.export import nearest_point
+    from study.outputs.points import nearest_point
 
     pytest.importorskip("pyvista")
     _, _, r1 = pump_runs
@@ -485,7 +485,7 @@ def test_erp_matches_direct_surface_integral(pump_runs):
 
     from fem import post
     from reduction import load_basis, reconstruct
-    from study.export import point_at
+    from study.outputs.points import point_at
 
     _, _, r1 = pump_runs
     model = _fe_model(pump_runs)
@@ -535,7 +535,7 @@ def test_report_rewrites_the_housing_fields(pump_runs):
     series equals the export's."""
     import meshio
 
-    from study.variants import report_from_results
+    from study.pipeline.replay import report_from_results
 
     def frames(path):
         with meshio.xdmf.TimeSeriesReader(str(path)) as rd:

@@ -1,11 +1,11 @@
-"""study.housing_error: the field u = T q read from rom/basis in row blocks."""
+"""study.outputs.housing_error: the field u = T q read from rom/basis in row blocks."""
 from __future__ import annotations
 
 import h5py
 import numpy as np
 
-from study import housing_error
-from study.housing_error import HousingField, field_error
+from study.outputs import housing_error
+from study.outputs.housing_error import HousingField, field_error
 
 
 def _write_rom(folder, T, keys, link) -> None:

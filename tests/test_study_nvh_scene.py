@@ -69,7 +69,7 @@ def test_check_outputs_against_the_harmonic_set():
     """Orders outside the set and aliasing frame rates are refused before the
     continuation; the automatic rate is 4 frames per period of the top order."""
     from hbm import HarmonicSet
-    from study.fields import check_outputs, field_orders, frames_per_mesh_period
+    from study.outputs.fields import check_outputs, field_orders, frames_per_mesh_period
 
     hs = HarmonicSet([0, 1, 2, 4, 74, 76, 78, 152, 228, 232], ratio=1, fundamental="shaft")
     base = _raw(PUMP)

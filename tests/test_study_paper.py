@@ -1,5 +1,6 @@
-"""Curve features (study.curves) and the paper table (study.paper) on synthetic curves
-whose peaks, impact intervals and IPP sequences are known in closed form."""
+"""Curve features (study.outputs.curves) and the paper table (study.studies.paper) on
+synthetic curves whose peaks, impact intervals and IPP sequences are known in closed
+form."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from hbm import MeshPeriodEnvelope
-from study.curves import (
+from study.outputs.curves import (
     FoldPair,
     class_intervals,
     contact_windows,
@@ -22,7 +23,8 @@ from study.curves import (
     summarize_curve,
     unstable_segments,
 )
-from study.paper import IppAt, PaperInputs, SpectrumAt, paper_markdown, write_paper
+from study.studies.paper.measure import IppAt, PaperInputs, SpectrumAt
+from study.studies.paper.report import paper_markdown, write_paper
 
 CENTRES = (1000.0, 1480.0, 2800.0)
 WIDTHS = (60.0, 80.0, 150.0)
@@ -323,8 +325,9 @@ def test_calibrated_rows_are_marked_and_every_row_has_a_calibration_key():
     fitted, every other row says ``not fitted``; without it the table keeps four columns
     and a sentence says the scene declares no fits. Every row compares one finding whose
     key a scene may name (``CALIBRATION_ROWS``, each a key of ``PAPER``)."""
-    from study.paper import PAPER, _ipp_rows, _mode_rows, _spectrum_rows
-    from study.scene_schema import CALIBRATION_ROWS
+    from study.scene.schema import CALIBRATION_ROWS
+    from study.studies.paper.findings import PAPER
+    from study.studies.paper.report import _ipp_rows, _mode_rows, _spectrum_rows
 
     assert set(CALIBRATION_ROWS) <= set(PAPER)
     inp = _inputs()
@@ -353,7 +356,7 @@ def test_a_peak_is_flagged_by_its_own_orbit_not_by_a_segment_beside_it():
     """On a fold the stable top of the upper branch lies inside the speed range of the
     unstable middle branch: the peak's and the largest std's verdicts are those of their
     own points, and excitations.md flags only an unstable one."""
-    from study.excitations import comparison_table
+    from study.studies.excitations import CaseCurves, comparison_table
 
     # a branch going up to 1000 rpm, back to 950 (middle, unstable) and on over its top
     # at 980 rpm to 1100 rpm: the top lies inside the middle's 950-990 rpm
@@ -368,15 +371,13 @@ def test_a_peak_is_flagged_by_its_own_orbit_not_by_a_segment_beside_it():
     top = primary_peak(s)
     assert s.unstable and s.unstable[0].contains(top.rpm)      # the segment covers it
     assert top.index == 15 and top.kind == "" and s.max_std_kind == ""
-    inp = PaperInputs("fold", 2.5, 70.0, cases={"internal": s},
-                      primary={"internal": top})
+    inp = CaseCurves(cases={"internal": s}, primary={"internal": top})
     assert "unstable" not in comparison_table(inp)
     # the same curve with its top point unstable (Neimark-Sacker there)
     stable[15], kind[15] = False, 3
     s = summarize_curve(rpm, std, np.zeros(rpm.size, int), [], (800.0, 1100.0),
                         stable=stable, kind=kind)
     assert primary_peak(s).kind == "neimark_sacker" and s.max_std_kind == "neimark_sacker"
-    inp = PaperInputs("fold", 2.5, 70.0, cases={"internal": s},
-                      primary={"internal": primary_peak(s)})
+    inp = CaseCurves(cases={"internal": s}, primary={"internal": primary_peak(s)})
     row = comparison_table(inp).splitlines()[2]
     assert row.count("(**unstable**: Neimark–Sacker)") == 2, row

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -169,6 +170,23 @@ def _short(**extra):
     return ov
 
 
+
+def test_stage_keys_hash_modules_that_exist():
+    """Every module a stage key hashes exists (a moved module would silently drop out of
+    the key otherwise), and a name that is no module is refused."""
+    from study.pipeline.cache import source_hash
+
+    with pytest.raises(ModuleNotFoundError, match="study.no_such_module"):
+        source_hash("hbm", "study.no_such_module")
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "study" / "pipeline" / "stages.py").read_text()
+    names = {n for call in re.findall(r"source_hash\(([^)]*)\)", text)
+             for n in re.findall(r'"([\w.]+)"', call)}
+    assert names >= {"hbm", "study.pipeline.model", "study.outputs.results"}
+    for name in sorted(names):    # found without importing them (fem.post loads dolfinx)
+        path = root.joinpath(*name.split("."))
+        assert path.with_suffix(".py").is_file() or (path / "__init__.py").is_file(), name
+
 def test_cache_reuse_and_rebuild(tmp_path, caplog):
     import logging
 
@@ -211,7 +229,7 @@ def test_cache_reuse_and_rebuild(tmp_path, caplog):
 
 _KILLABLE = """
 import sys, time
-import study.results as R
+import study.outputs.results as R
 orig = R.Checkpointer.__call__
 def slow(self, branch):
     n = self.n_written

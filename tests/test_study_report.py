@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from reduction.validate import Validation
-from study.report import _largest_line, _largest_stable, _stability_lines, rom_line
+from study.outputs.report import _largest_line, _largest_stable, _stability_lines, rom_line
 
 
 def _result(validation, teeth=76, top=7000.0, n_cm=100):
@@ -77,8 +77,8 @@ def test_where_the_branch_winds_the_report_gives_one_line():
     """Consecutive unstable segments spanning less than 0.2 % of the speed together
     (the pump's at 2508.7-2510.3 rpm, of three kinds) are one line; the nested folds of
     a wide hysteresis (the single-DOF scene's 1791-2195 and 2090-3004 rpm) stay two."""
-    from study.curves import UnstableSegment
-    from study.report import _folds_text, unstable_lines
+    from study.outputs.curves import UnstableSegment
+    from study.outputs.report import _folds_text, unstable_lines
 
     kinds = ("period_doubling", "fold", "period_doubling", "neimark_sacker", "fold")
     pd = [UnstableSegment(k, (2508.7 + 0.1 * j, 2509.0 + 0.1 * j), 3, 87.0 + j,

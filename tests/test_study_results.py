@@ -10,7 +10,7 @@ import numpy as np
 from hbm_models import RPM, sdof_problem
 
 import hbm
-from study.results import read_branch, write_results
+from study.outputs.results import read_branch, write_results
 
 
 def _scene():

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from benchmarks import external_sensitivity as es
-from study.scene_load import load_scene
+from study.scene.load import load_scene
 
 BASE = Path(__file__).resolve().parents[2] / "scenes" / "pump-paper.toml"
 

@@ -37,13 +37,13 @@ def result(work):
 
 @pytest.fixture(scope="module")
 def summary(result):
-    from study.curves import summarize_branch
+    from study.outputs.curves import summarize_branch
 
     return summarize_branch(result.branch)
 
 
 def test_resonances_are_the_papers_within_3_percent(summary):
-    from study.paper import PAPER, TOLERANCE
+    from study.studies.paper.findings import PAPER, TOLERANCE
 
     peaks = [p.rpm for p in summary.strongest(3)]
     paper = PAPER["resonances"].value
@@ -65,7 +65,7 @@ def test_resonances_are_the_papers_within_3_percent(summary):
 
 
 def test_grazings_and_windows_are_the_calibrated_ones(summary):
-    from study.paper import PAPER, TOLERANCE
+    from study.studies.paper.findings import PAPER, TOLERANCE
 
     assert summary.grazing == pytest.approx(PAPER["grazing"].value, rel=TOLERANCE)
     assert len(summary.windows) == 2
@@ -76,7 +76,7 @@ def test_grazings_and_windows_are_the_calibrated_ones(summary):
 def _ipp_at(result, rpm):
     """Impacts per mesh period of the solution at ``rpm`` (solved there, as paper.md)."""
     from hbm import point_stats
-    from study.excitations import solution_at
+    from study.studies.paper.measure import solution_at
 
     pt, how = solution_at(result, rpm)
     assert how != "nearest branch point"            # solved at that speed
@@ -87,7 +87,7 @@ def test_ipp_at_1700_rpm_is_the_calibrated_one(result):
     """The TE's third criterion (``calibrate_pump refine-nl --nl-ipp 1700=0,0.2,0.8,0``):
     Fig. 17's 1-IPP on ~20 % of the turn and 2-IPP on the rest, measured as paper.md
     measures it; the two 1-IPP runs per turn (the H_2 modulation) were not asked for."""
-    from study.curves import ipp_runs
+    from study.outputs.curves import ipp_runs
 
     ipp = _ipp_at(result, 1700.0)
     shares = np.bincount(ipp, minlength=4) / ipp.size
@@ -114,8 +114,8 @@ def test_internal_only_impacts_reach_the_end_of_the_range(work):
     import numpy as np
 
     import study
-    from study.excitations import case_scenes
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
+    from study.studies.excitations import case_scenes
 
     scene = load_scene(SCENE, {**RANGE, "continuation.speed_rpm": [2600.0, 7000.0]})
     r = study.run(case_scenes(scene)["internal"], work / "internal", cache_dir=work / "cache")
@@ -134,8 +134,8 @@ def test_the_orbit_at_the_primary_peak_is_left_for_the_rotor_mode(work):
     import study
     from benchmarks.ti_attractor import orbit_std
     from hbm.post.time_response import integrate
-    from study.excitations import case_scenes
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
+    from study.studies.excitations import case_scenes
 
     scene = load_scene(SCENE, {**RANGE, "hbm.stability": True,
                                "continuation.speed_rpm": [2850.0, 2925.0]})

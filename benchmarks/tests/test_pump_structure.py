@@ -59,11 +59,12 @@ def test_mesh_softening_is_the_single_mode_shift():
 
 
 def test_paper_md_measures_of_a_cached_rom():
-    """study.excitations.rom_measures on a cached ROM's data (machines.rom.RomData): the
-    top mode of eq. (31) and the T.33 shift of the two-gear closed form."""
+    """study.studies.paper.measure.rom_measures on a cached ROM's data
+    (machines.rom.RomData): the top mode of eq. (31) and the T.33 shift of the two-gear
+    closed form."""
     from machines.rom import RomData
     from reduction import coupled_modes, mesh_energy
-    from study.excitations import rom_measures
+    from study.studies.paper.measure import rom_measures
 
     M, K, G = _two_gears()
     km = 2.0e8
@@ -82,7 +83,7 @@ def test_paper_md_measures_only_the_modes_the_mesh_harmonics_reach():
     T.35) is reported, but the T.33 shift is taken at the mode at or above f_min."""
     from machines.rom import RomData
     from reduction import coupled_modes, mesh_energy
-    from study.excitations import rom_measures
+    from study.studies.paper.measure import rom_measures
 
     m, ks, mr, kt, km = 0.8, 1.0e6, 40.0, 6.0e8, 2.0e8
     M = np.diag([m, m, mr, mr])  # the two gears, then a heavy body on each
@@ -133,7 +134,7 @@ def test_grounded_gears_adds_the_flywheel_and_lateral_ground_of_its_closed_forms
 
 def test_benchmark_set_options_parse_as_geardyn_set():
     from benchmarks.common import scene_overrides
-    from study.errors import SceneError
+    from study.scene.errors import SceneError
 
     ov = scene_overrides(["mesh_stiffness.mean_N_per_um=235.3",
                           "mesh_stiffness.amplitudes_N_per_um=[44.35,37.37,27.2]",

@@ -22,7 +22,7 @@ RPM = 1600.0
 
 def _problem(cache: Path, amps=None, phases=None):
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     ov = dict(OV)
     if amps is not None:

@@ -22,7 +22,7 @@ def _direct_margin(cache: Path, amps_um, phases_deg, rpm: float, n_time: int) ->
     from hbm.problem.fixed_speed import initial_guess
     from hbm.units import RPM_TO_RAD_S
     from study.pipeline import Pipeline
-    from study.scene_load import load_scene
+    from study.scene.load import load_scene
 
     sc = load_scene(SDOF, {**OV, "transmission_error.amplitudes_um": list(amps_um),
                            "transmission_error.phases_deg": list(phases_deg)})

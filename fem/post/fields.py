@@ -1,7 +1,7 @@
 """The housing's displacement field data, computed once with the ROM: its second-order
 nodes and cells in input-mesh order and the rows of ``P T`` at its nodes, written to
 ``housing.h5`` beside ``rom.h5`` so that the export writes the housing fields
-(``study.fields``) from the file alone, without the mesh or the FE model.
+(``study.outputs.fields``) from the file alone, without the mesh or the FE model.
 
 ``housing.h5`` (all lengths in m, ``u = u_rows @ q`` per node):
 

@@ -9,7 +9,7 @@ wave (radiation efficiency 1), ``P = ½ ρ c ∫_Γ |v_n|² dA``. For a harmonic
     W = (P T)ᵀ A (P T),      A_ij = ∫_Γ (φ_i·n)(φ_j·n) dA       (P2 shape functions φ)
 
 (n_r × n_r, m²): built once per ROM, the ERP of a continuation point is then a few
-n_r² products (``study.acoustics.erp_harmonics``).
+n_r² products (``study.outputs.acoustics.erp_harmonics``).
 
 Quadrature: on a flat (affine) facet ``(φ_i·n)(φ_j·n)`` is a polynomial of degree 4,
 so a degree-4 rule is exact; on the curved P2 facets of bosses and bores the integrand

@@ -1,0 +1,157 @@
+"""The pump's curve and export before and after a change of the code, in the same run.
+
+Each version of the code (a git revision, checked out in a temporary worktree, and the
+working tree) runs ``python -m study run SCENE`` in its own process with its own stage
+cache. The mesh and ROM stages are computed once per version (a warm-up run); before each
+counted run the version's hbm cache entries are removed, so every counted run traces the
+whole curve with stability (hbm stage) and writes every output (export stage). The two
+versions alternate (A B A B ...), and the ratio new / old is taken pair by pair, so a
+comparison holds while the shared machine's speed drifts. Stage times are read from the
+``stage <name> ran in <s> s`` lines the pipeline logs.
+
+Run (one heavy run at a time; ~4 min per pair on the pump)::
+
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_redesign \\
+        --baseline <revision> [--repeats 3] [--scene scenes/pump.toml] [--name redesign]
+
+Writes ``benchmarks/results/<name>.json`` (rendered into BENCHMARKS.md by
+``benchmarks.report``). Also checks that both versions wrote the same ``results.h5``
+numbers (largest relative difference over the datasets both files hold).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.common import write_json
+
+LOG = logging.getLogger(__name__)
+ROOT = Path(__file__).resolve().parents[1]
+STAGE_LINE = re.compile(r"stage (\w+)\s+(ran|resumed) in ([0-9.]+) s")
+
+
+def revision(tree: Path) -> str:
+    """The commit of a checkout (with ``+dirty`` when its tracked files changed)."""
+    rev = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short=12", "HEAD"],
+                         capture_output=True, text=True, check=True).stdout.strip()
+    dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
+                            "--untracked-files=no"], capture_output=True, text=True,
+                           check=True).stdout.strip()
+    return rev + ("+dirty" if dirty else "")
+
+
+def run_scene(tree: Path, scene: str, out: Path, cache: Path) -> dict[str, float]:
+    """``python -m study run`` of ``tree``'s code; the stage times it logged (s) and the
+    wall time of the whole process (``total``)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1",
+               OPENBLAS_NUM_THREADS="1")
+    cmd = [sys.executable, "-m", "study", "run", str(tree / scene), "--out", str(out),
+           "--cache", str(cache), "--no-progress"]
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} (in {tree}) exited {proc.returncode}:\n"
+                           f"{proc.stderr[-3000:]}")
+    times = {m.group(1): float(m.group(3)) for m in STAGE_LINE.finditer(proc.stderr)}
+    times["total"] = wall
+    return times
+
+
+def drop_hbm(cache: Path) -> None:
+    """Remove the hbm stage's entries of a cache (the ROM stays)."""
+    shutil.rmtree(cache / "hbm", ignore_errors=True)
+
+
+def largest_difference(old: Path, new: Path) -> float:
+    """Largest relative difference over the numeric datasets both results.h5 hold."""
+    import h5py
+
+    worst = 0.0
+    with h5py.File(old, "r") as fo, h5py.File(new, "r") as fn:
+        names: list[str] = []
+        fo.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        for n in names:
+            if n not in fn:
+                continue
+            a, b = np.asarray(fo[n][()]), np.asarray(fn[n][()])
+            if a.dtype.kind not in "biufc" or a.shape != b.shape or a.size == 0:
+                continue
+            scale = max(float(np.max(np.abs(a))), 1e-300)
+            worst = max(worst, float(np.max(np.abs(a.astype(complex) - b.astype(complex))))
+                        / scale)
+    return worst
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--baseline", required=True, help="git revision of the old code")
+    ap.add_argument("--scene", default="scenes/pump.toml")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--name", default="redesign")
+    ap.add_argument("--work", default=None, help="folder for worktree, caches, outputs")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    work = Path(args.work or tempfile.mkdtemp(prefix="bench_redesign_"))
+    old_tree = work / "old"
+    if not old_tree.exists():
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(old_tree),
+                        args.baseline], check=True, capture_output=True)
+    trees = {"old": old_tree, "new": ROOT}
+    revs = {k: revision(t) for k, t in trees.items()}
+    caches = {k: work / f"cache_{k}" for k in trees}
+    for k, tree in trees.items():                 # mesh and ROM once per version
+        LOG.info("warm-up %s (%s)", k, revs[k])
+        run_scene(tree, args.scene, work / f"warm_{k}", caches[k])
+    rows, ratios = [], {"hbm": [], "export": [], "total": []}
+    for r in range(args.repeats):
+        pair = {}
+        for k in (("old", "new") if r % 2 == 0 else ("new", "old")):
+            drop_hbm(caches[k])
+            out = work / f"run_{k}_{r}"
+            shutil.rmtree(out, ignore_errors=True)
+            pair[k] = run_scene(trees[k], args.scene, out, caches[k])
+            LOG.info("round %d %s: %s", r, k, pair[k])
+        for s in ratios:
+            ratios[s].append(pair["new"][s] / pair["old"][s])
+        rows.append([r, *(f"{pair[k][s]:.1f}" for s in ("hbm", "export", "total")
+                          for k in ("old", "new"))])
+    diff = largest_difference(work / "run_old_0" / "results.h5",
+                              work / "run_new_0" / "results.h5")
+    med = {s: statistics.median(v) for s, v in ratios.items()}
+    summary = (f"{args.scene}: the whole curve with stability (hbm stage) and the export, "
+               f"old {revs['old']} against new {revs['new']}, {args.repeats} interleaved "
+               f"pairs after a warm-up (mesh and ROM cached per version). Median ratio "
+               f"new/old: hbm {med['hbm']:.2f}, export {med['export']:.2f}, whole run "
+               f"{med['total']:.2f}. results.h5 largest relative difference {diff:.1e}.")
+    LOG.info(summary)
+    write_json(args.name, {
+        "command": f"python -m benchmarks.bench_redesign --baseline {args.baseline} "
+                   f"--repeats {args.repeats} --scene {args.scene}",
+        "summary": summary,
+        "headline": {"hbm new/old": med["hbm"], "export new/old": med["export"]},
+        "revisions": revs, "ratios": ratios, "results_max_rel_diff": diff,
+        "tables": [{"title": "stage wall times per round (s)",
+                    "columns": ["round", "hbm old", "hbm new", "export old", "export new",
+                                "run old", "run new"],
+                    "rows": [[r[0], r[1], r[2], r[3], r[4], r[5], r[6]] for r in rows]},
+                   {"title": "median ratio new / old (pair by pair)",
+                    "columns": ["hbm", "export", "whole run"],
+                    "rows": [[f"{med['hbm']:.3f}", f"{med['export']:.3f}",
+                              f"{med['total']:.3f}"]]}]})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

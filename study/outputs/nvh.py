@@ -1,0 +1,202 @@
+"""Noise and vibration views of a continuation branch: mesh load per order, its
+peak-to-peak value, the housing's equivalent radiated power (ERP) per order, and
+the CSV export of the curves.
+
+Computed once at export for every continuation point: the mesh load f_LoA(t)
+(eq. 13) on the fine AFT grid of :func:`hbm.time_series`, its Fourier amplitudes at
+the harmonic indices of the set, and (FE scenes) the ERP of every harmonic from
+the ROM coordinates q̃_k recovered from the point (:meth:`hbm.HBMProblem.recover`)
+and the cached radiation matrix W (:mod:`study.outputs.acoustics`).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core.files import atomic_write
+from study.outputs.acoustics import P_REF, V_REF, erp_harmonics, power_db, velocity_level_db
+from study.outputs.fields import accelerometer_rows
+from study.outputs.points import point_at
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["NVH", "compute_nvh", "write_nvh_group", "write_curves_csv", "CONTACT_NAMES",
+           "order_label"]
+
+CONTACT_NAMES = ("permanent contact", "single-sided impacts", "double-sided impacts")
+
+
+def order_label(order: int, n_teeth: int) -> str:
+    """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
+    plain number for orders far below the mesh frequency (external orders)."""
+    order = int(order)
+    k = int(round(order / n_teeth))
+    e = order - k * n_teeth
+    if k == 0:
+        return str(order)
+    base = "Z" if k == 1 else f"{k}Z"
+    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
+
+
+@dataclass
+class NVH:
+    """Per-point NVH quantities of a branch (n points, n_h harmonics).
+
+    Attributes
+    ----------
+    harmonics : (n_h,) int
+        Harmonic indices of the set.
+    orders : (n_h,) float
+        Shaft orders of those harmonics (index × w0 / Omega).
+    mesh_load_amplitude : (n, n_h) float
+        |f̃_k| of the mesh load at each harmonic [N].
+    mesh_load_ptp : (n,) float
+        Peak-to-peak mesh load over the period [N].
+    erp : (n, n_h) float or None
+        ERP of each harmonic [W] (FE scenes with radiation data).
+    erp_total : (n,) float or None
+        Σ_k ERP_k [W].
+    rho, c : float
+        Air density [kg/m³] and speed of sound [m/s] used.
+    accel_names : tuple of str
+        Virtual accelerometers (``[[outputs.accelerometer]]``).
+    accel_velocity : (n_acc, n, n_h) complex or None
+        Their velocity amplitude per harmonic [m/s].
+    accel_position, accel_direction : (n_acc, 3) float or None
+        Snapped positions (outer facet centres) [m] and unit measuring directions.
+    """
+
+    harmonics: np.ndarray
+    orders: np.ndarray
+    mesh_load_amplitude: np.ndarray
+    mesh_load_ptp: np.ndarray
+    erp: np.ndarray | None
+    erp_total: np.ndarray | None
+    rho: float
+    c: float
+    accel_names: tuple = ()
+    accel_velocity: np.ndarray | None = None
+    accel_position: np.ndarray | None = None
+    accel_direction: np.ndarray | None = None
+
+    @property
+    def erp_db(self) -> np.ndarray | None:
+        return None if self.erp is None else power_db(self.erp)
+
+    @property
+    def erp_total_db(self) -> np.ndarray | None:
+        return None if self.erp_total is None else power_db(self.erp_total)
+
+
+def compute_nvh(result) -> NVH:
+    """NVH quantities at every point of ``result.branch``."""
+    from hbm import time_series
+
+    pb, br = result.problem, result.branch
+    hs = pb.harmonics
+    idx = np.asarray(hs.indices, dtype=int)
+    n = len(br)
+    amp = np.zeros((n, idx.size))
+    ptp = np.zeros(n)
+    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
+    ac = result.scene.acoustics
+    erp = np.zeros((n, idx.size)) if rad is not None else None
+    accels = result.scene.outputs.accelerometers if rad is not None else ()
+    if accels:
+        arows, apos, adir = accelerometer_rows(accels, rad)
+        avel = np.zeros((len(accels), n, idx.size), dtype=complex)
+    for i in range(n):
+        pt = point_at(result, i)
+        ts = time_series(pb, pt)
+        f = ts.load
+        c = np.fft.rfft(f) / f.size
+        c[1:] *= 2.0
+        amp[i] = np.abs(c[idx])
+        ptp[i] = float(np.ptp(f))
+        if erp is not None:
+            qk = pb.recover(pt)
+            w0 = hs.fundamental_rad_s(pt.omega)
+            erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+            if accels:
+                avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
+    total = None if erp is None else erp.sum(axis=1)
+    if erp is not None and n:
+        logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
+                    float(power_db(total).min()), float(power_db(total).max()))
+    out = NVH(idx, idx * hs.integer_ratio, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+    if accels:
+        out.accel_names = tuple(a.name for a in accels)
+        out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
+    return out
+
+
+def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
+    """Write ``/nvh`` of results.h5 (docs/results-format.md)."""
+    g = f.create_group("nvh")
+    g["harmonics"] = nvh.harmonics.astype(np.int64)
+    g["orders"] = nvh.orders.astype(np.int64)
+    g["mesh_load_amplitude"] = nvh.mesh_load_amplitude
+    g["mesh_load_amplitude"].attrs["unit"] = "N"
+    g["mesh_load_ptp"] = nvh.mesh_load_ptp
+    g["mesh_load_ptp"].attrs["unit"] = "N"
+    if nvh.erp is None:
+        return
+    g.attrs["air_density"] = nvh.rho
+    g.attrs["sound_speed"] = nvh.c
+    g.attrs["reference_power"] = P_REF
+    g.attrs["radiation_efficiency"] = 1.0
+    g["erp"] = nvh.erp
+    g["erp"].attrs["unit"] = "W"
+    g["erp_total"] = nvh.erp_total
+    g["erp_total"].attrs["unit"] = "W"
+    g["erp_db"] = nvh.erp_db
+    g["erp_total_db"] = nvh.erp_total_db
+    for k in ("erp_db", "erp_total_db"):
+        g[k].attrs["unit"] = "dB re 1e-12 W"
+    if nvh.accel_velocity is not None:
+        import h5py
+
+
+        a = g.create_group("accelerometers")
+        a["names"] = np.array(nvh.accel_names, dtype=h5py.string_dtype())
+        a["position"] = nvh.accel_position
+        a["direction"] = nvh.accel_direction
+        a["velocity"] = nvh.accel_velocity
+        a["velocity"].attrs["unit"] = "m/s"
+        a["velocity_level_db"] = velocity_level_db(nvh.accel_velocity)
+        a["velocity_order_db"] = 20 * np.log10(np.maximum(
+            np.abs(nvh.accel_velocity) / np.sqrt(2), V_REF * 1e-5) / V_REF)
+        a.attrs["reference_velocity"] = V_REF
+    if radiation is not None:
+        r = g.create_group("radiation")
+        r["W"] = radiation["W"]
+        r["W"].attrs["unit"] = "m^2"
+        for k in ("area", "n_facets", "part", "quadrature_degree"):
+            r.attrs[k] = radiation[k]
+
+
+def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
+    """``curves.csv``: one row per continuation point (atomic write)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["point", "speed_rpm", "mesh_load_std_N", "mesh_load_max_N",
+                "mesh_load_peak_to_peak_N", "erp_dB_re_1pW", "contact_class", "contact",
+                "stable"])
+    db = nvh.erp_total_db
+    mesh = branch.element(0)
+    for i in range(len(branch)):
+        cls = int(mesh.contact[i])
+        w.writerow([i, f"{branch.rpm[i]:.6f}", f"{mesh.mesh_load_std[i]:.8g}",
+                    f"{mesh.mesh_load_max[i]:.8g}", f"{nvh.mesh_load_ptp[i]:.8g}",
+                    "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
+                    int(bool(branch.stable[i]))])
+    path = Path(path)
+    with atomic_write(path, "w") as fh:
+        fh.write(buf.getvalue())
+    logger.info("wrote %s", path)
+    return path

@@ -1,0 +1,163 @@
+"""Export stage: ``results.h5`` (with the ROM's ``/rom`` group), the housing fields, PNG
+plots and ``report.md`` of a run."""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from study.outputs import fields
+from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.outputs.points import nearest_point
+from study.pipeline.parallel import world
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["write_partial", "export", "write_housing", "write_rom_group", "housing_fields",
+           "write_report_files", "write_attractor_files"]
+
+
+def _settings(result) -> dict:
+    c = result.scene.continuation
+    return {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+
+
+def _extra(result):
+    nvh = getattr(result, "nvh", None)
+    if result.rom is None and nvh is None:
+        return None
+
+    def extra(f) -> None:
+        if result.rom is not None:
+            write_rom_group(f, result)
+        if nvh is not None:
+            write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+    return extra
+
+
+def write_partial(result, branch) -> None:
+    """(Re)write results.h5 with the branch so far (checkpoint; atomic)."""
+    from study.outputs.results import write_results
+
+    write_results(result.results, result.scene, result.problem, branch,
+                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
+
+
+def export(result, figures: bool = True, housing: bool = True) -> None:
+    """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
+    fields, plots and report.md the scene asks for (``housing=False``: no housing
+    fields, e.g. for an incomplete curve).
+
+    Under mpirun (:mod:`study.pipeline.parallel`) rank 0 writes every file."""
+    comm = world()
+    result.nvh = compute_nvh(result)
+    comm.root_call(write_partial, result, result.branch)
+    logger.info("wrote %s", result.results)
+    comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
+                   result.nvh)
+    if housing:
+        write_housing(result, figures)
+    if figures:
+        comm.root_call(_figures, result)
+
+
+def write_housing(result, figures: bool = True) -> None:
+    """The housing fields the scene asks for (FE scenes, ``[outputs] housing_field_rpm``)
+    and, with ``figures`` and the ``housing`` plot, their renderings; collective under
+    mpirun (rank 0 writes)."""
+    if result.rom is None or not result.scene.outputs.housing_field:
+        return
+    paths = housing_fields(result)
+    result.figures += paths
+    if figures and "housing" in result.scene.outputs.plots:
+        world().root_call(_render, result, paths)
+
+
+def write_rom_group(f, result) -> None:
+    """Copy the cached ROM's dense datasets into results.h5 ``/rom`` (no basis) and
+    replace the coupled quantities by those of the run's k̄ and ξ."""
+    import h5py
+
+    rd = result.rom
+    with h5py.File(rd.folder / "rom.h5", "r") as src:
+        g = f.create_group("rom")
+        for k, v in src["rom"].attrs.items():
+            g.attrs[k] = v
+        for name in src["rom"]:
+            if name != "basis":
+                src.copy(src["rom"][name], g, name=name)
+    for name, val in (("C", rd.C), ("frequencies_hz", rd.frequencies_hz),
+                      ("mesh_energy", rd.mesh_energy)):
+        del g[name]
+        g[name] = val
+    g.attrs["km_mean"] = rd.km_mean
+    g.attrs["xi_run"] = result.scene.damping.modal_ratio
+
+
+def housing_fields(result) -> list[Path]:
+    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.outputs.fields):
+    time series of the dynamic displacement (no aliasing), complex amplitudes per order,
+    normal velocity and ERP density per order on the outer surface.
+
+    From the cached ROM alone (the radiating part's ``housing.h5`` and ``radiation.h5``
+    of the rom stage, :class:`machines.rom.RomData`): no FE model and no mesh file. Rank 0
+    writes; the files are the same whatever the number of ranks that reduced the model."""
+    return world().root_call(_write_housing_fields, result)
+
+
+def _write_housing_fields(result) -> list[Path]:
+    sc = result.scene
+    hd = result.rom.housing()
+    paths = []
+    for rpm in sc.outputs.housing_field:
+        _, pt = nearest_point(result, rpm)
+        qk = result.problem.recover(pt)                      # (n_r, nS) complex
+        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hd, result.rom.radiation,
+                                             qk, result.problem.harmonics, pt.omega, sc)
+    return paths
+
+
+def _render(result, paths: list[Path]) -> None:
+    from study.plots.render import render_housing_isolated
+    for x in paths:
+        if x.name.startswith(("housing_orders_", "housing_surface_")):
+            continue
+        png = render_housing_isolated(x, x.with_suffix(".png"))
+        if png is not None:
+            result.figures.append(png)
+
+
+def _figures(result) -> None:
+    from study.plots.figures import draw_all
+
+    result.figures += draw_all(result)
+    if result.scene.outputs.report:
+        write_report_files(result)
+    else:                       # time responses asked for are kept without report.md too
+        write_attractor_files(result)
+
+
+def write_attractor_files(result) -> None:
+    """The time responses at the unstable segments when the scene asks for them
+    (``[outputs] attractor_transient_turns``): ``result.attractors``, attractors.csv and
+    ``/attractors`` of results.h5."""
+    from study.outputs.attractors import attractors, write_attractors_csv, write_attractors_group
+
+    result.attractors = attractors(result)
+    if result.attractors:
+        write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
+        write_attractors_group(result.results, result.attractors)
+
+
+def write_report_files(result) -> Path:
+    """report.md, with the time responses at the unstable segments and their files
+    (:func:`write_attractor_files`)."""
+    from study.outputs import report
+
+    write_attractor_files(result)
+    p = report.write_report(result)
+    logger.info("wrote %s", p)
+    return p
+
+
+def out_path(result, name: str) -> Path:
+    return Path(result.out) / name

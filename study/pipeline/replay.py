@@ -1,0 +1,53 @@
+"""``geardyn report``: the export stage again from a finished run's ``results.h5``.
+
+The branch is read back (it must belong to the scene's inputs: the hbm stage key is
+compared), the HBM problem and, for FE scenes, the ROM come from the stage cache, and
+the plots, housing fields and ``report.md`` are written as the export stage writes them
+(:mod:`study.pipeline.export`); the continuation does not run.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from study.outputs.nvh import compute_nvh
+from study.outputs.results import read_branch
+from study.pipeline.export import write_housing, write_report_files
+from study.pipeline.parallel import mark_collective
+from study.pipeline.runs import RunResult
+from study.pipeline.stages import Pipeline
+from study.plots.figures import draw_all
+from study.scene.errors import SceneError
+from study.scene.load import load_scene
+
+__all__ = ["report_from_results"]
+
+
+def report_from_results(scene_path: Path, out: Path, overrides: dict | None = None,
+                        cache: str | None = None) -> RunResult:
+    """Plots and report.md from an existing ``OUT/results.h5`` (no continuation)."""
+    scene = load_scene(scene_path, overrides)
+    pipe = Pipeline(scene, out, cache_dir=cache, progress=False)
+    problem, rom = pipe.problem()
+    key = pipe.hbm_key()
+    path = Path(out) / "results.h5"
+    # read by every rank under mpirun: the same error everywhere
+    if not path.exists():
+        raise mark_collective(FileNotFoundError(f"{path}: no such file; run `geardyn run` "
+                                                "with this scene and --out first"))
+    br = read_branch(path, problem, expected_key=key)
+    if br is None:
+        raise mark_collective(SceneError(f"{path} holds no continuation of this scene's "
+                                         "inputs (model, harmonic set, speed range, --set "
+                                         "values or code version differ); run `geardyn run` "
+                                         "with them first"))
+    res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
+                    {"hbm": "from results.h5"}, pipe.keys, rom=rom)
+
+    def draw() -> None:
+        res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
+        res.figures += draw_all(res)
+        write_report_files(res)
+    if scene.scene.kind == "fe" and scene.outputs.housing_field:
+        write_housing(res)                          # from the cached ROM, rank 0 writes
+    pipe.comm.root_call(draw)                       # rank 0 writes the files
+    return res

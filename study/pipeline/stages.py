@@ -1,0 +1,418 @@
+"""The cached pipeline: mesh → fe → rom → hbm → export.
+
+Each stage is cached on disk (:mod:`study.cache`) under a key that hashes exactly
+the inputs it depends on plus the source code of the packages that compute it:
+
+========  =====================================================================
+stage     key inputs
+========  =====================================================================
+mesh      the machine's mesh inputs (the pump: ``[geometry]``, ``[mesh]``, gear face
+          width/tip radius, centre distance)
+fe        mesh key, the machine's FE inputs (the pump: ``[materials]``,
+          ``[bearings]``, ``[drive]``, ``[rotors]``, ``[links]``, gear data of G)
+          (key only: the FE model is rebuilt from the cached mesh when needed)
+rom       fe key, ``[rom]``
+hbm       rom key (FE) or the lumped machine's linear key (``[lumped]`` + gear),
+          mesh stiffness, TE, load, backlash, external, damping, ``[hbm]``,
+          ``[continuation]``
+export    never cached (writes ``results.h5``, plots and ``report.md``)
+========  =====================================================================
+
+The scene's machine (:func:`machines.machine_for`) says which stages it has, what each
+stage's key hashes (``Machine.stage_inputs``, ``Machine.stage_code``) and builds them
+(``FEMachine.build_mesh``, ``build_fe_model``, ``build_rom``; a lumped machine its
+linear model).
+
+So changing the torque, backlash, mesh stiffness or speed range reruns only the
+hbm stage (the ROM keeps the physical gear DOF, Sect. 5), while changing a wall
+thickness re-meshes. A lumped scene runs only hbm and export and never imports
+dolfinx, gmsh or petsc4py. The log says which stages ran and which came from cache.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.files import atomic_write
+from machines import FEMachine, machine_for
+from study.pipeline.cache import StageCache, source_hash, stage_key
+from study.pipeline.parallel import mark_collective, world
+from study.pipeline.progress import ProgressBar, StageBar
+from study.pipeline.runs import RunResult, SolverError, StageStatus
+from study.scene.data import Scene
+from study.scene.errors import SceneError, StageUnavailable
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["RunResult", "SolverError", "StageUnavailable", "StageStatus", "Pipeline",
+           "run_scene", "hbm_inputs"]
+
+
+def _require(*modules: str) -> None:
+    """Raise :class:`StageUnavailable` if a package a stage needs cannot be imported."""
+    import importlib
+
+    for m in modules:
+        try:
+            importlib.import_module(m)
+        except ImportError as exc:
+            raise StageUnavailable(f"package {m!r} is not available: {exc}") from exc
+
+
+def _asdict(x) -> dict:
+    return dataclasses.asdict(x)
+
+
+#: ``[continuation]`` fields that only steer the path finding: a partial run written with
+#: other values of them is resumed (``--resume``), the physics and harmonic set being equal.
+RESUMABLE_CONTROLS = ("step", "min_step", "max_step", "tolerance", "max_points",
+                      "checkpoint_every")
+
+
+def hbm_inputs(scene: Scene) -> dict[str, Any]:
+    """Exactly what the hbm stage depends on besides the linear model's key."""
+    return {"gear": _asdict(scene.gear), "mesh_stiffness": _asdict(scene.mesh_stiffness),
+            "transmission_error": _asdict(scene.transmission_error),
+            "load": _asdict(scene.load), "external": _asdict(scene.external),
+            "damping": _asdict(scene.damping), "hbm": _asdict(scene.hbm),
+            "continuation": {k: v for k, v in _asdict(scene.continuation).items()
+                             if k != "checkpoint_every"}}  # does not change the curve
+
+
+class Pipeline:
+    """Runs the stages of one scene into one output folder.
+
+    Parameters
+    ----------
+    scene : Scene
+        Validated scene.
+    out : path
+        Output folder (created).
+    cache_dir : path, optional
+        Stage cache (default ``<out>/../.geardyn-cache``, shared by sibling runs).
+    refresh : bool
+        Recompute every stage (cache lookups miss; entries are overwritten).
+    resume : bool
+        Continue an interrupted continuation from ``<out>/results.h5``.
+    progress : bool
+        Show tqdm progress bars (rank 0 only under mpirun).
+
+    Under ``mpirun -n N`` (see :mod:`study.parallel`) every rank builds a Pipeline:
+    the FE stages run distributed, meshing, cache bookkeeping, the continuation and
+    the files of the output folder on rank 0, and every rank gets the same result.
+    """
+
+    def __init__(self, scene: Scene, out: str | Path, cache_dir: str | Path | None = None,
+                 refresh: bool = False, resume: bool = False, progress: bool = True) -> None:
+        self.scene = scene
+        self.out = Path(out)
+        self.cache = StageCache(Path(cache_dir) if cache_dir else
+                                self.out.resolve().parent / ".geardyn-cache", enabled=not refresh)
+        self.resume = resume
+        self.comm = world()
+        self.progress = progress and self.comm.rank == 0
+        self.stages: dict[str, str] = {}            # stage -> StageStatus.text
+        self.status: dict[str, StageStatus] = {}    # stage -> how it was served
+        self.keys: dict[str, str] = {}
+        self.machine = machine_for(scene)
+        self._fe_model = None
+
+    # ------------------------------------------------------------------ helpers
+    def _log_stage(self, name: str, st: StageStatus, log: bool = True) -> None:
+        """Record (and log) how stage ``name`` was served; times of repeated runs add up."""
+        old = self.status.get(name)
+        if old is not None and old.state == "ran":
+            if st.state != "ran":
+                return  # a stage that ran in this run and is looked up again stays "ran"
+            if old.seconds is not None:
+                st = dataclasses.replace(st, seconds=old.seconds + (st.seconds or 0.0))
+        self.status[name] = st
+        self.stages[name] = st.text
+        if not log:
+            return
+        extra = f" in {st.seconds:.2f} s" if st.seconds is not None else ""
+        key = self.keys.get(name, "")
+        logger.info("stage %-6s %s%s%s", name, st.text, extra,
+                    f" [{key[:12]}]" if key else "")
+
+    # ------------------------------------------------------------------ FE stages
+    def _machine_key(self, stage: str, upstream: dict[str, str] | None = None) -> str:
+        """Key of ``stage``: the machine's inputs of it and the code computing it, plus the
+        key of the stage before it."""
+        m = self.machine
+        return stage_key(stage, {**(upstream or {}), **m.stage_inputs(stage)},
+                         source_hash(*m.stage_code(stage)))
+
+    def mesh_key(self) -> str:
+        return self._machine_key("mesh")
+
+    def fe_key(self) -> str:
+        return self._machine_key("fe", {"mesh": self.mesh_key()})
+
+    def rom_key(self) -> str:
+        return self._machine_key("rom", {"fe": self.fe_key()})
+
+    def run_mesh(self) -> Path:
+        """Mesh stage (FE scenes): the machine's cached mesh folder."""
+        _require("geometry", "gmsh")
+        key = self.keys["mesh"] = self.mesh_key()
+        hit = self.comm.root_call(self.cache.lookup, "mesh", key)
+        if hit is not None:
+            self._log_stage("mesh", StageStatus("cached", from_cache=True))
+            return hit
+        t = time.perf_counter()
+        with StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
+            d = self.comm.root_call(self.cache.store, "mesh", key, self.machine.build_mesh)
+        self._log_stage("mesh", StageStatus("ran", seconds=time.perf_counter() - t))
+        return d
+
+    def _publish(self, src: Path, name: str) -> Path:
+        """Copy a cached file to ``<out>/name`` atomically (rank 0 writes)."""
+        import shutil
+
+        def copy() -> Path:
+            target = self.out / name
+            with atomic_write(target) as tmp:
+                shutil.copyfile(src, tmp)
+            return target
+        return self.comm.root_call(copy)
+
+    def publish_mesh(self, mesh_dir: Path) -> Path:
+        """Copy the cached mesh file (the pump's ``pump.msh``) to ``<out>/mesh.msh``
+        (atomically) and log its size and quality (``geardyn mesh``)."""
+        from machines.fe import mesh_quality
+
+        target = self._publish(Path(mesh_dir) / self.machine.mesh_file, "mesh.msh")
+        q = mesh_quality(mesh_dir)
+        logger.info("mesh: %s — %d tets (10 nodes), %d nodes, %d P2 DOF; min SICN %.3g, "
+                    "%d elements below SICN %.3g", target, q["n_elements"], q["n_nodes"],
+                    q["n_dofs"], q["min_sicn"], q["n_poor"], q["poor_threshold"])
+        return target
+
+    def publish_rom(self, rom_dir: Path) -> Path:
+        """Copy the cached ``rom.h5`` (dense ROM and basis, docs/results-format.md) to
+        ``<out>/rom.h5`` atomically (``geardyn reduce``)."""
+        target = self._publish(Path(rom_dir) / "rom.h5", "rom.h5")
+        logger.info("ROM: %s (%.1f MB)", target, target.stat().st_size / 1e6)
+        return target
+
+    def run_rom(self) -> Path:
+        """fe + rom stages (FE scenes): the FE model is built only when the ROM misses."""
+        _require("reduction", "h5py")
+        self.keys["fe"] = self.fe_key()
+        key = self.keys["rom"] = self.rom_key()
+        hit = self.comm.root_call(self.cache.lookup, "rom", key)
+        if hit is not None:
+            self.keys["mesh"] = self.mesh_key()
+            for st in ("mesh", "fe"):
+                self._log_stage(st, StageStatus("skipped", "rom cached", from_cache=True))
+            self._log_stage("rom", StageStatus("cached", from_cache=True))
+            return hit
+        mesh_dir = self.run_mesh()
+        t = time.perf_counter()
+        with StageBar("fe (assembly)", self.progress):
+            model = self.machine.build_fe_model(mesh_dir)
+        self._log_stage("fe", StageStatus("ran", seconds=time.perf_counter() - t))
+        t = time.perf_counter()
+        with StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
+            d = self.cache.store("rom", key, lambda tmp: self.machine.build_rom(model, tmp),
+                                 comm=self.comm)
+        self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
+        return d
+
+    # ------------------------------------------------------------------ hbm
+    def problem(self):
+        """The HBM problem and (FE) the ROM it was built from."""
+        from study.pipeline.model import build_problem
+
+        m = self.machine
+        if isinstance(m, FEMachine):
+            rom = m.load_rom(self.run_rom())
+            return build_problem(self.scene, m, m.linear_model(rom)), rom
+        self.keys.setdefault("linear", self._machine_key("linear"))
+        return build_problem(self.scene, m, m.linear_model()), None
+
+    def hbm_key(self) -> str:
+        lin = self.keys[self.machine.linear_stage]
+        return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
+                         source_hash("hbm", "study.pipeline.model", "study.outputs.results"))
+
+    def hbm_resume_key(self) -> str:
+        """Key of what a resumed continuation must share with the partial run: the hbm key
+        without the continuation controls (:data:`RESUMABLE_CONTROLS`)."""
+        lin = self.keys[self.machine.linear_stage]
+        inputs = hbm_inputs(self.scene)
+        inputs["continuation"] = {k: v for k, v in inputs["continuation"].items()
+                                  if k not in RESUMABLE_CONTROLS}
+        return stage_key("hbm_resume", {"linear": lin, **inputs},
+                         source_hash("hbm", "study.pipeline.model", "study.outputs.results"))
+
+    def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
+        """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
+        from hbm import trace
+        from study.outputs.results import Checkpointer, read_branch, stored_key
+
+        key = self.keys["hbm"] = self.hbm_key()
+        hit = self.cache.lookup("hbm", key)
+        if hit is not None:
+            br = read_branch(hit / "branch.h5", problem)
+            if br is not None and br.status == "completed":
+                self._log_stage("hbm", StageStatus("cached", from_cache=True))
+                return br, "cached"
+        c = self.scene.continuation
+        lo, hi = c.speed
+        span = hi - lo
+        resume, same = None, True
+        results = self.out / "results.h5"
+        rkey = self.keys["hbm_resume"] = self.hbm_resume_key()
+        if self.resume:
+            resume = read_branch(results, problem, expected_key=rkey,
+                                 key_name="stage_key_hbm_resume")
+            if resume is None and stored_key(results, "stage_key_hbm_resume") not in ("", rkey):
+                logger.warning("%s was written for another model, harmonic set, speed range "
+                               "or code version (only the continuation steps/tolerance may "
+                               "change); not resuming from it", results)
+            if resume is not None and len(resume) and np.max(resume.residual) >= c.tolerance:
+                logger.warning("--resume: the points in %s have residuals up to %.3g, above "
+                               "continuation.tolerance = %g; starting from %g rpm", results,
+                               np.max(resume.residual), c.tolerance, lo)
+                resume = None
+            if resume is None:
+                logger.warning("--resume: no matching partial run in %s; starting from %g rpm",
+                               results, lo)
+            else:
+                logger.info("resuming from point %d at %.6g rpm (%s)", len(resume),
+                            resume.rpm[-1], resume.status)
+                same = stored_key(results, "stage_key_hbm") == key
+                if not same:    # steps/tolerance changed: go on with this call's step
+                    resume = dataclasses.replace(resume, next_step=0.0)
+                    logger.warning("--resume with other continuation steps or tolerance than "
+                                   "the partial run: going on with continuation.step_rpm = "
+                                   "%g; the curve is not cached (a fresh run with these "
+                                   "settings traces other points)", c.step)
+        bar = ProgressBar(lo, hi, self.progress)
+        ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
+        t = time.perf_counter()
+        try:
+            br = trace(problem, lo, hi, step=c.step / span, min_step=c.min_step / span,
+                       max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
+                       on_point=ck, resume=resume, stability=self.scene.hbm.stability)
+        finally:
+            bar.close()
+        dt = time.perf_counter() - t
+        how = "resumed" if resume is not None else "ran"
+        self._log_stage("hbm", StageStatus(how, seconds=dt))
+        logger.info("continuation: %d points, %s (%s); %d checkpoints", len(br), br.status,
+                    br.message, ck.n_written)
+        if br.status == "completed" and len(br) > 0:
+            if np.max(br.residual) >= c.tolerance:
+                raise SolverError(f"continuation returned a point with residual "
+                                  f"{np.max(br.residual):.3g} >= tolerance {c.tolerance:g}")
+
+            def produce(tmp: Path) -> None:
+                import h5py
+
+                from study.outputs.results import write_branch
+                with h5py.File(tmp / "branch.h5", "w") as f:
+                    write_branch(f, br)
+            if resume is None or same:  # a resumed entry's cost is unknown (None)
+                self.cache.store("hbm", key, produce, {"points": len(br)},
+                                 elapsed=dt if resume is None else None)
+        return br, how
+
+    # ------------------------------------------------------------------ all
+    def run(self, *, until: str = "export") -> RunResult:
+        """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
+        from study.pipeline.export import export, write_partial
+
+        t0 = time.perf_counter()
+        s = self.scene
+        logger.info("scene %r (%s) -> %s", s.name, s.scene.kind, self.out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        if not self.machine.stages:
+            if until in ("mesh", "rom"):
+                raise SceneError(f"scene.kind = {s.scene.kind!r}: there is no {until} stage "
+                                 "(only hbm and export)")
+            for st in ("mesh", "fe", "rom"):
+                self._log_stage(st, StageStatus("skipped", f"{s.scene.kind} scene",
+                                                applies=False))
+        elif until == "mesh":
+            self.publish_mesh(self.run_mesh())
+            return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
+                             self.keys, seconds=time.perf_counter() - t0)
+        elif until == "rom":
+            self.publish_rom(self.run_rom())
+            return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
+                             self.keys, seconds=time.perf_counter() - t0)
+        problem, rom = self.problem()
+        from study.outputs.fields import check_outputs
+        check_outputs(s, problem.harmonics, rom)
+        self.keys.setdefault("hbm", self.hbm_key())
+        result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
+                           self.keys, rom=rom)
+
+        def checkpoint(branch) -> None:
+            write_partial(result, branch)
+
+        # the continuation is serial and cheap: rank 0 runs it (and writes the checkpoints),
+        # every rank gets the branch
+        branch, how = self.comm.root_call(self.run_hbm, problem, checkpoint)
+        if "hbm" not in self.status:  # ranks other than 0 (the continuation ran on rank 0)
+            self._log_stage("hbm", StageStatus(how, from_cache=how == "cached"), log=False)
+        result.branch = branch
+        if branch.status != "completed":
+            self.comm.root_call(write_partial, result, branch)
+            self.comm.root_call(_partial_curves, result)
+            how = StageStatus("partial", "results.h5 and curves.csv only")
+            if until == "export" and len(branch) >= 2:
+                # keep and plot what was computed: plots and report.md say it is incomplete
+                try:
+                    export(result, figures=True, housing=False)
+                    how = StageStatus("partial", "results.h5, curves.csv, plots, report.md: "
+                                      "incomplete curve")
+                except Exception as exc:  # noqa: BLE001 - the solver failure is what matters
+                    logger.warning("plots of the partial curve failed: %s", exc)
+            self._log_stage("export", how)
+            raise mark_collective(SolverError(
+                f"continuation stopped before {s.continuation.speed[1]:g} rpm "
+                f"({branch.status}): {branch.message} (results.h5 holds {len(branch)} points; "
+                "rerun with --resume after changing the continuation steps/tolerance — a run "
+                f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
+                "point, or, after a walk back or a closed loop it could not leave, from the "
+                "point before the speeds where it was caught)", result))
+        t = time.perf_counter()
+        # listed in report.md, written during export
+        self._log_stage("export", StageStatus("ran"), log=False)
+        export(result, figures=(until == "export"))
+        self._log_stage("export", StageStatus("ran", seconds=time.perf_counter() - t))
+        result.seconds = time.perf_counter() - t0
+        ran = [k if v == "ran" else f"{k} (resumed)" for k, v in self.stages.items()
+               if v in ("ran", "resumed")]
+        cached = [k for k, v in self.stages.items() if v == "cached"]
+        logger.info("done in %.2f s; ran: %s; from cache: %s", result.seconds,
+                    ", ".join(ran) or "-", ", ".join(cached) or "-")
+        return result
+
+
+def _partial_curves(result) -> None:
+    """curves.csv of a continuation that stopped early (the points so far); a failure
+    here is logged, never raised over the solver error being reported."""
+    from study.outputs.nvh import compute_nvh, write_curves_csv
+
+    if len(result.branch) == 0:
+        return
+    try:
+        write_curves_csv(result.out / "curves.csv", result.branch, compute_nvh(result))
+    except Exception as exc:  # noqa: BLE001 - the solver error is what the user needs
+        logger.warning("curves.csv of the partial branch not written: %s", exc)
+
+
+def run_scene(scene: Scene, out: str | Path, **kwargs) -> RunResult:
+    """Run a validated scene (see :class:`Pipeline`)."""
+    until = kwargs.pop("until", "export")
+    return Pipeline(scene, out, **kwargs).run(until=until)

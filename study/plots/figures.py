@@ -1,0 +1,62 @@
+"""The figures of a run: :func:`draw_all` draws the PNG plots the scene's ``[outputs]
+plots`` asks for, each by the module of what it draws (:mod:`study.plots`).
+
+Units on the plots: rpm, µm, N, Hz.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from study.outputs.points import nearest_point, time_series_speeds
+from study.plots.modes import order_map_plot, rom_plots
+from study.plots.point import spectrum_plot, time_series_plot
+from study.plots.speed import accelerometer_plot, erp_plot, forced_response
+
+__all__ = ["draw_all"]
+
+
+def draw_all(result) -> list[Path]:
+    """All plots the scene's ``[outputs] plots`` asks for; returns the PNG paths."""
+    want = set(result.scene.outputs.plots)
+    out = Path(result.out)
+    br, pb = result.branch, result.problem
+    paths: list[Path] = []
+    name = result.scene.name
+    if "forced_response" in want:
+        paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
+    speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
+    for rpm in speeds:
+        i, pt = nearest_point(result, rpm)
+        tag = f"{pt.rpm:.0f}rpm"
+        cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[
+            int(br.element(0).contact[i])]
+        if "time_series" in want:
+            paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
+                                          f"{name}: {pt.rpm:.1f} rpm, {cls}"))
+        if "spectrum" in want:
+            paths.append(spectrum_plot(pb, pt, out / f"spectrum_{tag}.png"))
+    nvh = getattr(result, "nvh", None)
+    z = result.scene.gear.teeth
+    if nvh is not None and "order_maps" in want and len(br) > 0:
+        ml = 20 * np.log10(np.maximum(nvh.mesh_load_amplitude, 1e-30) / 1.0)
+        modes = result.rom.frequencies_hz if result.rom is not None else None
+        paths.append(order_map_plot(br.rpm, nvh.orders, ml, z, out / "order_map_mesh_load.png",
+                                    "mesh-load amplitude, dB re 1 N",
+                                    f"{name}: mesh load per order", modes))
+        if nvh.erp is not None:
+            paths.append(order_map_plot(br.rpm, nvh.orders, nvh.erp_db, z,
+                                        out / "order_map_erp.png", "ERP, dB re 1 pW",
+                                        f"{name}: housing ERP per order", modes))
+    if nvh is not None and nvh.erp is not None and "erp" in want and len(br) > 0:
+        paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
+                              out / "erp.png", f"{name}: equivalent radiated power"))
+    if nvh is not None and nvh.accel_velocity is not None and "accelerometers" in want \
+            and len(br) > 0:
+        paths.append(accelerometer_plot(br, nvh.accel_names, nvh.accel_velocity, nvh.orders, z,
+                                        out / "accelerometers.png",
+                                        f"{name}: virtual accelerometers"))
+    if result.rom is not None:
+        paths += rom_plots(result, want)
+    return paths

@@ -1,0 +1,293 @@
+"""The data of a validated scene: frozen dataclasses in SI units.
+
+Attribute names are the scene file's keys without their unit suffix. Built by
+:mod:`study.scene.load`; everything downstream (models, stages, outputs) reads a
+scene through these types only. Imports nothing of :mod:`study`; the gear geometry
+and the Fourier series of the mesh come from :mod:`gears`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gears.excitation import fourier_sample
+from gears.pair import GearPair, contact_path_length
+
+__all__ = ["Scene", "SceneInfo", "GearData", "FourierSeries", "MeshStiffness",
+           "TransmissionError", "LoadData", "AeroLoad", "Unbalance", "ExternalData",
+           "DampingData", "LumpedData", "RomData", "HbmData", "ContinuationData",
+           "OutputsData", "AcousticsData", "Accelerometer"]
+
+
+@dataclass(frozen=True)
+class SceneInfo:
+    """``[scene]``: name, kind (``lumped`` or ``fe``) and description."""
+
+    name: str
+    kind: str
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class GearData:
+    """``[gear]`` in SI: radii (m), angles (rad), half backlash (m)."""
+
+    teeth: int
+    base_radius: float
+    module: float
+    pressure_angle: float
+    helix_angle: float
+    face_width: float
+    addendum_coef: float
+    dedendum_coef: float
+    profile_shift: float
+    backlash: float
+
+    @property
+    def pitch_radius(self) -> float:
+        """Pitch radius r = r_b / cos α (m)."""
+        return self.base_radius / math.cos(self.pressure_angle)
+
+    @property
+    def centre_distance(self) -> float:
+        """Centre distance a = 2 r (m), ratio 1:1."""
+        return 2.0 * self.pitch_radius
+
+    @property
+    def tip_radius(self) -> float:
+        """Tip radius r_a = r + (h_a + x) m (m)."""
+        return self.pitch_radius + (self.addendum_coef + self.profile_shift) * self.module
+
+    @property
+    def contact_ratio(self) -> float:
+        """Transverse contact ratio ε_α = g_α / (π m cos α) of the pair (spur, ratio 1:1,
+        standard centre distance; g_α of :func:`gears.pair.contact_path_length`)."""
+        rb, ra, alpha = self.base_radius, self.tip_radius, self.pressure_angle
+        path = contact_path_length((ra, ra), (rb, rb), self.centre_distance, alpha)
+        return path / (math.pi * self.module * math.cos(alpha))
+
+    def pair(self) -> GearPair:
+        """The pair as a :class:`gears.pair.GearPair` (1:1, this module, both gears'
+        profile shift). Its radii follow the module; those above follow r_b, as the
+        dynamics do (Table 1): they agree when ``module_mm`` is omitted (to rounding)."""
+        x = self.profile_shift
+        return GearPair(teeth=(self.teeth, self.teeth), module=self.module,
+                        pressure_angle=self.pressure_angle, face_width=self.face_width,
+                        helix_angle=self.helix_angle, profile_shift=(x, x),
+                        addendum_coef=self.addendum_coef, dedendum_coef=self.dedendum_coef)
+
+
+@dataclass(frozen=True)
+class FourierSeries:
+    """x(θ) = x̄ + Σ_k a_k cos(k θ + φ_k), θ the mesh angle Z Ω t (SI values, rad).
+
+    The one periodic-data type of a scene: :class:`MeshStiffness` and
+    :class:`TransmissionError` are this series; ``estimated`` marks a series computed
+    from the gear data instead of read from the file.
+    """
+
+    mean: float
+    amplitudes: tuple[float, ...]
+    phases: tuple[float, ...]
+    estimated: bool = False
+
+    def coefficients(self) -> dict[int, complex]:
+        """Complex one-sided coefficients per mesh harmonic, {0: x̄, k: a_k e^{iφ_k}}."""
+        out: dict[int, complex] = {0: complex(self.mean)}
+        for k, (a, p) in enumerate(zip(self.amplitudes, self.phases, strict=True), start=1):
+            out[k] = complex(a * np.exp(1j * p))
+        return out
+
+    def minimum(self) -> float:
+        """Lower bound x̄ − Σ|a_k| of x(θ)."""
+        return self.mean - float(sum(self.amplitudes))
+
+    def sample(self, n: int) -> np.ndarray:
+        """Values at θ = 2π j/n, j = 0 … n − 1 (one mesh period;
+        :func:`gears.excitation.fourier_sample`)."""
+        return fourier_sample(self.mean, self.amplitudes, self.phases, n)
+
+
+@dataclass(frozen=True)
+class MeshStiffness(FourierSeries):
+    """Mesh stiffness k_m(t) = k̄ + Σ_k a_k cos(k Z Ω t + φ_k) (eq. 16), N/m and rad."""
+
+
+@dataclass(frozen=True)
+class TransmissionError(FourierSeries):
+    """Transmission error (m, rad); ``kind`` is ``loaded`` (STE q_s) or ``unloaded`` (e)."""
+
+    kind: str = "loaded"
+
+
+@dataclass(frozen=True)
+class LoadData:
+    """``[load]``: input torque T (N·m)."""
+
+    torque: float
+
+
+@dataclass(frozen=True)
+class AeroLoad:
+    """One aerodynamic harmonic on a shaft station (eq. 1): A cos(order Ω t + φ)."""
+
+    shaft: str
+    station: int | None
+    order: int
+    force: tuple[float, float, float]
+    torque: tuple[float, float, float]
+    phase: float
+
+
+@dataclass(frozen=True)
+class Unbalance:
+    """Mass unbalance m·e (kg·m) on a shaft, rotating force of eq. (2–3) with a phase (rad)."""
+
+    shaft: str
+    m_unb: float
+    phase: float
+
+
+@dataclass(frozen=True)
+class ExternalData:
+    """``[external]``: aerodynamic harmonics and unbalances."""
+
+    aero: tuple[AeroLoad, ...] = ()
+    unbalance: tuple[Unbalance, ...] = ()
+
+    @property
+    def orders(self) -> tuple[int, ...]:
+        """Sorted shaft orders present in the external excitation."""
+        o = {a.order for a in self.aero} | ({1} if self.unbalance else set())
+        return tuple(sorted(o))
+
+    @property
+    def present(self) -> bool:
+        return bool(self.aero or self.unbalance)
+
+
+@dataclass(frozen=True)
+class DampingData:
+    """``[damping]``: modal damping ratio ξ."""
+
+    modal_ratio: float
+
+
+@dataclass(frozen=True)
+class LumpedData:
+    """``[lumped]``: single-DOF model data, SI."""
+
+    model: str
+    equivalent_mass: float | None
+    inertia: tuple[float, ...] | None
+    density: float
+
+
+@dataclass(frozen=True)
+class RomData:
+    """``[rom]``: number of fixed-interface modes or a cut-off frequency (Hz)."""
+
+    n_cm: int
+    cutoff: float | None
+    n_check: int = 30
+    factorization: str = "cholesky"
+    out_of_core: bool = False
+
+
+@dataclass(frozen=True)
+class HbmData:
+    """``[hbm]``: harmonic set and AFT settings."""
+
+    mesh_harmonics: int
+    sideband_order: int
+    harmonics: tuple[int, ...] | None
+    harmonic_set: str
+    aft_samples: int
+    condensation: str
+    stability: bool = True
+    linear_solver: str = "auto"
+
+
+@dataclass(frozen=True)
+class ContinuationData:
+    """``[continuation]``: speed range and steps in rpm, tolerance, checkpoints."""
+
+    speed: tuple[float, float]
+    step: float
+    min_step: float
+    max_step: float
+    tolerance: float
+    max_points: int
+    checkpoint_every: int
+
+
+@dataclass(frozen=True)
+class AcousticsData:
+    """``[acoustics]``: air density (kg/m³) and speed of sound (m/s) of the ERP."""
+
+    air_density: float = 1.2
+    sound_speed: float = 343.0
+
+
+@dataclass(frozen=True)
+class Accelerometer:
+    """``[[outputs.accelerometer]]``: name, position (m), direction (zero: surface normal)."""
+
+    name: str
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class OutputsData:
+    """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm), per-order
+    field orders, housing time-series sampling, virtual accelerometers, time integration
+    at unstable segments (turns left out, turns analysed)."""
+
+    plots: tuple[str, ...]
+    time_series: tuple[float, ...]
+    housing_field: tuple[float, ...]
+    report: bool
+    field_orders: tuple[int, ...] = ()
+    housing_frames_per_mesh_period: int = 0
+    housing_mesh_periods: int = 4
+    accelerometers: tuple[Accelerometer, ...] = ()
+    attractor_transient_turns: int = 0
+    attractor_window_turns: int = 8
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene in SI units. ``raw`` is the parsed file (for hashing/records)."""
+
+    scene: SceneInfo
+    gear: GearData
+    mesh_stiffness: MeshStiffness
+    transmission_error: TransmissionError
+    load: LoadData
+    external: ExternalData
+    damping: DampingData
+    lumped: LumpedData
+    rom: RomData
+    hbm: HbmData
+    continuation: ContinuationData
+    outputs: OutputsData
+    fe: dict = field(default_factory=dict)
+    raw: dict = field(default_factory=dict, compare=False, repr=False)
+    text: str = field(default="", compare=False, repr=False)
+    acoustics: AcousticsData = field(default_factory=AcousticsData)
+    #: ``[calibration]``: paper.md row key -> what the scene fitted to that finding (only
+    #: the rows it declares)
+    calibration: dict[str, str] = field(default_factory=dict, compare=False)
+
+    @property
+    def static_load(self) -> float:
+        """Static mesh load F_s = T / r_b1 (N)."""
+        return self.load.torque / self.gear.base_radius
+
+    @property
+    def name(self) -> str:
+        return self.scene.name
+

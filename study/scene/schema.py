@@ -1,0 +1,279 @@
+"""The scene file schema: one :class:`Spec` per key, section by section (:data:`SCHEMA`).
+
+The bottom of the scene layers (above :mod:`core.units`): what each key of a scene
+file is, its type, default, allowed range, unit suffix and meaning. The one checker
+that applies it is :mod:`study.scene.check`; the unit factors come from the one unit
+table :data:`core.units.TO_SI`. ``docs/scenes.md`` lists the schema
+(:func:`schema_markdown`; a test checks every key is there).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from core.errors import range_text
+from core.units import TO_SI
+
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
+           "attr_name", "schema_markdown"]
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One scene field: type, default, allowed range, unit and documentation.
+
+    ``kind`` is one of ``float``, ``int``, ``bool``, ``str``, ``choice``, ``floats``
+    (list of floats), ``ints`` (list of ints), ``vec3`` (3 floats), ``pair`` (2
+    increasing floats) or ``table`` (free table, validated by the stage that uses it).
+    """
+
+    kind: str
+    default: Any = None
+    unit: str = ""
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple = ()
+    doc: str = ""
+    required: bool = False
+
+    def range_text(self) -> str:
+        if self.kind == "choice":
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        return range_text(self.lo, self.hi, lo_open=self.lo_open, hi_open=self.hi_open)
+
+
+def _f(default=None, unit="", lo=None, hi=None, lo_open=False, hi_open=False, doc="",
+       kind="float", required=False):
+    return Spec(kind, default, unit, lo, hi, lo_open, hi_open, (), doc, required)
+
+
+def _c(default, choices, doc=""):
+    return Spec("choice", default, "", None, None, False, False, tuple(choices), doc)
+
+
+PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
+              "order_maps", "erp", "accelerometers")
+FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
+
+#: The findings of the paper that ``paper.md`` compares, by the key of
+#: :data:`study.studies.paper.findings.PAPER` (a test checks the two agree): the keys of a scene's
+#: ``[calibration]``, which says which of them the scene's parameters were fitted to.
+CALIBRATION_ROWS = {
+    "static_load": "static mesh load F_s",
+    "mesh_mode": "mode with most mesh energy (Fig. 8)",
+    "resonances": "resonance speeds (Fig. 14)",
+    "grazing": "grazing speeds (Fig. 14)",
+    "windows": "permanent-contact windows",
+    "primary_peak": "primary-peak change, internal only → all (Fig. 12)",
+    "primary_jumps": "amplitude jumps at the primary peak (Fig. 12)",
+    "span_change": "vibro-impact span change (Fig. 13)",
+    "ipp_1700": "IPP sequence at 1700 rpm (Fig. 17)",
+    "ipp_1070": "IPP sequence at 1070 rpm (Fig. 18)",
+    "ipp_6875": "IPP sequence at 6875 rpm (Fig. 16)",
+    "h2_speed": "response at 6875 rpm: DTE and mesh-load harmonics (Fig. 16)",
+    "peak_to_peak": "mesh-load peak-to-peak, 2970 → 6875 rpm",
+    "impact_loads": "impact loads over a turn at 2970 rpm (Fig. 15b)",
+    "dte_modulation": "slow DTE modulation at 2970 rpm (Fig. 15d)",
+}
+
+#: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
+#: sections (``external.aero``, ``external.unbalance``) have their own entries.
+SCHEMA: dict[str, dict[str, Spec]] = {
+    "scene": {
+        "name": Spec("str", None, doc="scene name (default: the file stem)"),
+        "kind": _c("lumped", ("lumped", "fe"), "`lumped`: single-DOF gear pair, no FE; "
+                   "`fe`: geometry → FE → ROM"),
+        "description": Spec("str", "", doc="free text"),
+    },
+    "gear": {
+        "teeth": _f(76, lo=5, hi=1000, kind="int",
+                    doc="number of teeth Z of each gear (ratio 1:1)"),
+        "base_radius_mm": _f(46.984, "mm", 0, 10_000, lo_open=True, doc="base radius r_b"),
+        "module_mm": _f(None, "mm", 0, 1000, lo_open=True,
+                        doc="module; if given, must agree with 2 r_b/(Z cos α) to 1 %"),
+        "pressure_angle_deg": _f(20.0, "deg", 5, 45, doc="normal pressure angle α"),
+        "helix_angle_deg": _f(0.0, "deg", 0, 45, hi_open=True, doc="helix angle β"),
+        "face_width_mm": _f(20.0, "mm", 0, 10_000, lo_open=True, doc="face width b_f"),
+        "addendum_coef": _f(1.0, "", 0.5, 1.5, doc="addendum coefficient h_a"),
+        "dedendum_coef": _f(1.25, "", 0.5, 2.0, doc="dedendum coefficient h_d (> h_a)"),
+        "profile_shift": _f(0.0, "", -1.0, 1.0, doc="profile shift coefficient x (both gears)"),
+        "backlash_um": _f(40.0, "um", 0, 1e5, lo_open=True, doc="half backlash b"),
+    },
+    "mesh_stiffness": {
+        "estimate": Spec("bool", False, doc="estimate from geometry and load (ISO 6336-1)"),
+        "mean_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, doc="mean mesh stiffness k̄_m"),
+        "amplitudes_N_per_um": _f([], "N_per_um", 0, 1e7, kind="floats",
+                                  doc="amplitude of mesh harmonic k = 1, 2, …"),
+        "phases_deg": _f([], "deg", -360, 360, kind="floats", doc="phase of each mesh harmonic"),
+        "n_harmonics": _f(3, "", 1, 20, kind="int", doc="harmonics kept by the estimate"),
+        "cm": _f(0.8, "", 0.1, 1.0, doc="ISO 6336 correction C_M of the estimate"),
+    },
+    "transmission_error": {
+        "kind": _c("loaded", ("loaded", "unloaded"),
+                   "`loaded`: static TE q_s under F_s (paper's STE); `unloaded`: geometric e(t)"),
+        "estimate": Spec("bool", False, doc="loaded STE of perfect teeth, q_s = F_s/k_m(t)"),
+        "mean_um": _f(0.0, "um", -1e5, 1e5, doc="mean value"),
+        "amplitudes_um": _f([], "um", 0, 1e5, kind="floats",
+                            doc="amplitude of mesh harmonic k = 1, 2, …"),
+        "phases_deg": _f([], "deg", -360, 360, kind="floats", doc="phase of each mesh harmonic"),
+    },
+    "load": {
+        "torque_Nm": _f(2.5, "Nm", 0, 1e7, doc="input torque T; static load F_s = T/r_b1"),
+    },
+    "external.aero": {
+        "shaft": _c(None, ("in", "out"), "shaft the load acts on"),
+        "station": _f(None, "", 1, 6, kind="int",
+                      doc="station 1–6 along the shaft (FE); omit for the gear (lumped)"),
+        "order": _f(None, "", 1, 200, kind="int", doc="shaft order (harmonic of Ω)", required=True),
+        "force_N": _f([0.0, 0.0, 0.0], "N", -1e9, 1e9, kind="vec3", doc="force amplitude (x,y,z)"),
+        "torque_Nm": _f([0.0, 0.0, 0.0], "Nm", -1e9, 1e9, kind="vec3",
+                        doc="torque amplitude (x,y,z)"),
+        "phase_deg": _f(0.0, "deg", -360, 360, doc="phase φ: f(t) = A cos(order Ω t + φ)"),
+    },
+    "external.unbalance": {
+        "shaft": _c(None, ("in", "out"), "shaft"),
+        "m_unb_kgm": _f(None, "kgm", 0, 10, lo_open=True, doc="unbalance m·e", required=True),
+        "phase_deg": _f(0.0, "deg", -360, 360, doc="phase of the rotating force (eq. 2–3)"),
+    },
+    "damping": {
+        "modal_ratio": _f(0.05, "", 0, 1, hi_open=True, lo_open=True,
+                          doc="modal damping ratio ξ of every mode (eq. 18–19)"),
+    },
+    "lumped": {
+        "model": _c("sdof", ("sdof",), "lumped model: single-DOF on the line of action"),
+        "equivalent_mass_kg": _f(None, "kg", 0, 1e6, lo_open=True,
+                                 doc="m_e; default from the inertias"),
+        "inertia_kgm2": _f(None, "kgm2", 0, 1e6, lo_open=True, kind="floats",
+                           doc="[I1, I2]; default: steel disks of pitch radius and face width"),
+        "density_kg_per_m3": _f(7800.0, "kg_per_m3", 0, 1e5, lo_open=True,
+                                doc="disk density for the default inertias"),
+    },
+    "rom": {
+        "n_cm": _f(250, "", 1, 5000, kind="int", doc="fixed-interface modes kept"),
+        "cutoff_Hz": _f(None, "Hz", 0, 1e7, lo_open=True,
+                        doc="keep modes below this frequency instead of n_cm"),
+        "n_check": _f(30, "", 0, 5000, kind="int",
+                      doc="coupled modes compared with the full model (Fig. 9); 0: skip"),
+        "factorization": _c("cholesky", ("lu", "cholesky"),
+                            "MUMPS factorisation of K_ii in the Craig–Bampton eigen-solve: "
+                            "`cholesky` (LDLᵀ, K_ii is symmetric positive definite) gives the "
+                            "same modes as `lu` (1e-13) with half the factor entries and less "
+                            "time (docs/scale.md)"),
+        "out_of_core": Spec("bool", False,
+                            doc="MUMPS factor of K_ii out of core (ICNTL(22) = 1): written to "
+                                "the folder `$MUMPS_OOC_TMPDIR` (default /tmp; must exist and be "
+                                "writable), only the active fronts stay in memory; same modes, "
+                                "~10 % more time (docs/scale.md)"),
+    },
+    "hbm": {
+        "mesh_harmonics": _f(3, "", 1, 200, kind="int", doc="mesh harmonics kZ, k = 1…n"),
+        "sideband_order": _f(0, "", 0, 50, kind="int", doc="sidebands kZ ± e combination order"),
+        "harmonic_set": _c("combinations", ("combinations", "bands", "contiguous"),
+                           "how the builder fills the sidebands: the order-s combinations, "
+                           "every index within their reach, or all indices (docs/convergence.md)"),
+        "harmonics": _f(None, "", 0, 100_000, kind="ints",
+                        doc="explicit harmonic set (must contain 0); overrides the builder"),
+        "aft_samples": _f(0, "", 0, 1 << 20, kind="int", doc="AFT time samples (0: automatic)"),
+        "condensation": _c("loa", ("loa", "gear", "none"), "exact condensation level"),
+        "linear_solver": _c("auto", ("auto", "dense", "krylov"),
+                            "Newton matrices: dense LU, or matrix-free GMRES (loa; 'auto' from "
+                            "400 real unknowns on; docs/hbm.md)"),
+        "stability": Spec("bool", True, doc="stability of every point (variational "
+                          "equation, every mode; docs/theory.md §11)"),
+    },
+    "continuation": {
+        "speed_rpm": _f([500.0, 8000.0], "rpm", 0, 1e6, lo_open=True, kind="pair",
+                        doc="[start, end] shaft speed, start < end"),
+        "step_rpm": _f(None, "rpm", 0, 1e6, lo_open=True, doc="initial step (default: range/200)"),
+        "min_step_rpm": _f(None, "rpm", 0, 1e6, lo_open=True,
+                           doc="smallest step (default: range/1e5)"),
+        "max_step_rpm": _f(None, "rpm", 0, 1e6, lo_open=True,
+                           doc="largest step (default: range/50)"),
+        "tolerance": _f(1e-8, "", 1e-14, 1e-2, doc="relative residual tolerance of each point"),
+        "max_points": _f(20_000, "", 2, 10_000_000, kind="int", doc="maximum points"),
+        "checkpoint_every": _f(20, "", 1, 1_000_000, kind="int",
+                               doc="points between checkpoints in results.h5"),
+    },
+    "acoustics": {
+        "air_density_kg_per_m3": _f(1.2, "kg_per_m3", 0, 100, lo_open=True,
+                                    doc="density ρ of the air the housing radiates into (ERP)"),
+        "sound_speed_m_per_s": _f(343.0, "m_per_s", 0, 1e4, lo_open=True,
+                                  doc="speed of sound c of that air (ERP = ½ ρ c Σ v_n² A)"),
+    },
+    "outputs": {
+        "plots": Spec("strs", list(PLOT_NAMES),
+                      doc="plots to draw, among " + ", ".join(PLOT_NAMES)),
+        "time_series_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
+                              doc="speeds for time series/spectra, within the speed range "
+                              "(default: most loaded point)"),
+        "housing_field_rpm": _f([], "rpm", 0, 1e6, lo_open=True, kind="floats",
+                                doc="speeds for the XDMF housing field (FE), within the "
+                                "speed range; the nearest point is used"),
+        "report": Spec("bool", True, doc="write report.md"),
+        "attractor_transient_turns": _f(
+            0, "", 0, 100_000, kind="int",
+            doc="shaft turns of time integration left out from the orbit at the most unstable "
+            "point of each unstable segment, before the analysed ones (0: none; report.md, "
+            "attractors.csv, results.h5)"),
+        "attractor_window_turns": _f(8, "", 1, 10_000, kind="int",
+                                     doc="shaft turns analysed after them"),
+        "field_orders": _f([], "", 1, 100_000, kind="ints",
+                           doc="shaft orders of the per-order housing fields (FE; default: "
+                           "the mesh orders kZ and the external orders of the set)"),
+        "housing_frames_per_mesh_period": _f(
+            0, "", 0, 10_000, kind="int",
+            doc="frames per mesh period of the housing time series (0: 4 per period of the "
+            "highest harmonic kept; fewer than 2 alias and are refused)"),
+        "housing_mesh_periods": _f(4, "", 1, 1000, kind="int",
+                                   doc="length of the housing time series in mesh periods"),
+    },
+    "calibration": {key: Spec("str", "", doc=f"{what}: what the scene fitted to it (empty: "
+                              "nothing)") for key, what in CALIBRATION_ROWS.items()},
+    "outputs.accelerometer": {
+        "name": Spec("str", None, doc="name of the virtual accelerometer", required=True),
+        "position_mm": _f(None, "mm", -1e5, 1e5, kind="vec3", required=True,
+                          doc="point on the housing's outer surface (x, y, z); snapped to the "
+                          "nearest outer facet centre (at most 10 mm away)"),
+        "direction": _f([0.0, 0.0, 0.0], "", -1e6, 1e6, kind="vec3",
+                        doc="measuring axis (x, y, z); [0, 0, 0]: the outer surface normal"),
+    },
+}
+for _s in FE_SECTIONS:
+    SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
+
+#: Top-level sections of a scene file, in the order they are checked.
+TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
+             "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
+             "calibration", *FE_SECTIONS)
+
+
+def attr_name(key: str) -> str:
+    """File key -> attribute name (unit suffix of :data:`core.units.TO_SI` dropped)."""
+    for suf in sorted(TO_SI, key=len, reverse=True):
+        if suf and key.endswith("_" + suf):
+            return key[: -len(suf) - 1]
+    return key
+
+
+def schema_markdown() -> str:
+    """Markdown tables of :data:`SCHEMA` (key, type, default, allowed, meaning)."""
+    lines = []
+    for sec, specs in SCHEMA.items():
+        if not specs:
+            continue
+        head = f"[[{sec}]]" if "." in sec else f"[{sec}]"
+        lines += [f"### `{head}`", "", "| key | type | default | allowed | meaning |",
+                  "|---|---|---|---|---|"]
+        for key, sp in specs.items():
+            kind = {"floats": "list of floats", "ints": "list of ints", "vec3": "[x, y, z]",
+                    "pair": "[start, end]", "strs": "list of strings", "choice": "string"
+                    }.get(sp.kind, sp.kind)
+            d = "required" if sp.required else ("–" if sp.default is None else repr(sp.default))
+            d = d.replace("'", '"').replace("True", "true").replace("False", "false")
+            allowed = sp.range_text() if sp.kind not in ("bool", "str", "strs") else "–"
+            lines.append(f"| `{key}` | {kind} | {d} | {allowed} | {sp.doc} |")
+        lines.append("")
+    return "\n".join(lines)
+

@@ -30,7 +30,7 @@ test-slow: setup
 	$(PY) -m pytest -q -m slow tests benchmarks/tests
 
 lint: setup
-	$(PY) -m ruff check core gears geometry fem reduction hbm study tests benchmarks
+	$(PY) -m ruff check core gears geometry fem reduction machines hbm study tests benchmarks
 
 bench: setup
 	$(PY) -m benchmarks.run_all

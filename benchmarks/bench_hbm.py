@@ -37,9 +37,9 @@ log = logging.getLogger("bench_hbm")
 def sdof_problem(h: int):
     """HBM problem of the SDOF scene with ``h`` mesh harmonics."""
     import study
-    from study.model import lumped_problem
+    from study.pipeline.model import scene_problem
 
-    return lumped_problem(study.load_scene(bv.SDOF_SCENE, {"hbm.mesh_harmonics": h})), \
+    return scene_problem(study.load_scene(bv.SDOF_SCENE, {"hbm.mesh_harmonics": h}))[0], \
         study.load_scene(bv.SDOF_SCENE)
 
 

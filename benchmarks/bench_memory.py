@@ -50,8 +50,8 @@ def run(size: str, n_cm: int, factorization: str, until: str) -> dict:
     from fem import build_pump_model, load_gmsh_mesh
     from fem.elasticity import assemble_elasticity
     from geometry import gmsh_session
+    from machines.pump import fe_parameters
     from reduction.craig_bampton import _make_eps
-    from study.fe_params import fe_parameters
     from study.scene import load_scene
 
     t0 = time.perf_counter()

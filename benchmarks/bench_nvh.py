@@ -35,8 +35,8 @@ def main(argv: list[str] | None = None) -> dict:
 
     import study
     from fem import post
+    from machines import machine_for
     from reduction import load_basis, reconstruct
-    from study import fe_stages
     from study.outputs.acoustics import erp_harmonics
     from study.outputs.points import point_at
     from study.pipeline import Pipeline
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> dict:
     r = study.run(ROOT / "scenes" / "pump.toml", args.work / "run", cache_dir=args.work / "cache",
                   overrides=ov)
     mesh_dir = Pipeline(r.scene, r.out, cache_dir=args.work / "cache").run_mesh()  # cached
-    model = fe_stages.fe_stage(r.scene, mesh_dir)
+    model = machine_for(r.scene).build_fe_model(mesh_dir)
     with h5py.File(r.rom.folder / "rom.h5", "r") as f:
         T = f["rom/basis"][()]
     n_r = T.shape[1]

@@ -104,7 +104,7 @@ def case(size: str, n_cm: int, out: Path, factorization: str = "lu",
         phases.update(r.timings)
         phases["factor"] = r.factor_stats
         return r
-    reduction.craig_bampton = cb                        # fe_stages imports it at call time
+    reduction.craig_bampton = cb                 # machines.rom imports it at call time
     tmp = Path(tempfile.mkdtemp(prefix="bench_scale.")) if comm.rank == 0 else None
     tmp = comm.bcast(tmp)
     load_start = os.getloadavg()[0]
@@ -153,7 +153,7 @@ def ccx_case(size: str, n_cm: int, out: Path) -> None:
 
     import geometry
     from benchmarks.ccx_compare import compare
-    from study.fe_params import fe_parameters
+    from machines.pump import fe_parameters
     from study.scene import load_scene
 
     sc = load_scene(SCENE, _overrides(size, n_cm))

@@ -243,13 +243,13 @@ def sdof_case(work: Path, quick: bool = False) -> SceneCase:
     """The SDOF scene: permanent contact (1200 rpm), single-sided (1650 rpm) and
     double-sided impacts (2200 rpm, upper branch), located on the scene's own branch."""
     import study
-    from study.model import lumped_problem
+    from study.pipeline.model import scene_problem
 
     res = study.run(SDOF_SCENE, work / "sdof", until="hbm", cache_dir=work / "cache")
     base = res.problem
 
     def make(h: int):
-        return lumped_problem(study.load_scene(SDOF_SCENE, {"hbm.mesh_harmonics": h}))
+        return scene_problem(study.load_scene(SDOF_SCENE, {"hbm.mesh_harmonics": h}))[0]
     speeds = []
     for rpm, cls in ((1200.0, 0), (1650.0, 1), (2200.0, 2)):
         near = _nearest(res.branch, base, rpm, cls)
@@ -264,8 +264,8 @@ def pump_case(work: Path, cache: Path, quick: bool = False) -> SceneCase:
     """The coarse pump ROM (from the stage cache): permanent contact (700 rpm) and
     single-sided impacts (1200 rpm); the scene's load gives no double-sided ones."""
     import study
-    from study import fe_stages
     from study.pipeline import Pipeline
+    from study.pipeline.model import scene_problem
 
     scene = study.load_scene(PUMP_SCENE)
     pl = Pipeline(scene, work / "pump", cache_dir=cache, progress=False)
@@ -274,7 +274,7 @@ def pump_case(work: Path, cache: Path, quick: bool = False) -> SceneCase:
     def make(h: tuple[int, int]):
         sc = study.load_scene(PUMP_SCENE, {"hbm.mesh_harmonics": h[0],
                                            "hbm.sideband_order": h[1]})
-        return fe_stages.rom_problem(sc, rom_dir)[0]
+        return scene_problem(sc, rom_dir)[0]
     # 3400 rpm (single-sided) is left out: there the integration did not settle (the
     # load statistics changed by 2e-7, then 5e-7 per period after 20 and 40 periods)
     speeds = [{"rpm": rpm, "class": cls, "coefficients": None}

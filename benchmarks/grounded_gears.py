@@ -83,7 +83,7 @@ def ground_gears(M: np.ndarray, K: np.ndarray, G: np.ndarray, dI: float, Ir: flo
     for i in TRANSLATIONS:
         Me[i, i] += dm
         Ke[i, i] += ky
-    return Me, Ke, np.concatenate([G, np.zeros(2)])
+    return Me, Ke, np.concatenate([G, np.zeros((2, *np.shape(G)[1:]))])
 
 
 def rim_on_web(M: np.ndarray, K: np.ndarray, G: np.ndarray, blanks: tuple, rim: np.ndarray,
@@ -106,7 +106,7 @@ def rim_on_web(M: np.ndarray, K: np.ndarray, G: np.ndarray, blanks: tuple, rim: 
         Ke[ring, ring] += web
         Ke[body, ring] -= web
         Ke[ring, body] -= web
-    Ge = np.zeros(n + 12)
+    Ge = np.zeros((n + 12, *np.shape(G)[1:]))
     Ge[n:] = G[:12]
     return Me, Ke, Ge
 
@@ -196,11 +196,11 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     from fem.lumped import disk_mass
     from fem.pump import GearParams
     from hbm import trace
+    from machines import LinearModel, machine_for
     from reduction import modal_damping
-    from study import fe_stages
-    from study.model import build_problem
     from study.outputs.curves import primary_peak, summarize_branch
     from study.pipeline import Pipeline
+    from study.pipeline.model import build_problem
     from study.scene.load import load_scene
     from study.studies.excitations import case_scenes
 
@@ -210,7 +210,7 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     overrides = scaled_te(overrides, te_scale)
     scene = load_scene(SCENE, overrides if converged else {**CHEAP, **overrides})
     rom_dir = Pipeline(scene, out, cache_dir=cache).run_rom()
-    rd = fe_stages.load_rom_data(scene, rom_dir)
+    rd = machine_for(scene).load_rom(rom_dir)
     n = rd.M.shape[0]
     M, K, G = ground_gears(rd.M, rd.K, rd.G, dI_f * j_g, Ir_f * j_g, kt, dm_f * m_g, ky)
     km, xi = scene.mesh_stiffness.mean, scene.damping.modal_ratio
@@ -226,11 +226,12 @@ def run(overrides: dict, dI_f: float, Ir_f: float, kt: float, dm_f: float, ky: f
     for case, sc in case_scenes(scene).items():
         if case not in cases:
             continue
-        const, om2 = fe_stages.rom_forcing(sc, rd.node_rows, n)
+        machine = machine_for(sc)
+        const, om2 = machine.rom_forcing(rd.node_rows, n)
         const = {k: np.concatenate([v, np.zeros(2)]) for k, v in const.items()}
         om2 = {k: np.concatenate([v, np.zeros(2)]) for k, v in om2.items()}
         # the case scenes differ in k_m harmonics, TE and loads, not in k̄ or ξ
-        problem = build_problem(sc, M, C, K, G, const, om2)
+        problem = build_problem(sc, machine, LinearModel(M, C, K, G, const, om2))
         c = sc.continuation
         lo, hi = c.speed
         t0 = time.perf_counter()

@@ -7,20 +7,30 @@ its value (with its unit when the field name does not carry it) and what is allo
     module = -0.001 m: must be > 0
 
 :class:`InputError` is that error (a :class:`ValueError`); packages derive their own
-input errors from it (``study.scene.errors.SceneError`` for scene files). :func:`check_range`
-refuses a number outside its range with that message.
+input errors from it (``study.scene.errors.SceneError`` for scene files).
+:func:`check_range` refuses a number outside its range with that message, and
+:func:`suggest` adds the closest allowed name to a message about an unknown one.
 """
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["InputError", "show", "range_text", "check_range"]
+__all__ = ["InputError", "show", "range_text", "check_range", "suggest"]
 
 
 def show(value: Any) -> str:
     """A value as error messages show it: strings quoted, everything else as ``str``."""
     return repr(value) if isinstance(value, str) else str(value)
+
+
+def suggest(name: str, allowed: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the allowed name closest to ``name``
+    (:func:`difflib.get_close_matches`, cutoff 0.5), or an empty string."""
+    m = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.5)
+    return f" (did you mean {m[0]!r}?)" if m else ""
 
 
 def range_text(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,

@@ -2,7 +2,7 @@
 
 Scene keys carry their unit as a suffix (``backlash_um``, ``torque_Nm``); the schema of
 :mod:`study.scene.schema` names each field's unit from :data:`TO_SI`, and the free FE
-sections (:mod:`study.fe_params`) accept the suffixes :data:`FE_SUFFIXES` on the
+sections (:mod:`machines.pump.params`) accept the suffixes :data:`FE_SUFFIXES` on the
 FE packages' dataclass fields. The factors live here, in the bottom layer, so that every
 package converts with the same table (SI inside the code).
 """

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,10 +30,16 @@ class FEModel:
     node_dofs : dict[str, numpy.ndarray]
         6 global reduced indices per named node (translations then rotations, in
         the node's local frame; -1 for a fixed DOF).
+    gear_nodes : tuple of str
+        The gear bodies' 6-DOF nodes (their names are the bodies' names), in the order
+        of ``gear_dofs``; empty for a model without gears.
     gear_dofs : numpy.ndarray or None
-        12 indices in the paper's order q_c = (u1..u3, th1..th3, u4..u6, th4..th6).
+        6 indices per gear body, in the order of ``gear_nodes`` (translations then
+        rotations, in the node's frame); for the pump the paper's order
+        q_c = (u1..u3, th1..th3, u4..u6, th4..th6).
     G : numpy.ndarray or None
-        Projection vector on q_c (12 floats, eq. 11), m per unit DOF.
+        ``(n_c, E)``: the line-of-action vector of each of the E gear meshes on q_c
+        (eq. 11 placed on the two bodies of the mesh), m per unit DOF.
     P : PETSc.Mat
         Prolongation from reduced unknowns to (P2 FE DOF, then 6 global-frame DOF per
         node owned by the last rank).
@@ -55,6 +62,18 @@ class FEModel:
     spec: ModelSpec
     prolongation: Prolongation
     info: dict[str, Any] = field(default_factory=dict)
+    gear_nodes: tuple[str, ...] = ()
+
+    @property
+    def gear_body_dofs(self) -> dict[str, np.ndarray]:
+        """The 6 reduced indices of each gear body, by body (node) name, in the order of
+        :attr:`gear_nodes`."""
+        return {n: self.node_dofs[n] for n in self.gear_nodes}
+
+    @property
+    def n_meshes(self) -> int:
+        """Number of gear meshes (columns of :attr:`G`; 0 without gears)."""
+        return 0 if self.G is None else self.G.shape[1]
 
     @property
     def comm(self) -> MPI.Comm:
@@ -275,7 +294,7 @@ def build_model(
     spec: ModelSpec,
     degree: int = 2,
     quadrature_degree: int | None = None,
-    gear_nodes: tuple[str, str] | None = None,
+    gear_nodes: Sequence[str] | None = None,
     G: np.ndarray | None = None,
 ) -> FEModel:
     """Assemble K, M and eliminate links and clamps: K_bar = P^T K P (see :func:`project`).
@@ -289,10 +308,12 @@ def build_model(
         Extra nodes, rigid links, clamps and lumped matrices.
     degree, quadrature_degree : int
         See :func:`fem.elasticity.assemble_elasticity`.
-    gear_nodes : (str, str), optional
-        Names of the gear-1 and gear-2 centre nodes; sets ``gear_dofs``.
+    gear_nodes : sequence of str, optional
+        Names of the gear bodies' centre nodes (any number, each with 6 free DOF); sets
+        ``gear_dofs`` (6 per node, in this order).
     G : numpy.ndarray, optional
-        Projection vector on q_c (12,), eq. (11).
+        ``(6 n_bodies, E)``: one line-of-action vector per gear mesh on ``gear_dofs``
+        (eq. 11); a 1-D ``(6 n_bodies,)`` array is one mesh.
 
     Returns
     -------
@@ -305,16 +326,19 @@ def build_model(
     for node in spec.nodes:
         if node.name not in in_lumped and node.name not in linked and not node.fixed.all():
             raise ValueError(f"node {node.name!r}: neither linked nor carrying a lumped matrix")
-    if gear_nodes is not None:
-        if len(gear_nodes) != 2:
-            raise ValueError(f"gear_nodes = {gear_nodes}: must name 2 nodes")
-        for n in gear_nodes:
-            if spec.nodes[spec.node_index(n)].fixed.any():
-                raise ValueError(f"gear_nodes: node {n!r} has fixed DOF; gear DOF must be free")
+    gear_nodes = tuple(gear_nodes or ())
+    if len(set(gear_nodes)) != len(gear_nodes):
+        raise ValueError(f"gear_nodes = {list(gear_nodes)}: names must be distinct")
+    for n in gear_nodes:
+        if spec.nodes[spec.node_index(n)].fixed.any():
+            raise ValueError(f"gear_nodes: node {n!r} has fixed DOF; gear DOF must be free")
     if G is not None:
-        G = np.asarray(G, dtype=float).reshape(-1)
-        if G.shape != (12,) or not np.all(np.isfinite(G)):
-            raise ValueError(f"G shape = {G.shape}: must be 12 finite floats")
+        G = np.asarray(G, dtype=float)
+        G = G.reshape(-1, 1) if G.ndim == 1 else G
+        n_c = 6 * len(gear_nodes)
+        if G.ndim != 2 or G.shape[0] != n_c or G.shape[1] < 1 or not np.all(np.isfinite(G)):
+            raise ValueError(f"G shape = {G.shape}: must be ({n_c}, n_meshes) finite floats "
+                             f"(6 rows per gear node, {len(gear_nodes)} nodes)")
     t0 = time.perf_counter()
     V, K, M = assemble_elasticity(fe_mesh, materials, degree, quadrature_degree)
     t1 = time.perf_counter()
@@ -335,12 +359,12 @@ def build_model(
     _add_lumped(Kr, Mr, spec, pro.node_red)
     t2 = time.perf_counter()
     gear_dofs = None
-    if gear_nodes is not None:
+    if gear_nodes:
         gear_dofs = np.concatenate([pro.node_red[n] for n in gear_nodes])
     info = {"t_assemble_s": t1 - t0, "t_reduce_s": t2 - t1, "n_fe": pro.n_fe,
             "n_red": pro.n_red, **pro.counts}  # fmt: skip
     log.info("FE model: %s", info)
     return FEModel(
         M=Mr, K=Kr, node_dofs=dict(pro.node_red), gear_dofs=gear_dofs, G=G, P=pro.P, V=V,
-        fe_mesh=fe_mesh, spec=spec, prolongation=pro, info=info,
+        fe_mesh=fe_mesh, spec=spec, prolongation=pro, info=info, gear_nodes=gear_nodes,
     )  # fmt: skip

@@ -33,6 +33,8 @@ log = logging.getLogger(__name__)
 
 SHAFTS = ("in", "out")
 N_STATIONS = 6
+#: The gear bodies' nodes, gear 1 (driving) then gear 2: the order of ``gear_dofs``.
+GEAR_NODES = tuple(f"{s}/gear" for s in SHAFTS)
 #: The :class:`RotorParams` fields of a rim on a web (all set or none).
 WEB_FIELDS = ("rim_inertia", "rim_mass", "web_torsional_stiffness", "web_radial_stiffness")
 
@@ -370,9 +372,10 @@ def build_pump_model(
     Returns
     -------
     FEModel
-        With ``gear_dofs`` = (in/gear, out/gear) DOF in the frame of Fig. 1 and G of
-        eq. (11). K is singular by one mode: the output shaft's rotation is held
-        only by the gear mesh, which ``reduction`` adds (k_m G G^T).
+        With ``gear_nodes`` = (in/gear, out/gear), ``gear_dofs`` their DOF in the frame
+        of Fig. 1 and G of eq. (11) as its one column (one mesh). K is singular by one
+        mode: the output shaft's rotation is held only by the gear mesh, which
+        ``reduction`` adds (k_m G G^T).
     """
     materials = MaterialParams() if materials is None else materials
     gears = GearParams() if gears is None else gears
@@ -383,4 +386,4 @@ def build_pump_model(
     spec = pump_spec(fe_mesh.groups, fe_mesh.centres, gears, bearings, drive, rotors)
     mats = {k: v for k, v in materials.by_volume().items() if k in fe_mesh.groups}
     return build_model(fe_mesh, mats, spec, quadrature_degree=quadrature_degree,
-                       gear_nodes=("in/gear", "out/gear"), G=gears.G())  # fmt: skip
+                       gear_nodes=GEAR_NODES, G=gears.G()[:, None])  # fmt: skip

@@ -24,11 +24,10 @@ from reduction.craig_bampton import CBResult, craig_bampton, cutoff_from_speed
 from reduction.io import load_basis, load_rom, save_rom
 from reduction.pipeline import reduce_fe_model
 from reduction.reconstruct import reconstruct
-from reduction.rom import GEAR_DOF_NAMES, ROM, build_rom
+from reduction.rom import ROM, build_rom, gear_body_dof_names
 from reduction.validate import Validation, add_mesh_coupling, validate_rom
 
 __all__ = [
-    "GEAR_DOF_NAMES",
     "ROM",
     "CBResult",
     "Campbell",
@@ -41,6 +40,7 @@ __all__ = [
     "coupled_modes",
     "craig_bampton",
     "dynamic_factor",
+    "gear_body_dof_names",
     "cutoff_from_speed",
     "load_basis",
     "load_rom",

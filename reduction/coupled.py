@@ -2,6 +2,12 @@
 
 Everything here is dense NumPy on the small ``n_r × n_r`` reduced matrices.
 
+Gear meshes: ``G`` holds one line-of-action direction per mesh, shape ``(n_r, E)`` (a
+1-D ``(n_r,)`` array is one mesh), and ``km_mean`` one mean mesh stiffness per mesh (a
+scalar is shared by all). The coupling is the sum over the meshes
+``Σ_e k̄_e g_e g_eᵀ`` (eq. 17 per mesh); with one mesh every function performs the very
+same floating-point operations as the one-mesh formula ``k̄ G Gᵀ``.
+
 Rigid-body modes: a coupled mode whose eigenvalue ω² is below
 ``RIGID_TOL · max|ω²|`` is treated as rigid: its ω is set to exactly 0, so the
 modal damping (eq. 18) gives it no damping (``2 ξ ω = 0``: a rigid motion has
@@ -34,35 +40,58 @@ def _check_square(name: str, A: np.ndarray) -> np.ndarray:
 
 
 def _check_g(G, n_r: int) -> np.ndarray:
-    G = np.asarray(G, dtype=float).ravel()
-    if G.size != n_r:
-        raise ValueError(f"G.size = {G.size}: must equal n_r = {n_r}")
+    """``G`` as ``(n_r, E)`` floats, one column per mesh (a 1-D ``G`` is one mesh)."""
+    G = np.asarray(G, dtype=float)
+    shape = G.shape
+    if G.ndim == 1:
+        G = G.reshape(-1, 1)
+    if G.ndim != 2 or G.shape[0] != n_r or G.shape[1] < 1:
+        raise ValueError(f"G.shape = {shape}: must be (n_r,) or (n_r, n_meshes) with "
+                         f"n_r = {n_r}")
     if not np.all(np.isfinite(G)):
         raise ValueError("G: contains non-finite entries")
     return G
 
 
-def _check_km(km_mean: float) -> float:
-    if not (math.isfinite(km_mean) and km_mean >= 0):
+def _check_km(km_mean, n_meshes: int) -> np.ndarray:
+    """One mean mesh stiffness per mesh, ``(n_meshes,)`` (a scalar is shared)."""
+    km = np.asarray(km_mean, dtype=float)
+    if km.ndim == 0:
+        km = np.full(n_meshes, float(km))
+    if km.shape != (n_meshes,):
+        raise ValueError(f"km_mean = {km_mean}: must be a number or {n_meshes} numbers, one "
+                         "per mesh [N/m]")
+    if not np.all(np.isfinite(km) & (km >= 0)):
         raise ValueError(f"km_mean = {km_mean}: must be a finite number >= 0 [N/m]")
-    return float(km_mean)
+    return km
 
 
-def couple(K_r: np.ndarray, G, km_mean: float) -> np.ndarray:
-    """Coupled stiffness ``K_r + k̄_m G Gᵀ`` (eq. 17) [N/m].
+def direction(G: np.ndarray, mesh: int) -> np.ndarray:
+    """Column ``mesh`` of a checked ``(n_r, E)`` ``G`` as a contiguous vector (the same
+    memory layout as a one-mesh 1-D G, so the same BLAS kernels run on it)."""
+    return np.ascontiguousarray(G[:, mesh])
+
+
+def couple(K_r: np.ndarray, G, km_mean) -> np.ndarray:
+    """Coupled stiffness ``K_r + Σ_e k̄_e g_e g_eᵀ`` (eq. 17, one term per mesh) [N/m].
 
     Parameters
     ----------
     K_r : ndarray (n_r, n_r)
         Reduced stiffness without gear coupling.
-    G : array (n_r,)
-        Projection vector (eq. 11), zero past the gear DOF.
-    km_mean : float
-        Mean mesh stiffness k̄_m [N/m], >= 0.
+    G : array (n_r,) or (n_r, E)
+        Projection vector of each mesh (eq. 11), zero past the gear DOF.
+    km_mean : float or array (E,)
+        Mean mesh stiffness k̄_e of each mesh [N/m], >= 0.
     """
     K_r = _check_square("K_r", K_r)
     G = _check_g(G, K_r.shape[0])
-    return K_r + _check_km(km_mean) * np.outer(G, G)
+    km = _check_km(km_mean, G.shape[1])
+    Kc = K_r
+    for e in range(G.shape[1]):
+        g = direction(G, e)
+        Kc = Kc + km[e] * np.outer(g, g)
+    return Kc
 
 
 @dataclass
@@ -89,8 +118,9 @@ class CoupledModes:
         return np.sqrt(self.omega2) / (2.0 * math.pi)
 
 
-def coupled_modes(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float) -> CoupledModes:
-    """Solve eq. (17): ``(K_r + k̄_m G Gᵀ − ω² M_r) φ = 0`` with mass-normalised φ."""
+def coupled_modes(M_r: np.ndarray, K_r: np.ndarray, G, km_mean) -> CoupledModes:
+    """Solve eq. (17): ``(K_r + Σ_e k̄_e g_e g_eᵀ − ω² M_r) φ = 0`` with mass-normalised
+    φ (``G``, ``km_mean`` as in :func:`couple`)."""
     M_r = _check_square("M_r", M_r)
     Kc = couple(K_r, G, km_mean)
     if M_r.shape != Kc.shape:
@@ -100,7 +130,7 @@ def coupled_modes(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float) -> Couple
     rigid = lam < RIGID_TOL * scale
     if np.any(lam[rigid] < -1e-6 * scale):
         raise ValueError(
-            f"K_r + km G Gᵀ has a negative eigenvalue {lam.min():.3e}: must be positive "
+            f"K_r + Σ km g gᵀ has a negative eigenvalue {lam.min():.3e}: must be positive "
             "semi-definite"
         )
     lam = np.where(rigid, 0.0, lam)
@@ -120,7 +150,7 @@ def _check_xi(xi, n_r: int) -> np.ndarray:
     return xi_arr
 
 
-def modal_damping(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float, xi=0.05) -> np.ndarray:
+def modal_damping(M_r: np.ndarray, K_r: np.ndarray, G, km_mean, xi=0.05) -> np.ndarray:
     """Modal damping matrix of the coupled ROM (eq. 17–19) [N·s/m].
 
     ``C_r = M_r Φ_r diag(2 ξ_j ω_j) Φ_rᵀ M_r`` with Φ_r the mass-normalised
@@ -130,10 +160,10 @@ def modal_damping(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float, xi=0.05) 
     ----------
     M_r, K_r : ndarray (n_r, n_r)
         Reduced mass and (uncoupled) stiffness.
-    G : array (n_r,)
-        Projection vector (eq. 11).
-    km_mean : float
-        Mean mesh stiffness [N/m].
+    G : array (n_r,) or (n_r, E)
+        Projection vector of each mesh (eq. 11).
+    km_mean : float or array (E,)
+        Mean mesh stiffness of each mesh [N/m].
     xi : float or array (n_r,)
         Damping ratio per coupled mode (ascending frequency order), in [0, 1).
     """
@@ -145,24 +175,26 @@ def modal_damping(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float, xi=0.05) 
     return 0.5 * (C + C.T)
 
 
-def mesh_energy(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float) -> np.ndarray:
+def mesh_energy(M_r: np.ndarray, K_r: np.ndarray, G, km_mean) -> np.ndarray:
     """Mesh energy ρ_j of every coupled mode (eq. 31), in [0, 1].
 
-    ``ρ_j = k̄_m (Gᵀφ_j)² / φ_jᵀ (K_r + k̄_m G Gᵀ) φ_j``; 0 for rigid modes.
-    Ordered like the coupled frequencies (ascending).
+    ``ρ_j = Σ_e k̄_e (g_eᵀφ_j)² / φ_jᵀ (K_r + Σ_e k̄_e g_e g_eᵀ) φ_j``: the share of the
+    mode's strain energy stored in all the meshes; 0 for rigid modes. Ordered like the
+    coupled frequencies (ascending).
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
     return _mesh_energy_of(modes, K_r, G, km_mean)
 
 
-def dynamic_factor(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
-                   f_hz: np.ndarray, xi=0.05) -> np.ndarray:
-    """Linear dynamic factor D(f) of the mesh (docs/theory.md T.32), dimensionless.
+def dynamic_factor(M_r: np.ndarray, K_r: np.ndarray, G, km_mean,
+                   f_hz: np.ndarray, xi=0.05, mesh: int = 0) -> np.ndarray:
+    """Linear dynamic factor D(f) of one mesh (docs/theory.md T.32), dimensionless.
 
-    ``D = |k̄ Gᵀ (K_r + k̄ G Gᵀ − ω² M_r + iω C_r)⁻¹ G − 1|``, ω = 2πf: the dynamic mesh
-    force per unit TE excitation ``k̄ e`` of the linear system, ``C_r`` the modal damping
-    of eq. (18–19) with ratio ``xi``. Its peak is the resonance the TE excites; how far
-    the peak moves when k̄ is halved says how much stiffness the mesh supplies (T.33).
+    ``D = |k̄ gᵀ (K_r + Σ_e k̄_e g_e g_eᵀ − ω² M_r + iω C_r)⁻¹ g − 1|``, ω = 2πf, g and
+    k̄ those of mesh ``mesh``: the dynamic mesh force per unit TE excitation ``k̄ e`` of
+    the linear system (every mesh coupled), ``C_r`` the modal damping of eq. (18–19)
+    with ratio ``xi``. Its peak is the resonance the TE excites; how far the peak moves
+    when k̄ is halved says how much stiffness the mesh supplies (T.33).
 
     Parameters
     ----------
@@ -172,28 +204,34 @@ def dynamic_factor(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
         Frequencies [Hz].
     xi : float or array (n_r,)
         Modal damping ratio.
+    mesh : int
+        Column of ``G`` whose factor is computed.
     """
     G = _check_g(G, _check_square("K_r", K_r).shape[0])
-    km = _check_km(km_mean)
+    km = _check_km(km_mean, G.shape[1])
+    if not 0 <= mesh < G.shape[1]:
+        raise ValueError(f"mesh = {mesh}: must be in [0, {G.shape[1] - 1}]")
+    g, k = direction(G, mesh), float(km[mesh])
     C = modal_damping(M_r, K_r, G, km, xi)
     Kc = couple(K_r, G, km)
     out = np.empty(np.size(f_hz))
     for i, f in enumerate(np.asarray(f_hz, dtype=float).ravel()):
         w = 2.0 * np.pi * f
-        x = np.linalg.solve(Kc - w * w * M_r + 1j * w * C, G)
-        out[i] = abs(km * (G @ x) - 1.0)                                  # (T.32)
+        x = np.linalg.solve(Kc - w * w * M_r + 1j * w * C, g)
+        out[i] = abs(k * (g @ x) - 1.0)                                   # (T.32)
     return out
 
 
-def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
-                   xi=0.05, points: int = 1201, f_min: float = 0.0) -> tuple[float, float]:
+def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean,
+                   xi=0.05, points: int = 1201, f_min: float = 0.0,
+                   mesh: int = 0) -> tuple[float, float]:
     """Peak of the dynamic factor and its shift when k̄ is halved (T.33).
 
-    Returns ``(f_peak [Hz], f_half / f_peak)``: the frequency of the largest D(f) near the
-    mode with most mesh energy (eq. 31) among those at or above ``f_min`` [Hz], searched
-    on ``points`` frequencies from 0.25 to 1.75 times that mode's, and the ratio of the
-    peak at ``k̄/2`` to it. A single mode of mesh energy ρ gives ``√(1 − ρ/2)``: 0.92 for
-    ρ = 0.32, 0.75 for ρ = 0.87.
+    Returns ``(f_peak [Hz], f_half / f_peak)``: the frequency of the largest D(f) of mesh
+    ``mesh`` (:func:`dynamic_factor`) near the mode with most mesh energy (eq. 31) among
+    those at or above ``f_min`` [Hz], searched on ``points`` frequencies from 0.25 to 1.75
+    times that mode's, and the ratio of the peak with every ``k̄`` halved to it. A single
+    mode of mesh energy ρ gives ``√(1 − ρ/2)``: 0.92 for ρ = 0.32, 0.75 for ρ = 0.87.
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
     rho = _mesh_energy_of(modes, K_r, G, km_mean)
@@ -202,15 +240,19 @@ def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean: float,
     if not f_top > 0.0:
         raise ValueError("mesh_softening: no mode with mesh energy")
     grid = np.linspace(0.25 * f_top, 1.75 * f_top, points)
-    f_peak = grid[int(np.argmax(dynamic_factor(M_r, K_r, G, km_mean, grid, xi)))]
-    f_half = grid[int(np.argmax(dynamic_factor(M_r, K_r, G, 0.5 * km_mean, grid, xi)))]
+    f_peak = grid[int(np.argmax(dynamic_factor(M_r, K_r, G, km_mean, grid, xi, mesh)))]
+    half = 0.5 * np.asarray(km_mean, dtype=float)
+    f_half = grid[int(np.argmax(dynamic_factor(M_r, K_r, G, half, grid, xi, mesh)))]
     return float(f_peak), float(f_half / f_peak)
 
 
 def _mesh_energy_of(modes: CoupledModes, K_r, G, km_mean) -> np.ndarray:
-    G = np.asarray(G, dtype=float).ravel()
-    num = km_mean * (G @ modes.phi) ** 2
-    den = np.einsum("ij,ij->j", modes.phi, couple(K_r, G, km_mean) @ modes.phi)
+    G = _check_g(G, modes.phi.shape[0])
+    km = _check_km(km_mean, G.shape[1])
+    num = km[0] * (direction(G, 0) @ modes.phi) ** 2
+    for e in range(1, G.shape[1]):
+        num = num + km[e] * (direction(G, e) @ modes.phi) ** 2
+    den = np.einsum("ij,ij->j", modes.phi, couple(K_r, G, km) @ modes.phi)
     rho = np.zeros_like(num)
     ok = ~modes.rigid
     rho[ok] = num[ok] / den[ok]

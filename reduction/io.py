@@ -85,11 +85,13 @@ def _write_dense(f: h5py.File, rom: ROM, write_basis: bool) -> None:
     g.attrs["format_version"] = FORMAT_VERSION
     g.attrs["n_cm"] = int(rom.n_cm)
     g.attrs["n_r"] = int(rom.n_r)
-    g.attrs["km_mean"] = float(rom.km_mean)
+    km = np.asarray(rom.km_mean, dtype=float)
+    g.attrs["km_mean"] = float(km) if km.ndim == 0 else km
     g.attrs["coordinate_order"] = "q = (q_c, eta): gear DOF first, then modal amplitudes"
-    for name in ("M", "K", "C", "G", "frequencies_hz", "mesh_energy", "fixed_interface_hz",
-                 "xi"):
+    for name in ("M", "K", "C", "frequencies_hz", "mesh_energy", "fixed_interface_hz", "xi"):
         g.create_dataset(name, data=np.asarray(getattr(rom, name), dtype=float))
+    G = np.asarray(rom.G, dtype=float)  # one mesh: the 1-D G of format 1
+    g.create_dataset("G", data=G[:, 0] if G.ndim == 2 and G.shape[1] == 1 else G)
     g.create_dataset("gear_dofs", data=np.array(rom.gear_dof_names, dtype="S"))
     g.create_dataset("gear_dof_indices", data=np.asarray(rom.gear_dofs, dtype=np.int64))
     if rom.validation is not None:
@@ -112,6 +114,9 @@ def load_rom(path) -> ROM:
         g = f["rom"]
         d = {k: g[k][()] for k in ("M", "K", "C", "G", "frequencies_hz", "mesh_energy",
                                    "fixed_interface_hz", "xi")}
+        if d["G"].ndim == 1:  # one mesh
+            d["G"] = d["G"].reshape(-1, 1)
+        km = np.asarray(g.attrs["km_mean"], dtype=float)
         names = tuple(s.decode() for s in g["gear_dofs"][()])
         val = None
         if "validation" in g:
@@ -119,7 +124,7 @@ def load_rom(path) -> ROM:
             val = Validation(v["full_hz"][()], v["rom_hz"][()], v["relative_error"][()],
                              float(v["validity_hz"][()]), float(v.attrs["tol"]))
         return ROM(gear_dof_names=names, n_cm=int(g.attrs["n_cm"]),
-                   km_mean=float(g.attrs["km_mean"]),
+                   km_mean=float(km) if km.ndim == 0 else km,
                    gear_dofs=g["gear_dof_indices"][()], validation=val, T=None, **d)
 
 

@@ -40,17 +40,36 @@ class Validation:
     tol: float
 
 
-def add_mesh_coupling(K: PETSc.Mat, gear_dofs, G, km_mean: float) -> PETSc.Mat:
-    """Return ``K + k̄_m g gᵀ``, g = G scattered on the gear DOF (rank-one update)."""
+def mesh_coupling_block(G, km_mean) -> np.ndarray:
+    """The dense ``Σ_e k̄_e g_e g_eᵀ`` on the gear DOF (n_c × n_c), ``G`` (n_c,) or
+    (n_c, E) (one column per mesh) and ``km_mean`` a number or one per mesh [N/m]; with one
+    mesh exactly ``k̄ G Gᵀ``."""
+    G = np.asarray(G, dtype=float)
+    G = G.reshape(-1, 1) if G.ndim == 1 else G
+    km = np.asarray(km_mean, dtype=float)
+    km = np.full(G.shape[1], float(km)) if km.ndim == 0 else km
+    if G.ndim != 2 or km.shape != (G.shape[1],):
+        raise ValueError(f"G.shape = {G.shape}, km_mean = {km_mean}: G must be (n_c,) or "
+                         "(n_c, n_meshes) and km_mean a number or one per mesh")
+    block = km[0] * np.outer(G[:, 0], G[:, 0])
+    for e in range(1, G.shape[1]):
+        block = block + km[e] * np.outer(G[:, e], G[:, e])
+    return block
+
+
+def add_mesh_coupling(K: PETSc.Mat, gear_dofs, G, km_mean) -> PETSc.Mat:
+    """Return ``K + Σ_e k̄_e g_e g_eᵀ``, g_e = column e of G scattered on the gear DOF
+    (one dense n_c × n_c block, :func:`mesh_coupling_block`)."""
     dofs = np.asarray(gear_dofs, dtype=PETSc.IntType)
-    G = np.asarray(G, dtype=float).ravel()
-    if G.size != dofs.size:
-        raise ValueError(f"G.size = {G.size}: must equal len(gear_dofs) = {dofs.size}")
+    block = mesh_coupling_block(G, km_mean)
+    if block.shape != (dofs.size, dofs.size):
+        raise ValueError(f"G has {block.shape[0]} rows: must equal len(gear_dofs) = "
+                         f"{dofs.size}")
     A = PETSc.Mat().createAIJ(K.getSizes(), comm=K.getComm())
     A.setPreallocationNNZ(dofs.size)
     A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
     if K.getComm().getRank() == 0:
-        A.setValues(dofs, dofs, (km_mean * np.outer(G, G)).ravel(), addv=True)
+        A.setValues(dofs, dofs, block.ravel(), addv=True)
     A.assemble()
     Kc = K.copy()
     Kc.axpy(1.0, A, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
@@ -99,14 +118,14 @@ def validate_rom(
     K: PETSc.Mat,
     gear_dofs,
     G,
-    km_mean: float,
+    km_mean,
     n_check: int,
     tol: float = 1e-3,
 ) -> Validation:
     """Compare the coupled frequencies of a ROM with the full model's (Fig. 9).
 
-    The full model gets the same coupling as eq. (17): ``K + k̄_m g gᵀ`` with g
-    the 12-vector G on the gear DOF (a rank-one PETSc update); its lowest
+    The full model gets the same coupling as eq. (17): ``K + Σ_e k̄_e g_e g_eᵀ`` with
+    g_e the column of G of mesh e on the gear DOF (:func:`add_mesh_coupling`); its lowest
     ``n_check`` modes are computed by SLEPc shift-invert at a negative shift
     ``−0.1 ω²`` (ω the first non-zero ROM frequency, an upper bound of the
     full model's), which keeps the factorised matrix positive definite even
@@ -119,11 +138,11 @@ def validate_rom(
     M, K : PETSc.Mat
         Full mass [kg] and stiffness [N/m] (uncoupled).
     gear_dofs : array of int (n_c,)
-        Global indices of the gear DOF, in the order of ``G``.
-    G : array (n_c,)
-        Projection vector on the gear DOF (eq. 11).
-    km_mean : float
-        Mean mesh stiffness [N/m].
+        Global indices of the gear DOF (6 per gear body), in the order of ``G``'s rows.
+    G : array (n_c,) or (n_c, E)
+        Projection vector of each mesh on the gear DOF (eq. 11).
+    km_mean : float or array (E,)
+        Mean mesh stiffness [N/m], shared or one per mesh.
     n_check : int
         Number of lowest modes compared, in [1, n_r].
     tol : float
@@ -134,7 +153,7 @@ def validate_rom(
         raise ValueError(f"n_check = {n_check}: must be an integer in [1, {n_r}]")
     if not 0 < tol < 1:
         raise ValueError(f"tol = {tol}: must lie in (0, 1)")
-    if not (math.isfinite(km_mean) and km_mean >= 0):
+    if not np.all(np.isfinite(km_mean) & (np.asarray(km_mean) >= 0)):
         raise ValueError(f"km_mean = {km_mean}: must be a finite number >= 0 [N/m]")
     f_el = rom.frequencies_hz[rom.frequencies_hz > 0]
     shift = -0.1 * (2.0 * math.pi * f_el[0]) ** 2 if f_el.size else -1.0

@@ -5,7 +5,7 @@ import pickle
 
 import pytest
 
-from core.errors import InputError, check_range, range_text, show
+from core.errors import InputError, check_range, range_text, show, suggest
 from study.scene.errors import SceneError
 
 
@@ -47,3 +47,8 @@ def test_errors_pickle_with_their_parts() -> None:
         back = pickle.loads(pickle.dumps(err))
         assert type(back) is type(err) and str(back) == str(err)
         assert (back.field, back.value, back.unit) == (err.field, err.value, err.unit)
+
+
+def test_suggest_names_the_closest_allowed_name() -> None:
+    assert suggest("backlsh", ["backlash", "teeth"]) == " (did you mean 'backlash'?)"
+    assert suggest("zzz", ["backlash", "teeth"]) == ""

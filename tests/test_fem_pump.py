@@ -42,12 +42,18 @@ def test_contract_nodes_and_gear_dofs(pump: fem.FEModel) -> None:
     np.testing.assert_array_equal(
         pump.gear_dofs, np.concatenate([pump.node_dofs["in/gear"], pump.node_dofs["out/gear"]])
     )
+    # the gear bodies' DOF by name, one mesh: G has one column
+    assert pump.gear_nodes == ("in/gear", "out/gear")
+    assert list(pump.gear_body_dofs) == ["in/gear", "out/gear"]
+    np.testing.assert_array_equal(np.concatenate(list(pump.gear_body_dofs.values())),
+                                  pump.gear_dofs)
+    assert pump.G.shape == (12, 1) and pump.n_meshes == 1
     g = fem.GearParams()
-    np.testing.assert_allclose(pump.G, [0, 1, 0, 0, 0, g.base_radius_1,
-                                        0, -1, 0, 0, 0, g.base_radius_2], atol=1e-18)  # fmt: skip
+    np.testing.assert_allclose(pump.G[:, 0], [0, 1, 0, 0, 0, g.base_radius_1,
+                                              0, -1, 0, 0, 0, g.base_radius_2], atol=1e-18)
     # the model's G is the pair's line-of-action vector of gears, bitwise
     G = line_of_action_vector(g.pressure_angle, g.helix_angle, g.base_radius_1, g.base_radius_2)
-    np.testing.assert_array_equal(pump.G, G)
+    np.testing.assert_array_equal(pump.G[:, 0], G)
     assert pump.info["clamped"] > 0
 
 
@@ -60,9 +66,11 @@ def _eq11_before_gears(alpha: float, beta: float, rb1: float, rb2: float) -> np.
 
 @pytest.mark.parametrize("scene", ["pump.toml", "pump-paper.toml"])
 def test_pump_g_from_the_scene_is_gears_line_of_action_vector(scene: str) -> None:
-    """The scene's gear data reach fem.GearParams (study.fe_params); their G is
-    gears.line_of_action_vector of the same numbers and the pre-gears eq. (11), bitwise."""
-    from study.fe_params import fe_parameters
+    """The scene's gear data reach fem.GearParams (machines.pump.params); their G is
+    gears.line_of_action_vector of the same numbers and the pre-gears eq. (11), bitwise,
+    and the pump machine's mesh vector is that G."""
+    from machines import machine_for
+    from machines.pump import fe_parameters
     from study.scene import load_scene
 
     s = load_scene(Path(__file__).resolve().parents[1] / "scenes" / scene)
@@ -71,6 +79,9 @@ def test_pump_g_from_the_scene_is_gears_line_of_action_vector(scene: str) -> Non
     assert (g.pressure_angle, g.helix_angle, g.base_radius_1, g.base_radius_2) == args
     np.testing.assert_array_equal(g.G(), line_of_action_vector(*args))
     np.testing.assert_array_equal(g.G(), _eq11_before_gears(*args))
+    machine = machine_for(s)
+    np.testing.assert_array_equal(machine.gear_meshes[0].vector, g.G())
+    np.testing.assert_array_equal(machine.directions(), g.G()[:, None])
     for beta in (0.1, -0.3):          # helical entries too
         np.testing.assert_array_equal(
             fem.GearParams(helix_angle=beta).G(),
@@ -124,7 +135,7 @@ def test_static_drive_load_path(pump: fem.FEModel) -> None:
     scatter.scatter(q, q0)
     if pump.comm.rank == 0:
         arr = q0.getArray()
-        mesh_force = km * pump.G @ arr[pump.gear_dofs]
+        mesh_force = km * pump.G[:, 0] @ arr[pump.gear_dofs]
         assert abs(mesh_force / (T / g.base_radius_1) - 1) < 1e-8
         motor_torque = fem.DriveParams().motor_torsional_stiffness * arr[
             pump.node_dofs["in/coupling"][5]]

@@ -10,20 +10,27 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["core", "gears", "geometry", "fem", "reduction", "hbm", "study"]
+PACKAGES = ["core", "gears", "geometry", "fem", "reduction", "machines", "hbm", "study"]
 # What each package may import from the project and from the heavy stacks. ``core`` is
 # the bottom layer: it imports nothing of the project, and every package but ``hbm``
 # (which imports nothing of the project) may import it. ``gears`` (pure NumPy gear
 # physics) imports ``core`` only; ``fem`` takes the pair frame and G of eq. (11) from it.
+# ``machines`` (the machine contract and the machines) sits on the FE stack and under
+# ``study``, which reaches the FE layers through it: ``study`` imports ``fem`` only for
+# fem.post's file formats (:data:`STUDY_FEM_MODULES`), never geometry or reduction.
 ALLOWED_PROJECT = {
     "core": set(),
     "gears": {"core"},
     "geometry": {"core"},
     "fem": {"core", "gears", "geometry"},
     "reduction": {"core", "fem", "geometry"},
+    "machines": {"core", "gears", "geometry", "fem", "reduction"},
     "hbm": set(),
-    "study": {"core", "gears", "geometry", "fem", "reduction", "hbm"},
+    "study": {"core", "gears", "machines", "hbm", "fem"},
 }
+#: The fem modules study may import: the XDMF writer and the block size of the housing
+#: field files (study.outputs.fields writes the fields from the arrays the rom stage cached).
+STUDY_FEM_MODULES = {"fem.post.xdmf", "fem.post.fields"}
 FORBIDDEN_THIRD_PARTY = {
     "hbm": {"dolfinx", "gmsh", "petsc4py", "slepc4py", "ufl", "mpi4py", "basix", "h5py"},
     "geometry": {"dolfinx", "petsc4py", "slepc4py", "ufl"},
@@ -55,6 +62,36 @@ def test_dependencies_point_one_way(package: str) -> None:
         )
         bad = imported & FORBIDDEN_THIRD_PARTY.get(package, set())
         assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def _imported_modules(path: Path) -> set[str]:
+    """Full names of the absolute imports of ``path`` (``from a.b import c`` -> a.b)."""
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+def test_study_reaches_fem_only_for_its_file_formats() -> None:
+    """study builds no FE model and reduces nothing: the machines do (machines/); of fem it
+    imports only fem.post's file formats, wherever the import stands."""
+    for path in sorted((ROOT / "study").rglob("*.py")):
+        fem = {m for m in _imported_modules(path) if m.split(".")[0] == "fem"}
+        assert fem <= STUDY_FEM_MODULES, f"{path.relative_to(ROOT)} imports {sorted(fem)}"
+
+
+def test_machines_load_no_fe_stack_at_import() -> None:
+    """machines imports the FE stack inside functions only: a lumped scene loads none."""
+    code = ("import sys, machines, pkgutil, importlib\n"
+            "for m in pkgutil.walk_packages(machines.__path__, 'machines.'):\n"
+            "    importlib.import_module(m.name)\n"
+            "heavy = {'dolfinx', 'gmsh', 'petsc4py', 'slepc4py', 'mpi4py', 'ufl'} "
+            "& set(sys.modules)\n"
+            "assert not heavy, heavy\n")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
 
 
 def test_forbidden_imports_are_found_inside_functions(tmp_path: Path) -> None:
@@ -169,11 +206,10 @@ def test_cycle_finder_sees_function_local_and_relative_imports(tmp_path: Path) -
 #: modules of its own subpackage or of those before it, never of one after it. ``cli``
 #: is study's top: ``cli.py`` and ``__main__.py`` (and the ``__init__`` facade).
 STUDY_LAYERS = ("scene", "outputs", "plots", "pipeline", "studies", "cli")
-#: Modules at study's top, by the layer they belong to. The FE stages, the FE parameter
-#: sections and the lumped model go to ``machines/`` (issue 35 step 2), the scene -> hbm
-#: problem glue (``model``) then to ``pipeline/``; an entry whose file is gone fails.
-STUDY_TOP = {"study.cli": "cli", "study.__main__": "cli", "study.fe_params": "scene",
-             "study.lumped": "scene", "study.model": "pipeline", "study.fe_stages": "pipeline"}
+#: Modules at study's top, by the layer they belong to (an entry whose file is gone
+#: fails). The FE stages, the FE parameter sections and the lumped model went to
+#: ``machines/``, the scene -> hbm problem glue to ``study.pipeline.model``.
+STUDY_TOP = {"study.cli": "cli", "study.__main__": "cli"}
 
 
 def study_layer(module: str) -> str:
@@ -217,7 +253,8 @@ def test_upward_import_finder() -> None:
     graph = {"study.outputs.report": {"study.plots.common": 14, "study.scene.data": 9},
              "study.plots.common": {"study.outputs.curves": 20}, "study.outputs.curves": {},
              "study.scene.data": {}, "study.cli": {"study.pipeline.stages": 3},
-             "study.pipeline.stages": {"study.model": 238}, "study.model": {}}
+             "study.pipeline.stages": {"study.pipeline.model": 238},
+             "study.pipeline.model": {}}
     assert upward_imports(graph, lambda m: rank[study_layer(m)]) == [
         "study.outputs.report (line 14) -> study.plots.common"]
 
@@ -339,7 +376,7 @@ def test_hbm_imports_without_the_fe_stack() -> None:
 #: cut in pieces along a line count, whose pieces reach into each other, shows as such
 #: imports; a cut along concepts needs none.
 #: (reduction/rom.py still imports two helpers of reduction/coupled.py.)
-PRIVATE_PACKAGES = ["core", "gears", "geometry", "fem", "hbm", "study"]
+PRIVATE_PACKAGES = ["core", "gears", "geometry", "fem", "machines", "hbm", "study"]
 
 
 def private_imports(root: Path, package: str) -> dict[str, list[str]]:

@@ -129,7 +129,8 @@ def test_build_rom_orders_gear_dof_first(chain):
     G[0], G[1] = 1.0, -1.0
     rom = build_rom(cb, G, km_mean=5e6)
     assert rom.gear_dof_names[:3] == ("u1", "u2", "u3") and rom.n_r == 20
-    assert np.all(rom.G[12:] == 0) and rom.G[0] == 1.0
+    assert rom.G.shape == (20, 1) and rom.n_meshes == 1
+    assert np.all(rom.G[12:] == 0) and rom.G[0, 0] == 1.0
     # T's first column is the unit interface displacement of IFACE[0]
     col = reconstruct(cb.T, np.eye(20)[0]).getArray()
     assert col[IFACE[0]] == 1.0 and np.all(col[IFACE[1:]] == 0.0)

@@ -2,6 +2,7 @@
 
 import math
 
+import h5py
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -107,6 +108,8 @@ def test_hdf5_roundtrip_and_reconstruction(clamped, tmp_path):
     for name in ("M", "K", "C", "G", "frequencies_hz", "mesh_energy", "fixed_interface_hz"):
         np.testing.assert_array_equal(getattr(back, name), getattr(rom, name))
     assert back.gear_dof_names == rom.gear_dof_names and back.n_cm == 8
+    with h5py.File(path, "r") as f:  # one mesh: the file keeps its 1-D G and scalar k̄
+        assert f["rom/G"].shape == (rom.n_r,) and np.ndim(f["rom"].attrs["km_mean"]) == 0
     np.testing.assert_array_equal(back.validation.relative_error, rom.validation.relative_error)
     T = load_basis(path, row_range=cb.T.getOwnershipRange())
     q = np.random.default_rng(1).standard_normal(rom.n_r) * (1 + 0.5j)

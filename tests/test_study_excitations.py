@@ -94,7 +94,7 @@ def test_outputs(run):
 def _linear_std(f, omega):
     """Std of the mesh force of m Δ'' + c Δ' + k̄ (Δ − e − b) = F_s + Σ F_k cos(kΩt + φ_k)
     (permanent contact, constant stiffness), per harmonic in closed form; m_e and c from
-    the Table 1 steel disks and ξ (study/lumped.py, eq. 18), forcing from the scene."""
+    the Table 1 steel disks and ξ (machines/lumped.py, eq. 18), forcing from the scene."""
     sc = load_scene(SCENE)
     rb, rp = sc.gear.base_radius, sc.gear.pitch_radius
     inertia = 0.5 * 7800.0 * math.pi * sc.gear.face_width * rp**4

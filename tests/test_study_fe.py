@@ -84,7 +84,7 @@ def test_rom_key_hashes_the_code_that_writes_the_rom_files(tmp_path, monkeypatch
     monkeypatch.setattr(pl, "source_hash", lambda *m: asked.append(m) or real(*m))
     pl.Pipeline(load_scene(PUMP), tmp_path).rom_key()
     rom = next(m for m in asked if "reduction" in m)
-    assert {"reduction", "fem.post", "study.fe_stages"} <= set(rom)
+    assert {"reduction", "fem.post", "machines.rom", "machines.pump"} <= set(rom)
     assert any("fem" in m for m in asked)                            # via the fe key
 
 
@@ -101,7 +101,7 @@ def test_links_enter_the_fe_key_only_when_given(tmp_path):
     """[links] reaches the pump's hub and journal-seat links and the fe key (so rom and
     hbm), not the mesh key; scenes without it keep their keys."""
     import fem
-    from study.fe_params import fe_parameters
+    from machines.pump import fe_parameters
     from study.pipeline import Pipeline
     from study.scene import load_scene
 
@@ -150,11 +150,12 @@ def pump_runs(tmp_path_factory):
 def _fe_model(pump_runs):
     """The FE model of the run, rebuilt from the cached mesh (the independent checks; the
     export itself needs neither the model nor the mesh)."""
-    from study import fe_stages
+    from machines import machine_for
     from study.pipeline import Pipeline
 
     _, cache, r1 = pump_runs
-    return fe_stages.fe_stage(r1.scene, Pipeline(r1.scene, r1.out, cache_dir=cache).run_mesh())
+    mesh_dir = Pipeline(r1.scene, r1.out, cache_dir=cache).run_mesh()
+    return machine_for(r1.scene).build_fe_model(mesh_dir)
 
 
 def test_stages_and_results(pump_runs):

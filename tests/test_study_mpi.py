@@ -155,14 +155,14 @@ def test_rom_files_of_two_ranks_equal_serial(runs, tmp_path):
     housing cells and rows of the distributed P T, no serial FE model) equal the serial
     computation on the same basis, dataset by dataset, in the same facet and node order."""
     from fem import post
+    from machines import machine_for
     from reduction import load_basis
-    from study import fe_stages
     from study.scene import load_scene
 
     tmp, _ = runs
     entry = next(p for p in (tmp / "cache_par/rom").iterdir() if not p.name.startswith("."))
     mesh = next(p for p in (tmp / "cache_par/mesh").iterdir() if not p.name.startswith("."))
-    model = fe_stages.fe_stage(load_scene(PUMP, {"rom.n_cm": 20}), mesh)
+    model = machine_for(load_scene(PUMP, {"rom.n_cm": 20})).build_fe_model(mesh)
     assert model.comm.size == 1
     T = load_basis(entry / "rom.h5", row_range=model.K.getOwnershipRange(),
                    row_keys=model.row_keys())

@@ -182,7 +182,7 @@ def test_stage_keys_hash_modules_that_exist():
     text = (root / "study" / "pipeline" / "stages.py").read_text()
     names = {n for call in re.findall(r"source_hash\(([^)]*)\)", text)
              for n in re.findall(r'"([\w.]+)"', call)}
-    assert names >= {"hbm", "study.model", "study.outputs.results"}
+    assert names >= {"hbm", "study.pipeline.model", "study.outputs.results"}
     for name in sorted(names):    # found without importing them (fem.post loads dolfinx)
         path = root.joinpath(*name.split("."))
         assert path.with_suffix(".py").is_file() or (path / "__init__.py").is_file(), name
@@ -311,9 +311,9 @@ def test_exit_codes(tmp_path):
 def test_lumped_external_torque_matches_linear_frf(tmp_path):
     """Constant mesh stiffness, no TE, an aerodynamic torque on the input gear at shaft
     order 2: in permanent contact the order-2 coefficient of Δ equals the linear FRF
-    m_e (r_b/I1) A / (k̄ − m_e ω² + i c ω), ω = 2Ω (study/lumped.py)."""
+    m_e (r_b/I1) A / (k̄ − m_e ω² + i c ω), ω = 2Ω (machines/lumped.py)."""
     import study
-    from study.lumped import equivalent_mass, gear_inertias
+    from machines.lumped import equivalent_mass, gear_inertias
 
     ov = {"mesh_stiffness.amplitudes_N_per_um": [], "mesh_stiffness.phases_deg": [],
           "transmission_error.amplitudes_um": [], "transmission_error.phases_deg": [],

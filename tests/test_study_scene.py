@@ -314,7 +314,7 @@ def test_docs_list_every_key():
 
 def test_harmonic_set_option_reaches_the_builder():
     """hbm.harmonic_set picks the builder's kind; the default keeps the combinations."""
-    from study.model import harmonic_set
+    from study.pipeline.model import harmonic_set
 
     sizes = {}
     for kind in ("combinations", "bands", "contiguous"):

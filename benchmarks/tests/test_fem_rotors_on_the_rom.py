@@ -34,7 +34,7 @@ N_CM = 100
 
 @pytest.fixture(scope="module")
 def params():
-    from study.fe_params import fe_parameters
+    from machines.pump import fe_parameters
     from study.scene import load_scene
 
     scene = load_scene(SCENE)

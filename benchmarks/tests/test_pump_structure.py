@@ -59,18 +59,17 @@ def test_mesh_softening_is_the_single_mode_shift():
 
 
 def test_paper_md_measures_of_a_cached_rom():
-    """study.studies.paper.measure.rom_measures on an object with only the fields of the cached ROM
-    (RomData): the top mode of eq. (31) and the T.33 shift of the two-gear closed form."""
-    from types import SimpleNamespace
-
+    """study.studies.paper.measure.rom_measures on a cached ROM's data
+    (machines.rom.RomData): the top mode of eq. (31) and the T.33 shift of the two-gear
+    closed form."""
+    from machines.rom import RomData
     from reduction import coupled_modes, mesh_energy
     from study.studies.paper.measure import rom_measures
 
     M, K, G = _two_gears()
     km = 2.0e8
-    rom = SimpleNamespace(M=M, K=K, C=None, G=G, km_mean=km,
-                          frequencies_hz=coupled_modes(M, K, G, km).frequencies_hz,
-                          mesh_energy=mesh_energy(M, K, G, km))
+    rom = RomData(None, M, K, None, G, coupled_modes(M, K, G, km).frequencies_hz,
+                  mesh_energy(M, K, G, km), km, 0, None, {})
     (f, rho), reached, (f_peak, ratio) = rom_measures(rom, 0.01)
     f_n = math.sqrt((K[0, 0] + 2 * km) / M[0, 0]) / (2 * math.pi)
     rho_n = 2 * km / (2 * km + K[0, 0])
@@ -82,8 +81,7 @@ def test_paper_md_measures_of_a_cached_rom():
 def test_paper_md_measures_only_the_modes_the_mesh_harmonics_reach():
     """A low mode with more mesh energy than the mesh mode (a heavy rotor on each gear,
     T.35) is reported, but the T.33 shift is taken at the mode at or above f_min."""
-    from types import SimpleNamespace
-
+    from machines.rom import RomData
     from reduction import coupled_modes, mesh_energy
     from study.studies.paper.measure import rom_measures
 
@@ -94,8 +92,7 @@ def test_paper_md_measures_only_the_modes_the_mesh_harmonics_reach():
     G = np.array([1.0, 1.0, 0.0, 0.0])
     f_all = coupled_modes(M, K, G, km).frequencies_hz
     rho = mesh_energy(M, K, G, km)
-    rom = SimpleNamespace(M=M, K=K, C=None, G=G, km_mean=km, frequencies_hz=f_all,
-                          mesh_energy=rho)
+    rom = RomData(None, M, K, None, G, f_all, rho, km, 0, None, {})
     top, reached, (f_peak, _) = rom_measures(rom, 0.01, f_min=1000.0)
     j = int(np.argmax(np.where(f_all >= 1000.0, rho, 0.0)))
     assert top[0] < 1000.0 and top[1] > reached[1]

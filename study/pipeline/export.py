@@ -1,17 +1,19 @@
-"""Export stage: ``results.h5``, PNG plots and ``report.md`` of a run."""
+"""Export stage: ``results.h5`` (with the ROM's ``/rom`` group), the housing fields, PNG
+plots and ``report.md`` of a run."""
 from __future__ import annotations
 
 import logging
 from pathlib import Path
 
-from study import fe_stages
+from study.outputs import fields
 from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
+from study.outputs.points import nearest_point
 from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["write_partial", "export", "write_housing", "write_report_files",
-           "write_attractor_files"]
+__all__ = ["write_partial", "export", "write_housing", "write_rom_group", "housing_fields",
+           "write_report_files", "write_attractor_files"]
 
 
 def _settings(result) -> dict:
@@ -26,7 +28,7 @@ def _extra(result):
 
     def extra(f) -> None:
         if result.rom is not None:
-            fe_stages.write_rom_group(f, result)
+            write_rom_group(f, result)
         if nvh is not None:
             write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
     return extra
@@ -64,15 +66,59 @@ def write_housing(result, figures: bool = True) -> None:
     mpirun (rank 0 writes)."""
     if result.rom is None or not result.scene.outputs.housing_field:
         return
-    fields = fe_stages.housing_fields(result)
-    result.figures += fields
+    paths = housing_fields(result)
+    result.figures += paths
     if figures and "housing" in result.scene.outputs.plots:
-        world().root_call(_render, result, fields)
+        world().root_call(_render, result, paths)
 
 
-def _render(result, fields: list[Path]) -> None:
+def write_rom_group(f, result) -> None:
+    """Copy the cached ROM's dense datasets into results.h5 ``/rom`` (no basis) and
+    replace the coupled quantities by those of the run's k̄ and ξ."""
+    import h5py
+
+    rd = result.rom
+    with h5py.File(rd.folder / "rom.h5", "r") as src:
+        g = f.create_group("rom")
+        for k, v in src["rom"].attrs.items():
+            g.attrs[k] = v
+        for name in src["rom"]:
+            if name != "basis":
+                src.copy(src["rom"][name], g, name=name)
+    for name, val in (("C", rd.C), ("frequencies_hz", rd.frequencies_hz),
+                      ("mesh_energy", rd.mesh_energy)):
+        del g[name]
+        g[name] = val
+    g.attrs["km_mean"] = rd.km_mean
+    g.attrs["xi_run"] = result.scene.damping.modal_ratio
+
+
+def housing_fields(result) -> list[Path]:
+    """Housing-only XDMF files at the scene's ``housing_field_rpm`` speeds (study.outputs.fields):
+    time series of the dynamic displacement (no aliasing), complex amplitudes per order,
+    normal velocity and ERP density per order on the outer surface.
+
+    From the cached ROM alone (the radiating part's ``housing.h5`` and ``radiation.h5``
+    of the rom stage, :class:`machines.rom.RomData`): no FE model and no mesh file. Rank 0
+    writes; the files are the same whatever the number of ranks that reduced the model."""
+    return world().root_call(_write_housing_fields, result)
+
+
+def _write_housing_fields(result) -> list[Path]:
+    sc = result.scene
+    hd = result.rom.housing()
+    paths = []
+    for rpm in sc.outputs.housing_field:
+        _, pt = nearest_point(result, rpm)
+        qk = result.problem.recover(pt)                      # (n_r, nS) complex
+        paths += fields.write_housing_fields(Path(result.out), pt.rpm, hd, result.rom.radiation,
+                                             qk, result.problem.harmonics, pt.omega, sc)
+    return paths
+
+
+def _render(result, paths: list[Path]) -> None:
     from study.plots.render import render_housing_isolated
-    for x in fields:
+    for x in paths:
         if x.name.startswith(("housing_orders_", "housing_surface_")):
             continue
         png = render_housing_isolated(x, x.with_suffix(".png"))

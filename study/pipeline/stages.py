@@ -6,15 +6,22 @@ the inputs it depends on plus the source code of the packages that compute it:
 ========  =====================================================================
 stage     key inputs
 ========  =====================================================================
-mesh      ``[geometry]``, ``[mesh]``, gear face width/tip radius, centre distance
-fe        mesh key, ``[materials]``, ``[bearings]``, ``[drive]``, ``[rotors]``, ``[links]``,
-          gear data of G
+mesh      the machine's mesh inputs (the pump: ``[geometry]``, ``[mesh]``, gear face
+          width/tip radius, centre distance)
+fe        mesh key, the machine's FE inputs (the pump: ``[materials]``,
+          ``[bearings]``, ``[drive]``, ``[rotors]``, ``[links]``, gear data of G)
           (key only: the FE model is rebuilt from the cached mesh when needed)
 rom       fe key, ``[rom]``
-hbm       rom key (FE) or ``[lumped]`` + gear (lumped), mesh stiffness, TE, load,
-          backlash, external, damping, ``[hbm]``, ``[continuation]``
+hbm       rom key (FE) or the lumped machine's linear key (``[lumped]`` + gear),
+          mesh stiffness, TE, load, backlash, external, damping, ``[hbm]``,
+          ``[continuation]``
 export    never cached (writes ``results.h5``, plots and ``report.md``)
 ========  =====================================================================
+
+The scene's machine (:func:`machines.machine_for`) says which stages it has, what each
+stage's key hashes (``Machine.stage_inputs``, ``Machine.stage_code``) and builds them
+(``FEMachine.build_mesh``, ``build_fe_model``, ``build_rom``; a lumped machine its
+linear model).
 
 So changing the torque, backlash, mesh stiffness or speed range reruns only the
 hbm stage (the ROM keeps the physical gear DOF, Sect. 5), while changing a wall
@@ -32,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from core.files import atomic_write
+from machines import FEMachine, machine_for
 from study.pipeline.cache import StageCache, source_hash, stage_key
 from study.pipeline.parallel import mark_collective, world
 from study.pipeline.progress import ProgressBar, StageBar
@@ -111,6 +119,7 @@ class Pipeline:
         self.stages: dict[str, str] = {}            # stage -> StageStatus.text
         self.status: dict[str, StageStatus] = {}    # stage -> how it was served
         self.keys: dict[str, str] = {}
+        self.machine = machine_for(scene)
         self._fe_model = None
 
     # ------------------------------------------------------------------ helpers
@@ -132,37 +141,24 @@ class Pipeline:
                     f" [{key[:12]}]" if key else "")
 
     # ------------------------------------------------------------------ FE stages
+    def _machine_key(self, stage: str, upstream: dict[str, str] | None = None) -> str:
+        """Key of ``stage``: the machine's inputs of it and the code computing it, plus the
+        key of the stage before it."""
+        m = self.machine
+        return stage_key(stage, {**(upstream or {}), **m.stage_inputs(stage)},
+                         source_hash(*m.stage_code(stage)))
+
     def mesh_key(self) -> str:
-        s = self.scene
-        return stage_key("mesh", {"geometry": s.fe.get("geometry", {}),
-                                  "mesh": s.fe.get("mesh", {}),
-                                  "gear": {"face_width": s.gear.face_width,
-                                           "tip_radius": s.gear.tip_radius,
-                                           "centre_distance": s.gear.centre_distance}},
-                         source_hash("geometry", "study.fe_stages"))
+        return self._machine_key("mesh")
 
     def fe_key(self) -> str:
-        s = self.scene
-        return stage_key("fe", {"mesh": self.mesh_key(),
-                                **{k: s.fe.get(k, {}) for k in ("materials", "bearings", "drive")},
-                                # only when given, so that scenes without rotors or links
-                                # keep their keys
-                                **({"rotors": s.fe["rotors"]} if s.fe.get("rotors") else {}),
-                                **({"links": s.fe["links"]} if s.fe.get("links") else {}),
-                                "gear": {"base_radius": s.gear.base_radius,
-                                         "pressure_angle": s.gear.pressure_angle,
-                                         "helix_angle": s.gear.helix_angle,
-                                         "face_width": s.gear.face_width}},
-                         source_hash("fem", "study.fe_stages"))
+        return self._machine_key("fe", {"mesh": self.mesh_key()})
 
     def rom_key(self) -> str:
-        return stage_key("rom", {"fe": self.fe_key(), "rom": _asdict(self.scene.rom)},
-                         source_hash("reduction", "fem.post", "study.fe_stages"))
+        return self._machine_key("rom", {"fe": self.fe_key()})
 
     def run_mesh(self) -> Path:
-        """Mesh stage (FE scenes): cached gmsh model file."""
-        from study import fe_stages
-
+        """Mesh stage (FE scenes): the machine's cached mesh folder."""
         _require("geometry", "gmsh")
         key = self.keys["mesh"] = self.mesh_key()
         hit = self.comm.root_call(self.cache.lookup, "mesh", key)
@@ -171,8 +167,7 @@ class Pipeline:
             return hit
         t = time.perf_counter()
         with StageBar("mesh (gmsh)", self.progress):  # gmsh on rank 0 only
-            d = self.comm.root_call(self.cache.store, "mesh", key,
-                                    lambda tmp: fe_stages.mesh_stage(self.scene, tmp))
+            d = self.comm.root_call(self.cache.store, "mesh", key, self.machine.build_mesh)
         self._log_stage("mesh", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
@@ -188,12 +183,12 @@ class Pipeline:
         return self.comm.root_call(copy)
 
     def publish_mesh(self, mesh_dir: Path) -> Path:
-        """Copy the cached ``pump.msh`` to ``<out>/mesh.msh`` (atomically) and log its size
-        and quality (``geardyn mesh``)."""
-        import json
+        """Copy the cached mesh file (the pump's ``pump.msh``) to ``<out>/mesh.msh``
+        (atomically) and log its size and quality (``geardyn mesh``)."""
+        from machines.fe import mesh_quality
 
-        target = self._publish(Path(mesh_dir) / "pump.msh", "mesh.msh")
-        q = json.loads((Path(mesh_dir) / "mesh.json").read_text())["quality"]
+        target = self._publish(Path(mesh_dir) / self.machine.mesh_file, "mesh.msh")
+        q = mesh_quality(mesh_dir)
         logger.info("mesh: %s — %d tets (10 nodes), %d nodes, %d P2 DOF; min SICN %.3g, "
                     "%d elements below SICN %.3g", target, q["n_elements"], q["n_nodes"],
                     q["n_dofs"], q["min_sicn"], q["n_poor"], q["poor_threshold"])
@@ -208,8 +203,6 @@ class Pipeline:
 
     def run_rom(self) -> Path:
         """fe + rom stages (FE scenes): the FE model is built only when the ROM misses."""
-        from study import fe_stages
-
         _require("reduction", "h5py")
         self.keys["fe"] = self.fe_key()
         key = self.keys["rom"] = self.rom_key()
@@ -223,46 +216,41 @@ class Pipeline:
         mesh_dir = self.run_mesh()
         t = time.perf_counter()
         with StageBar("fe (assembly)", self.progress):
-            model = fe_stages.fe_stage(self.scene, mesh_dir)
+            model = self.machine.build_fe_model(mesh_dir)
         self._log_stage("fe", StageStatus("ran", seconds=time.perf_counter() - t))
         t = time.perf_counter()
         with StageBar("rom (Craig-Bampton eigen-solve)", self.progress):
-            d = self.cache.store("rom", key, lambda tmp: fe_stages.rom_stage(
-                self.scene, model, tmp, self.progress), comm=self.comm)
+            d = self.cache.store("rom", key, lambda tmp: self.machine.build_rom(model, tmp),
+                                 comm=self.comm)
         self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
     # ------------------------------------------------------------------ hbm
     def problem(self):
         """The HBM problem and (FE) the ROM it was built from."""
-        from study.model import lumped_problem
+        from study.pipeline.model import build_problem
 
-        if self.scene.scene.kind == "lumped":
-            self.keys.setdefault("linear", stage_key(
-                "linear", {"lumped": _asdict(self.scene.lumped), "gear": _asdict(self.scene.gear),
-                           "damping": _asdict(self.scene.damping),
-                           "mean_stiffness": self.scene.mesh_stiffness.mean},
-                source_hash("study.lumped")))
-            return lumped_problem(self.scene), None
-        from study import fe_stages
-
-        rom_dir = self.run_rom()
-        return fe_stages.rom_problem(self.scene, rom_dir)
+        m = self.machine
+        if isinstance(m, FEMachine):
+            rom = m.load_rom(self.run_rom())
+            return build_problem(self.scene, m, m.linear_model(rom)), rom
+        self.keys.setdefault("linear", self._machine_key("linear"))
+        return build_problem(self.scene, m, m.linear_model()), None
 
     def hbm_key(self) -> str:
-        lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
+        lin = self.keys[self.machine.linear_stage]
         return stage_key("hbm", {"linear": lin, **hbm_inputs(self.scene)},
-                         source_hash("hbm", "study.model", "study.outputs.results"))
+                         source_hash("hbm", "study.pipeline.model", "study.outputs.results"))
 
     def hbm_resume_key(self) -> str:
         """Key of what a resumed continuation must share with the partial run: the hbm key
         without the continuation controls (:data:`RESUMABLE_CONTROLS`)."""
-        lin = self.keys["linear"] if self.scene.scene.kind == "lumped" else self.keys["rom"]
+        lin = self.keys[self.machine.linear_stage]
         inputs = hbm_inputs(self.scene)
         inputs["continuation"] = {k: v for k, v in inputs["continuation"].items()
                                   if k not in RESUMABLE_CONTROLS}
         return stage_key("hbm_resume", {"linear": lin, **inputs},
-                         source_hash("hbm", "study.model", "study.outputs.results"))
+                         source_hash("hbm", "study.pipeline.model", "study.outputs.results"))
 
     def run_hbm(self, problem, write_checkpoint) -> tuple[Any, str]:
         """Continuation (cached by :meth:`hbm_key`), with checkpoints and resume."""
@@ -346,12 +334,13 @@ class Pipeline:
         s = self.scene
         logger.info("scene %r (%s) -> %s", s.name, s.scene.kind, self.out)
         self.out.mkdir(parents=True, exist_ok=True)
-        if s.scene.kind == "lumped":
+        if not self.machine.stages:
             if until in ("mesh", "rom"):
-                raise SceneError(f"scene.kind = 'lumped': there is no {until} stage "
+                raise SceneError(f"scene.kind = {s.scene.kind!r}: there is no {until} stage "
                                  "(only hbm and export)")
             for st in ("mesh", "fe", "rom"):
-                self._log_stage(st, StageStatus("skipped", "lumped scene", applies=False))
+                self._log_stage(st, StageStatus("skipped", f"{s.scene.kind} scene",
+                                                applies=False))
         elif until == "mesh":
             self.publish_mesh(self.run_mesh())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,

@@ -8,17 +8,16 @@ field, its value and what is allowed; it returns the table's values in SI units
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Callable, Collection, Iterable
 from typing import Any
 
-from core.errors import show
+from core.errors import show, suggest
 from core.units import TO_SI
 from study.scene.errors import SceneError
 from study.scene.schema import Spec, attr_name
 
-__all__ = ["check_table", "check_value", "check_known", "suggest"]
+__all__ = ["check_table", "check_value", "check_known"]
 
 
 def _is_num(v: Any) -> bool:
@@ -85,12 +84,6 @@ def check_value(where: str, v: Any, spec: Spec) -> Any:
                              "(reversed or empty range)")
         return tuple(out)
     raise AssertionError(k)
-
-
-def suggest(key: str, allowed) -> str:
-    """`` (did you mean 'x'?)`` for the closest allowed name, or an empty string."""
-    m = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.5)
-    return f" (did you mean {m[0]!r}?)" if m else ""
 
 
 def check_known(keys: Iterable[str], allowed: Collection[str], name: Callable[[str], str],

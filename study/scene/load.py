@@ -14,11 +14,10 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from core.errors import show
+from core.errors import InputError, show, suggest
 from gears.excitation import perfect_teeth_ste, rectangular_mesh_stiffness
 from gears.iso6336 import approximate_virtual_teeth, single_stiffness
-from study.fe_params import fe_parameters
-from study.scene.check import check_known, check_table, suggest
+from study.scene.check import check_known, check_table
 from study.scene.data import (
     Accelerometer,
     AcousticsData,
@@ -262,8 +261,8 @@ def _outputs(o: dict, accel_raw: Any, kind: str, speed: tuple[float, float]) -> 
     return OutputsData(**o, accelerometers=_build_accelerometers(accel_raw, kind))
 
 
-def _fe_sections(raw: dict, kind: str, gear: GearData) -> dict[str, dict]:
-    """The free FE tables (copied), checked by :func:`study.fe_params.fe_parameters`."""
+def _fe_sections(raw: dict, kind: str) -> dict[str, dict]:
+    """The free FE tables (copied); the machine checks them (:func:`_check_machine`)."""
     fe: dict[str, dict] = {}
     for s in FE_SECTIONS:
         t = raw.get(s)
@@ -275,13 +274,26 @@ def _fe_sections(raw: dict, kind: str, gear: GearData) -> dict[str, dict]:
         if not isinstance(t, dict):
             raise SceneError(f"[{s}] = {show(t)}: must be a table")
         fe[s] = copy.deepcopy(t)
-    if kind == "fe":
-        try:  # geometry and fem are imported only here, for FE scenes
-            fe_parameters(fe, gear)
-        except ImportError as exc:
-            raise StageUnavailable(f"scene.kind = 'fe' needs geometry/fem (gmsh, DOLFINx): "
-                                   f"{exc}") from exc
     return fe
+
+
+def _check_machine(scene: Scene) -> Scene:
+    """The scene's machine (:func:`machines.machine_for`) checks what the schema cannot
+    see (the pump: its free FE sections, importing geometry and fem); its refusals are
+    reported as :class:`SceneError` with their message."""
+    from machines import machine_for
+
+    try:
+        machine_for(scene).check()
+    except ImportError as exc:
+        raise StageUnavailable(f"scene.kind = {scene.scene.kind!r} needs geometry/fem (gmsh, "
+                               f"DOLFINx): {exc}") from exc
+    except SceneError:
+        raise
+    except InputError as exc:
+        raise SceneError(str(exc), field=exc.field, value=exc.value, unit=exc.unit,
+                         allowed=exc.allowed) from exc
+    return scene
 
 
 def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
@@ -340,11 +352,12 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
     hbm = _hbm(sec["hbm"], ms, te, gear, external)
     cont = _continuation(sec["continuation"])
     outputs = _outputs(sec["outputs"], accel_raw, info.kind, sec["continuation"]["speed"])
-    fe = _fe_sections(raw, info.kind, gear)
-    return Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
-                 DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs, fe,
-                 copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
-                 {k: v.strip() for k, v in sec["calibration"].items() if v.strip()})
+    fe = _fe_sections(raw, info.kind)
+    return _check_machine(Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
+                                DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,
+                                fe, copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
+                                {k: v.strip() for k, v in sec["calibration"].items()
+                                 if v.strip()}))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

@@ -96,12 +96,12 @@ def _external(scene: Scene) -> str | None:
 # --------------------------------------------------------------------------- ladders
 
 def _mesh_size(scene: Scene) -> float:
-    from study.fe_params import fe_parameters
-    return float(fe_parameters(scene.fe, scene.gear).mesh.size)
+    from machines import machine_for
+    return float(machine_for(scene).mesh_size)
 
 
 def _n_time(scene: Scene) -> int:
-    from study.model import harmonic_set
+    from study.pipeline.model import harmonic_set
     return int(harmonic_set(scene).n_time)
 
 

@@ -195,14 +195,12 @@ def comparison_inputs(scene: Scene, results: dict, solved: dict | None = None):
 
 
 def rom_measures(rom, xi: float, f_min: float = 0.0) -> tuple[tuple[float, float], ...]:
-    """Of a cached ROM (:class:`study.fe_stages.RomData`): the mode with most mesh energy
+    """Of a cached ROM (:class:`machines.rom.RomData`): the mode with most mesh energy
     ``(Hz, ρ)`` (eq. 31), the same among the modes at or above ``f_min`` [Hz] (those the
     mesh harmonics reach), and the dynamic-factor peak near the latter with its shift
     under k̄/2 ``(Hz, f½/f)`` (T.33), for modal damping ratio ``xi``."""
-    from reduction.coupled import mesh_softening
-
     f, rho = np.asarray(rom.frequencies_hz), np.asarray(rom.mesh_energy)
     j = int(np.argmax(rho))
     k = int(np.argmax(np.where(f >= f_min, rho, 0.0)))
     return ((float(f[j]), float(rho[j])), (float(f[k]), float(rho[k])),
-            mesh_softening(rom.M, rom.K, rom.G, rom.km_mean, xi, f_min=f_min))
+            rom.mesh_softening(xi, f_min=f_min))

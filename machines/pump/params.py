@@ -1,4 +1,4 @@
-"""Scene FE sections -> the FE packages' parameter dataclasses.
+"""The pump's free scene sections -> the FE packages' parameter dataclasses.
 
 ``[geometry]``, ``[mesh]``, ``[materials]``, ``[bearings]``, ``[drive]``, ``[rotors]``
 and ``[links]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOptions`,
@@ -9,7 +9,8 @@ and ``[links]`` become :class:`geometry.PumpParams`, :class:`geometry.MeshOption
 are the dataclass field names in SI units, or the field name with a unit suffix of
 :data:`core.units.FE_SUFFIXES` (``wall_thickness_mm = 8``, ``shaft_E_GPa = 210``,
 ``radial_N_per_um = 100``). geometry and fem are imported inside
-:func:`fe_parameters`, so importing this module loads neither.
+:func:`fe_parameters`, so importing this module loads neither. Bad values raise
+:class:`FEParameterError` (a :class:`core.errors.InputError`) naming the key.
 """
 from __future__ import annotations
 
@@ -18,11 +19,14 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from core.errors import InputError, suggest
 from core.units import FE_SUFFIXES, TO_SI
-from study.scene.check import suggest
-from study.scene.errors import SceneError
 
-__all__ = ["FEParams", "fe_parameters"]
+__all__ = ["FEParams", "FEParameterError", "fe_parameters"]
+
+
+class FEParameterError(InputError):
+    """A refused key or value of the pump's FE sections (the message names it)."""
 
 
 @dataclass(frozen=True)
@@ -52,7 +56,7 @@ def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | Non
             continue
         if key in nested:
             if not isinstance(val, dict):
-                raise SceneError(f"{section}.{key} = {val!r}: must be a table "
+                raise FEParameterError(f"{section}.{key} = {val!r}: must be a table "
                                  f"([{section}.{key}])")
             out[key] = nested[key](**_convert(f"{section}.{key}", val, nested[key]))
             continue
@@ -65,40 +69,40 @@ def _convert(section: str, table: dict, cls: type, nested: dict[str, type] | Non
                     break
         if field not in names:
             allowed = [n for n in names if n not in skip] + list(nested)
-            raise SceneError(f"{section}.{key}: unknown key{suggest(key, allowed)}; allowed: "
+            raise FEParameterError(f"{section}.{key}: unknown key{suggest(key, allowed)}; allowed: "
                              f"{', '.join(allowed)} (SI, or with a unit suffix "
                              f"{', '.join('_' + s for s in FE_SUFFIXES)})")
         if isinstance(val, bool) or not isinstance(val, (int, float, str, list)):
-            raise SceneError(f"{section}.{key} = {val!r}: must be a number, string or list")
+            raise FEParameterError(f"{section}.{key} = {val!r}: must be a number, string or list")
         if factor != 1.0:
             if isinstance(val, list):
                 if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val):
-                    raise SceneError(f"{section}.{key} = {val!r}: must be numbers")
+                    raise FEParameterError(f"{section}.{key} = {val!r}: must be numbers")
                 val = tuple(v * factor for v in val)
             elif isinstance(val, (int, float)):
                 val = val * factor
             else:
-                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
+                raise FEParameterError(f"{section}.{key} = {val!r}: must be a number")
         elif isinstance(val, list):
             val = tuple(val)
         if isinstance(val, float) and not math.isfinite(val):
-            raise SceneError(f"{section}.{key} = {val!r}: must be finite")
+            raise FEParameterError(f"{section}.{key} = {val!r}: must be finite")
         default = defaults.get(field)
         if isinstance(default, (int, float)) and not isinstance(default, bool):
             if isinstance(val, bool) or not isinstance(val, (int, float)):
-                raise SceneError(f"{section}.{key} = {val!r}: must be a number")
+                raise FEParameterError(f"{section}.{key} = {val!r}: must be a number")
             if isinstance(default, int) and not isinstance(default, bool) and \
                     not (isinstance(val, int) or float(val).is_integer()):
-                raise SceneError(f"{section}.{key} = {val!r}: must be an integer")
+                raise FEParameterError(f"{section}.{key} = {val!r}: must be an integer")
             val = type(default)(val) if isinstance(default, int) else float(val)
         elif isinstance(default, str) and not isinstance(val, str):
-            raise SceneError(f"{section}.{key} = {val!r}: must be a string")
+            raise FEParameterError(f"{section}.{key} = {val!r}: must be a string")
         out[field] = val
     return out
 
 
 def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
-    """Build and validate the FE parameter dataclasses (raises SceneError).
+    """Build and validate the FE parameter dataclasses (raises :class:`FEParameterError`).
 
     ``[geometry]`` holds :class:`geometry.PumpParams` fields with nested tables
     ``[geometry.housing]``, ``[geometry.shaft_in]``, ``[geometry.shaft_out]``;
@@ -120,14 +124,14 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         m = dict(fe.get("mesh", {}))
         name = m.pop("preset", "coarse")
         if not isinstance(name, str):
-            raise SceneError(f"mesh.preset = {name!r}: must be a string ('coarse', 'fine' "
+            raise FEParameterError(f"mesh.preset = {name!r}: must be a string ('coarse', 'fine' "
                              "or 'million')")
         opts = geometry.preset(name, **_convert("mesh", m, geometry.MeshOptions))
         opts.validate()
         mats = fem.MaterialParams(**_convert("materials", fe.get("materials", {}),
                                              fem.MaterialParams))
         if "seat_link" in fe.get("bearings", {}):
-            raise SceneError("bearings.seat_link: set the journal-seat link kind as "
+            raise FEParameterError("bearings.seat_link: set the journal-seat link kind as "
                              "links.journal ('rigid' or 'distributing')")
         bear = fem.BearingParams(**_convert("bearings", fe.get("bearings", {}),
                                             fem.BearingParams))
@@ -137,9 +141,9 @@ def fe_parameters(fe: dict[str, dict], gear) -> FEParams:
         gears = fem.GearParams(base_radius_1=gear.base_radius, base_radius_2=gear.base_radius,
                                pressure_angle=gear.pressure_angle, helix_angle=gear.helix_angle,
                                face_width=gear.face_width, outer_radius=gear.tip_radius)
-    except SceneError:
+    except FEParameterError:
         raise
-    except (TypeError, ValueError) as exc:
-        raise SceneError(f"FE parameters: {exc}") from exc
+    except (TypeError, ValueError) as exc:  # the dataclasses' own checks
+        raise FEParameterError(f"FE parameters: {exc}") from exc
     gears, bear = links.apply(gears, bear)
     return FEParams(pump, opts, mats, bear, drive, gears, rotors, links)

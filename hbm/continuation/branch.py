@@ -13,6 +13,7 @@ import numpy as np
 
 from ..newton import COND_WARN
 from ..records import Record
+from .segments import SegmentIndex
 
 # the tracer's log: one name for the continuation and its modules
 logger = logging.getLogger("hbm.continuation")
@@ -235,6 +236,9 @@ class Recorder:
         # buffer grown by doubling (the events read the whole branch at every point)
         self._x_scale = x_scale
         self._ys = np.empty((16, x_scale.size + 1))
+        # bounding balls over the segments between them (the walk-back and closed-loop
+        # tests look only at the segments near a new point)
+        self.segments = SegmentIndex()
         if resume is not None:
             self._resume(resume)
 
@@ -294,15 +298,7 @@ class Recorder:
             self._ys = grown
         self._ys[i, :-1] = self.lists["unknowns"][i] / self._x_scale
         self._ys[i, -1] = self.lists["omega"][i] / self.meta["omega_scale"]
-
-    def untraced(self) -> np.ndarray:
-        """Mask over the segments ``(i, i + 1)``: True where the trace did not go from
-        ``i`` to ``i + 1`` (it went back to a closed loop's entry point instead)."""
-        m = np.zeros(max(len(self) - 1, 0), dtype=bool)
-        for *_, restart in self.loops:
-            if 0 < restart <= m.size:
-                m[restart - 1] = True
-        return m
+        self.segments.grow(self._ys, i + 1)
 
     def restart(self) -> int:
         """Index of the first point of the current piece (after the last loop exit)."""
@@ -329,6 +325,7 @@ class Recorder:
         for k in self.lists:
             del self.lists[k][n:]
         del self.tickets[n:]
+        self.segments.truncate(n)
         keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
         self.folds = [self.folds[i] for i in keep]
         self.fold_index = [self.fold_index[i] for i in keep]

@@ -142,3 +142,38 @@ def test_the_recorder_keeps_its_index_through_truncations_and_resume():
                                                          strict=True))
         assert r == rec.segments.radii[level]
     assert br.omega[0] == pytest.approx(300 * RPM_TO_RAD_S)
+
+
+def test_running_branches_are_the_lists_stacked_and_never_change():
+    """Recorder.branch: after random additions, changed rows, truncations and restacks
+    (a row of another shape or dtype), every array equals np.array of its list (the
+    padded stack for statistics) bitwise, and the views handed out before keep their
+    values."""
+    from hbm.continuation.branch import _Rows, _stacked
+
+    rng = np.random.default_rng(3)
+    for padded in (False, True):
+        rows, values, handed = _Rows(), [], []
+        for _ in range(600):
+            action = rng.random()
+            if action < 0.55:
+                width = 3 if not padded or rng.random() < 0.97 else int(rng.integers(1, 5))
+                values.append(rng.standard_normal((2, width)) if padded else
+                              rng.standard_normal(3))
+            elif action < 0.65 and values:
+                i = int(rng.integers(len(values)))
+                values[i] = (np.full_like(values[i], rng.random()) if rng.random() < 0.8 else
+                             values[i].astype(np.float32))
+                rows.invalidate(i)
+            elif action < 0.7 and values:
+                n = int(rng.integers(len(values)))
+                del values[n:]
+                rows.invalidate(n)
+            view = rng.random() < 0.9
+            out = rows.stacked(values, padded, view)
+            ref = (_stacked(values) if padded else np.array(values)) if values else \
+                np.zeros((0,))
+            assert out.dtype == ref.dtype and np.array_equal(out, ref)
+            assert view or out.flags.writeable      # a final branch owns its arrays
+            handed.append((out, out.copy()))
+        assert all(np.array_equal(a, b) for a, b in handed)

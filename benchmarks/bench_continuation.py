@@ -261,7 +261,8 @@ def main(argv: list[str] | None = None) -> int:
         if None in old or None in new:
             continue
         o, n = statistics.median(old), statistics.median(new)
-        per_point.append([at, f"{o:.3f}", f"{n:.3f}", f"{o / n:.2f}"])
+        its = float(np.mean(b["iterations"][max(at - WINDOW, 0):at]))
+        per_point.append([at, f"{o:.3f}", f"{n:.3f}", f"{o / n:.2f}", f"{its:.2f}"])
     rows = replay(work / "new_0.npz", 5)
     rec = recovery(5)
     load.append(os.getloadavg()[0])
@@ -294,7 +295,8 @@ def main(argv: list[str] | None = None) -> int:
         "tables": [
             {"title": "time per point of the long branch at point k (ms, median of the "
                       f"{WINDOW} points before k, no on_point)",
-             "columns": ["k", "old", "new", "old/new"], "rows": per_point},
+             "columns": ["k", "old", "new", "old/new", "corrector iterations (mean)"],
+             "rows": per_point},
             {"title": "bookkeeping of point k, replayed (ms, medians): distance test and "
                       "branch handed to on_point",
              "columns": ["k", "scan old", "scan new", "branch old", "branch new",

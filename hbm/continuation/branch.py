@@ -13,6 +13,7 @@ import numpy as np
 
 from ..newton import COND_WARN
 from ..records import Record
+from .segments import SegmentIndex
 
 # the tracer's log: one name for the continuation and its modules
 logger = logging.getLogger("hbm.continuation")
@@ -235,6 +236,12 @@ class Recorder:
         # buffer grown by doubling (the events read the whole branch at every point)
         self._x_scale = x_scale
         self._ys = np.empty((16, x_scale.size + 1))
+        # bounding balls over the segments between them (the walk-back and closed-loop
+        # tests look only at the segments near a new point)
+        self.segments = SegmentIndex()
+        # the lists stacked as arrays for branch(), grown point by point (a branch is
+        # handed to on_point after every point: stacking every list again cost O(n))
+        self._rows = {k: _Rows() for k in self.lists}
         if resume is not None:
             self._resume(resume)
 
@@ -283,6 +290,12 @@ class Recorder:
         self.tickets.append(ticket)
         self._put_state(len(self) - 1)
 
+    def set(self, key: str, i: int, value) -> None:
+        """Replace the value of the per-point list ``key`` at point ``i`` (write rows of
+        points already recorded only through here: :meth:`branch` keeps them stacked)."""
+        self.lists[key][i] = value
+        self._rows[key].invalidate(i)
+
     def stat(self, name: str, i: int, element: int):
         """Statistic ``name`` of ``element`` at point ``i``."""
         return self.lists[name][i][element]
@@ -294,15 +307,7 @@ class Recorder:
             self._ys = grown
         self._ys[i, :-1] = self.lists["unknowns"][i] / self._x_scale
         self._ys[i, -1] = self.lists["omega"][i] / self.meta["omega_scale"]
-
-    def untraced(self) -> np.ndarray:
-        """Mask over the segments ``(i, i + 1)``: True where the trace did not go from
-        ``i`` to ``i + 1`` (it went back to a closed loop's entry point instead)."""
-        m = np.zeros(max(len(self) - 1, 0), dtype=bool)
-        for *_, restart in self.loops:
-            if 0 < restart <= m.size:
-                m[restart - 1] = True
-        return m
+        self.segments.grow(self._ys, i + 1)
 
     def restart(self) -> int:
         """Index of the first point of the current piece (after the last loop exit)."""
@@ -320,7 +325,7 @@ class Recorder:
         for i in range(len(self.tickets) - 1, -1, -1):
             if self.tickets[i] == ticket:
                 for k, v in values.items():
-                    self.lists[k][i] = v
+                    self.set(k, i, v)
                 self.tickets[i] = None
                 return
 
@@ -328,7 +333,9 @@ class Recorder:
         """Keep the first ``n`` points (and the folds and grazing points found by then)."""
         for k in self.lists:
             del self.lists[k][n:]
+            self._rows[k].invalidate(n)
         del self.tickets[n:]
+        self.segments.truncate(n)
         keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
         self.folds = [self.folds[i] for i in keep]
         self.fold_index = [self.fold_index[i] for i in keep]
@@ -339,15 +346,17 @@ class Recorder:
     def branch(self, status: str, message: str, next_step: float,
                counters: dict | None = None) -> Branch:
         """The branch so far (every stability verdict collected first); ``counters``
-        replaces the retry counters (a branch handed out later than it was reached)."""
+        replaces the retry counters (a branch handed out later than it was reached).
+
+        A ``"running"`` branch (the one handed to ``on_point`` after every point) holds
+        read-only views of arrays the recorder grows, ``O(1)`` per point amortised;
+        any other status gets arrays of its own."""
         if self.settle is not None:
             self.settle()
         counters = self.counters if counters is None else counters
-        arrays = {}
-        for k in (*POINT_FIELDS, *self.stat_names):
-            v = self.lists[k]
-            arrays[k] = _stacked(v) if k in self.stat_names else (
-                np.array(v) if v else np.zeros((0,)))
+        view = status == "running"
+        arrays = {k: self._rows[k].stacked(self.lists[k], k in self.stat_names, view)
+                  for k in (*POINT_FIELDS, *self.stat_names)}
         stats = {k: arrays.pop(k) for k in self.stat_names}
         return Branch(**self.meta, **arrays, stats=stats, element_names=self.element_names,
                       element_statistics=self.element_statistics,
@@ -360,6 +369,57 @@ class Recorder:
                       reversals=counters["reversals"], leaps=counters["leaps"],
                       max_condition=counters["max_condition"] or float("nan"),
                       status=status, message=message, next_step=float(next_step))
+
+
+class _Rows:
+    """One per-point list of a :class:`Recorder` stacked into an array, grown by
+    doubling as points are added. The rows kept all have the buffer's dtype and shape,
+    so ``buf[:valid]`` is ``np.array`` of the list's first ``valid`` items, bitwise.
+    Views of the first ``shared`` rows were handed out and are never written again: a row
+    changed there (:meth:`invalidate`) moves the rows kept to a fresh buffer first. A
+    list whose items differ in dtype or shape (a branch resumed from another run, IPP
+    sequences of another length) is stacked whole at every call, as before."""
+
+    __slots__ = ("buf", "valid", "shared")
+
+    def __init__(self) -> None:
+        self.buf: np.ndarray | None = None
+        self.valid = 0
+        self.shared = 0
+
+    def invalidate(self, i: int) -> None:
+        """Row ``i`` and the rows after it no longer hold the list's items."""
+        self.valid = min(self.valid, i)
+
+    def stacked(self, values: list, padded: bool, view: bool) -> np.ndarray:
+        """The list as one array: a read-only view of the buffer (``view``) or a copy.
+        ``padded``: per-element statistics (:func:`_stacked`)."""
+        n, m = len(values), self.valid
+        if n == 0:
+            return np.zeros((0,))
+        if n > m:
+            new = [np.asarray(v) for v in values[m:]]
+            buf = self.buf if m > 0 else None
+            dtype, shape = (new[0].dtype, new[0].shape) if buf is None else \
+                (buf.dtype, buf.shape[1:])
+            if any(a.dtype != dtype or a.shape != shape for a in new):
+                self.buf, self.valid, self.shared = None, 0, 0
+                return _stacked(values) if padded else np.array(values)
+            if buf is None or n > buf.shape[0] or m < self.shared:
+                # new, full, or rows handed out would change: the rows kept move
+                grown = np.empty((max(16, 2 * n), *shape), dtype)
+                if m:
+                    grown[:m] = buf[:m]
+                buf = self.buf = grown
+                self.shared = 0
+            buf[m:n] = new
+            self.valid = n
+        if not view:
+            return self.buf[:n].copy()
+        self.shared = max(self.shared, n)
+        out = self.buf[:n]
+        out.flags.writeable = False
+        return out
 
 
 def _stacked(values: list) -> np.ndarray:

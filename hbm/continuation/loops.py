@@ -194,7 +194,7 @@ def leave_loop(ctx: TraceContext, rec: Recorder, hit: int, yn: np.ndarray,
         rec.loops.append((first, n - 1, entry, n))
         j = len(rec.loops) - 1
         for i in range(first, n):
-            rec.lists["loop"][i] = j + 1
+            rec.set("loop", i, j + 1)
         rpm = np.asarray(rec.lists["rpm"][first:n])
         logger.warning("closed loop: the branch came round to its own path at rpm %.6g; the "
                        "loop (points %d-%d, %.6g-%.6g rpm) is kept; back to its entry point "

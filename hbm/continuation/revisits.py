@@ -6,6 +6,7 @@ way), whether a nearby piece is another solution, and the point where the path t
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -14,14 +15,15 @@ from ..units import RPM_TO_RAD_S
 from .branch import Recorder
 from .context import TraceContext
 from .corrector import StepRejected, correct
+from .segments import pair_gaps, segment_gaps
 
 # the tracer's log: one name for the continuation and its modules
 logger = logging.getLogger("hbm.continuation")
 
-__all__ = ["LOOP_CONFIRM", "LOOP_MIN_POINTS", "REVISIT_RATIO", "SAME_SOLUTION",
+__all__ = ["LOOP_CONFIRM", "LOOP_MIN_POINTS", "REVISIT_RATIO", "SAME_SOLUTION", "Gaps",
            "branch_gaps", "check_forward", "closed_loop", "distinct_solution",
-           "nearest_segment", "past_fold", "reversal_point", "revisit", "segment_gaps",
-           "untraced"]
+           "near_segments", "nearest_segment", "past_fold", "reversal_point", "revisit",
+           "segment_gaps", "untraced", "untraced_segments"]
 
 # A new point closer than REVISIT_RATIO times its chord to an earlier segment of the
 # branch (all but the last) is the branch walking back over itself, not a fold: on the
@@ -49,45 +51,71 @@ def check_forward(rec, y, yn) -> None:
         raise StepRejected("step goes back over the branch (a reversal was undone here)")
 
 
-def segment_gaps(ys: np.ndarray, y: np.ndarray,
-                  skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Distance of ``y`` to every segment ``(i, i + 1)`` of the polyline ``ys`` (inf where
-    ``skip`` is True) and the nearest point (foot) of each: ``(distances, feet)``."""
-    a, b = ys[:-1], ys[1:]
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", y - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
-                                                               1e-300), 0.0, 1.0)
-    foot = a + t[:, None] * ab
-    d = np.linalg.norm(foot - y, axis=1)
-    if skip is not None:
-        d[skip[:d.size]] = np.inf
-    return d, foot
-
-
-def nearest_segment(ys: np.ndarray, y: np.ndarray, skip: np.ndarray | None = None,
-                     gaps: tuple[np.ndarray, np.ndarray] | None = None
+def nearest_segment(ys: np.ndarray, y: np.ndarray, skip: np.ndarray | None = None
                      ) -> tuple[int, float, np.ndarray]:
     """Segment ``(i, i + 1)`` of the polyline ``ys`` nearest to ``y``: ``(i, distance,
-    foot)``; segments where ``skip`` is True are left out (distance inf if all are).
-    ``gaps``: :func:`segment_gaps` of ``y`` to a polyline that begins with ``ys``,
-    computed once for several of its beginnings (:func:`branch_gaps`)."""
-    d, foot = segment_gaps(ys, y, skip) if gaps is None else gaps
-    i = int(np.argmin(d[:len(ys) - 1]))
+    foot)``; segments where ``skip`` is True are left out (distance inf if all are)."""
+    d, foot = segment_gaps(ys, y, skip)
+    i = int(np.argmin(d))
     return i, float(d[i]), foot[i]
 
 
-def branch_gaps(ctx: TraceContext, rec: Recorder,
-                 yn: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """:func:`segment_gaps` of a new point to the branch but its last segment, shared by
-    the walk-back and closed-loop tests of one point (None below 3 points)."""
+@dataclass(frozen=True)
+class Gaps:
+    """The segments ``(i, i + 1)`` of a branch closer to a point than a radius: their
+    indices (ascending), distances and feet (:func:`segment_gaps`, bitwise)."""
+
+    index: np.ndarray
+    distance: np.ndarray
+    foot: np.ndarray
+
+    def nearest(self, upto: int) -> tuple[int, float, np.ndarray] | None:
+        """The nearest of the segments ``i < upto`` (the first of equals), or None.
+
+        Every segment farther than the radius is left out, so this is the nearest
+        segment of the whole branch (:func:`nearest_segment`) whenever that lies
+        within the radius, and None otherwise."""
+        k = int(np.searchsorted(self.index, upto))
+        if k == 0:
+            return None
+        j = int(np.argmin(self.distance[:k]))
+        return int(self.index[j]), float(self.distance[j]), self.foot[j]
+
+
+def near_segments(ctx: TraceContext, rec: Recorder, y: np.ndarray, radius: float,
+                  upto: int) -> Gaps:
+    """The segments ``i < upto`` of the branch closer than ``radius`` to ``y``, traced ones
+    only (not the join after a closed loop).
+
+    The recorder's :class:`~hbm.continuation.segments.SegmentIndex` drops the blocks of
+    segments that lie farther (``O(log n)`` per point on a branch that moves on); a
+    stand-in without one has every segment measured. Either way the distances are those
+    of a scan of the whole branch, bit for bit.
+    """
+    ys = ctx.states(rec)
+    index = getattr(rec, "segments", None)
+    idx = index.near(y, radius, upto) if index is not None else np.arange(max(upto, 0))
+    skip = untraced_segments(rec)
+    if skip.size and idx.size:
+        idx = idx[~np.isin(idx, skip)]
+    d, foot = pair_gaps(ys[idx], ys[idx + 1], y)
+    keep = d < radius
+    return Gaps(idx[keep], d[keep], foot[keep])
+
+
+def branch_gaps(ctx: TraceContext, rec: Recorder, yn: np.ndarray) -> Gaps | None:
+    """The segments of the branch but its last within ``REVISIT_RATIO`` of the last chord
+    of a new point (:func:`near_segments`), shared by the walk-back and closed-loop tests
+    of one point (None below 3 points)."""
     n = len(rec)
     if n < 3:
         return None
-    return segment_gaps(ctx.states(rec)[:n - 1], yn, untraced(rec))
+    chord = float(np.linalg.norm(yn - ctx.states(rec)[-1]))
+    return near_segments(ctx, rec, yn, REVISIT_RATIO * chord, n - 2)
 
 
 def revisit(ctx: TraceContext, rec: Recorder, yn: np.ndarray,
-             gaps: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
+             gaps: Gaps | None = None) -> int | None:
     """Index i of the earlier segment (i, i+1) that ``yn`` lies on, or None.
 
     Every segment but the last is checked; ``yn`` is near the branch when its distance
@@ -102,10 +130,12 @@ def revisit(ctx: TraceContext, rec: Recorder, yn: np.ndarray,
     if n < 3:
         return None
     ys = ctx.states(rec)
-    i, d, foot = nearest_segment(ys[:n - 1], yn, untraced(rec), gaps)
-    chord = float(np.linalg.norm(yn - ys[-1]))
-    if not d < REVISIT_RATIO * chord:
+    gaps = branch_gaps(ctx, rec, yn) if gaps is None else gaps
+    near = gaps.nearest(n - 2)
+    if near is None:         # no segment closer than REVISIT_RATIO times the chord
         return None
+    i, d, foot = near
+    chord = float(np.linalg.norm(yn - ys[-1]))
     if (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0:
         # the step goes the way the old segment went: a branch that winds past its own
         # earlier loops (a spiral near a resonance with impacts), not a walk back. A walk
@@ -120,14 +150,24 @@ def revisit(ctx: TraceContext, rec: Recorder, yn: np.ndarray,
     return i
 
 
-def untraced(rec) -> np.ndarray | None:
-    """The recorder's mask of segments not traced (joins after a closed loop), if any."""
-    untraced = getattr(rec, "untraced", None)
-    return untraced() if untraced is not None else None
+def untraced_segments(rec) -> np.ndarray:
+    """The segments ``(i, i + 1)`` the trace did not go along (from a closed loop's last
+    point to the copies of its entry point), ascending: ``i = restart - 1`` of each loop
+    (none for a stand-in without loops)."""
+    n = len(rec)
+    return np.array(sorted({restart - 1 for *_, restart in getattr(rec, "loops", ())
+                            if 0 < restart <= n - 1}), dtype=np.intp)
+
+
+def untraced(rec) -> np.ndarray:
+    """Mask over the segments of the branch, True where :func:`untraced_segments`."""
+    m = np.zeros(max(len(rec) - 1, 0), dtype=bool)
+    m[untraced_segments(rec)] = True
+    return m
 
 
 def closed_loop(ctx: TraceContext, rec: Recorder, yn: np.ndarray, tn: np.ndarray,
-                 gaps: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
+                 gaps: Gaps | None = None) -> int | None:
     """Index i of the old segment (i, i+1) on which the branch closed a loop, or None.
 
     The branch has closed on itself when ``yn`` lies on a segment traced at least
@@ -145,10 +185,13 @@ def closed_loop(ctx: TraceContext, rec: Recorder, yn: np.ndarray, tn: np.ndarray
     if upto < 1:
         return None
     ys = ctx.states(rec)
-    skip = untraced(rec)
-    i, d, foot = nearest_segment(ys[:upto + 1], yn, skip, gaps)
+    gaps = branch_gaps(ctx, rec, yn) if gaps is None else gaps
+    near = gaps.nearest(upto)
+    if near is None:         # no segment closer than REVISIT_RATIO times the chord
+        return None
+    i, d, foot = near
     chord = float(np.linalg.norm(yn - ys[-1]))
-    if not (d < REVISIT_RATIO * chord and (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0):
+    if not (yn - ys[-1]) @ (ys[i + 1] - ys[i]) > 0:
         return None
     if distinct_solution(ctx.evaluate, foot, yn, ctx.tol, ctx.max_iter):
         return None
@@ -156,10 +199,12 @@ def closed_loop(ctx: TraceContext, rec: Recorder, yn: np.ndarray, tn: np.ndarray
         y2, *_ = correct(ctx.evaluate, yn + chord * tn, tn, ctx.tol, ctx.max_iter)
     except (ConvergenceError, np.linalg.LinAlgError):
         return None
-    j, d2, _ = nearest_segment(ys[:upto + 1], y2, skip)
     step = float(np.linalg.norm(y2 - yn))
-    if not (i <= j <= i + LOOP_CONFIRM and d2 < REVISIT_RATIO * step
-            and (y2 - yn) @ (ys[j + 1] - ys[j]) > 0):
+    near = near_segments(ctx, rec, y2, REVISIT_RATIO * step, upto).nearest(upto)
+    if near is None:
+        return None
+    j = near[0]
+    if not (i <= j <= i + LOOP_CONFIRM and (y2 - yn) @ (ys[j + 1] - ys[j]) > 0):
         return None
     logger.info("the branch closed on itself at rpm %.6g: the new point and the next lie on "
                 "the path traced from point %d on, going the same way (a closed loop)",

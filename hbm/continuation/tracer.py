@@ -157,7 +157,7 @@ def _undo_reversal(ctx: TraceContext, rec: Recorder, yn: np.ndarray, hit: int,
     rec.guard = (k, travel / np.linalg.norm(travel))
     tk = rec.lists["tangents"][k]
     if tk @ travel < 0:      # re-predict with the orientation the branch came in
-        rec.lists["tangents"][k] = -tk
+        rec.set("tangents", k, -tk)
     ds = max(ctx.min_step, (0.25 if beyond else 0.5) * min(ds, float(np.linalg.norm(travel))))
     return ds, ""
 

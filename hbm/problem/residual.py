@@ -260,9 +260,10 @@ class HBMProblem:
         """F_k(Omega) = F_c,k + Omega^2 F_u,k and its Omega-derivative, (nS, n) complex."""
         return self.Fc + omega ** 2 * self.Fu, 2.0 * omega * self.Fu
 
-    def modal_inverse(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
+    def modal_inverse(self, omega: float, derivative: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray | None]:
         """Modal receptances ``1 / (w_j^2 - (k w0)^2 + i k w0 c_j)`` and their
-        Omega-derivatives, (n_modes, nS) complex (eq. 18-19).
+        Omega-derivatives (None unless ``derivative``), (n_modes, nS) complex (eq. 18-19).
 
         The static term of a rigid-body mode no element restrains is set to 0.
         Meaningful when :attr:`modal` (C diagonal in the eq. (17) modes).
@@ -282,6 +283,8 @@ class HBMProblem:
         inv = np.conjugate(den, out=den)
         inv *= np.reciprocal(mag2, out=mag2)
         inv[zero] = 0.0
+        if not derivative:
+            return inv, None
         dinv = inv * inv            # -inv^2 d den/dOmega, d den/dOmega = kd (-2 w + i c_j)
         dinv *= (2.0 * w)[None, :] - 1j * self.cj[:, None]
         dinv *= kd[None, :]

@@ -64,7 +64,7 @@ def hill_coordinates(problem: HBMProblem, max_size: int, omega: float):
         h_rest = np.zeros((ne, ne, problem.nS), dtype=complex)
         rest_max = -np.inf
         if 2 * keep.size * nr > max_size:
-            inv, _ = problem.modal_inverse(omega)
+            inv, _ = problem.modal_inverse(omega, derivative=False)
             gj = problem.gj
             part = np.max(np.abs(((gj[0] ** 2)[:, None] * inv)[keep]), axis=1)
             for g in gj[1:]:

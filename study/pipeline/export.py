@@ -23,7 +23,8 @@ def _settings(result) -> dict:
 
 def _extra(result):
     nvh = getattr(result, "nvh", None)
-    if result.rom is None and nvh is None:
+    mesh = getattr(result, "mesh_excitation", None)
+    if result.rom is None and nvh is None and mesh is None:
         return None
 
     def extra(f) -> None:
@@ -31,6 +32,9 @@ def _extra(result):
             write_rom_group(f, result)
         if nvh is not None:
             write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+        if mesh is not None:
+            from study.outputs.mesh_excitation import write_group
+            write_group(f, mesh)
     return extra
 
 
@@ -130,6 +134,10 @@ def _figures(result) -> None:
     from study.plots.figures import draw_all
 
     result.figures += draw_all(result)
+    if getattr(result, "mesh_excitation", None) is not None:
+        from study.plots.mesh_excitation import mesh_excitation_plots
+        result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
+                                                Path(result.out))
     if result.scene.outputs.report:
         write_report_files(result)
     else:                       # time responses asked for are kept without report.md too

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from gears.ltca import contact_pattern, harris_map
+from gears.ltca import LtcaCase, contact_pattern, harris_map
 from study.scene.data import MeshSource
 from study.scene.excitation import solve_cached
 
@@ -40,7 +40,8 @@ LTCA_ARRAYS = {
     "pattern_line_load": ("N/m", "largest load per face width met on each flank "
                           "(2, bins, slices): the contact pattern"),
     "harris_torque": ("N m", "torques of the Harris map"),
-    "harris_ste_peak_to_peak": ("m", "peak-to-peak q_s at each torque"),
+    "harris_ste_peak_to_peak": ("m", "peak-to-peak q_s at each torque (mesh-periodic "
+                                "part: pitch deviations left out)"),
     "harris_ste_mean": ("m", "mean q_s at each torque"),
     "harris_stiffness_mean": ("N/m", "mean k_m at each torque"),
     "harris_stiffness_peak_to_peak": ("N/m", "peak-to-peak k_m at each torque"),
@@ -109,17 +110,27 @@ class MeshExcitation:
                    arrays=arrays)
 
 
+def _mesh_periodic(case: LtcaCase) -> LtcaCase:
+    """``case`` without its pitch deviations: the mesh-periodic part, whose STE
+    fluctuation a Harris map shows (with them it would be the pitch errors' at every
+    torque, over the whole hunting period)."""
+    if case.periods == 1:
+        return case
+    flanks = tuple(dataclasses.replace(f, pitch_deviations=()) for f in case.flanks)
+    return dataclasses.replace(case, flanks=flanks)
+
+
 def from_source(src: MeshSource) -> MeshExcitation:
     """The arrays of a mesh's :class:`~study.scene.data.MeshSource`: the LTCA (solved once
     per case and process, :func:`study.scene.excitation.solve_cached`) with its load
-    sharing, both flanks' contact patterns and the Harris map over ``src.harris_torques``;
-    the samples of its tables."""
+    sharing, both flanks' contact patterns and the Harris map over ``src.harris_torques``
+    (of the mesh-periodic part: pitch deviations left out); the samples of its tables."""
     out = MeshExcitation(src.stiffness, src.te, src.harmonics)
     if src.case is not None:
         case = src.case
         res = solve_cached(case)
         patterns = [contact_pattern(res, gear, PROFILE_BINS) for gear in (1, 2)]
-        harris = harris_map(case, np.asarray(src.harris_torques))
+        harris = harris_map(_mesh_periodic(case), np.asarray(src.harris_torques))
         out = dataclasses.replace(out, torque=case.torque, periods=res.periods,
                                   n_positions=case.n_positions, n_slices=int(res.z.size))
         out.arrays.update(

@@ -13,7 +13,7 @@ from gears.excitation import fourier_sample
 from study.outputs.mesh_excitation import MeshExcitation
 from study.plots.common import plt, save_figure
 
-__all__ = ["mesh_excitation_plots"]
+__all__ = ["mesh_excitation_plots", "parameter_study_plot"]
 
 _FINE = 512    # samples of a Fourier series over one mesh period
 
@@ -153,3 +153,57 @@ def mesh_excitation_plots(data: MeshExcitation, scene, out: Path) -> list[Path]:
         paths.append(_pattern_plot(data, out / "mesh_contact_pattern.png",
                                    f"{name}: contact pattern at {data.torque:g} N·m"))
     return paths
+
+
+def parameter_study_plot(values: list, branches: list, meshes: list, nvhs: list, key: str,
+                         path: Path) -> Path:
+    """A micro-geometry study (:mod:`study.studies.microgeometry`): the mesh-load std
+    against speed for each value (grazing points as diamonds), the LTCA's STE
+    peak-to-peak and the largest mesh-load std against the value, and (FE scenes) the
+    housing's total ERP against speed."""
+    erp = [n is not None and n.erp is not None for n in nvhs]
+    n_panels = 3 if any(erp) else 2
+    fig, axes = plt.subplots(n_panels, 1, figsize=(8, 3.3 * n_panels))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    label = key.split(".")[-1]
+    ax = axes[0]
+    for j, (v, br) in enumerate(zip(values, branches, strict=True)):
+        col = colours[j % len(colours)]
+        std = br.element(0).mesh_load_std
+        ax.plot(br.rpm, std, color=col, lw=1.2, label=f"{label} = {v}")
+        g = sorted(br.grazing, key=lambda p: p.rpm)
+        if g:
+            ax.plot([p.rpm for p in g], np.interp([p.rpm for p in g], br.rpm, std), "D",
+                    ms=5, mfc="white", mec=col)
+    ax.set_xlabel("shaft speed Ω (rpm)")
+    ax.set_ylabel("std of dynamic mesh load (N)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title(f"micro-geometry study: {key} (diamonds: grazing)")
+    ax = axes[1]
+    x = np.arange(len(values))
+    ste = [np.ptp(m.mesh_cycle("ste")) * 1e6 if (m is not None and m.has_ltca) else np.nan
+           for m in meshes]
+    ax.plot(x, ste, "o-", color="tab:blue", label="LTCA STE peak-to-peak (µm)")
+    ax.set_ylabel("STE peak-to-peak (µm)", color="tab:blue")
+    ax.set_ylim(bottom=0)
+    ax2 = ax.twinx()
+    ax2.plot(x, [br.element(0).mesh_load_std.max() for br in branches], "s--",
+             color="tab:red", label="largest mesh-load std (N)")
+    ax2.set_ylabel("largest mesh-load std (N)", color="tab:red")
+    ax2.set_ylim(bottom=0)
+    ax.set_xticks(x, [str(v) for v in values])
+    ax.set_xlabel(key)
+    ax.grid(alpha=0.3)
+    if n_panels == 3:
+        ax = axes[2]
+        for j, (v, br, n) in enumerate(zip(values, branches, nvhs, strict=True)):
+            if n is not None and n.erp is not None:
+                ax.plot(br.rpm, n.erp_total_db, color=colours[j % len(colours)], lw=1.2,
+                        label=f"{label} = {v}")
+        ax.set_xlabel("shaft speed Ω (rpm)")
+        ax.set_ylabel("total ERP (dB re 1 pW)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return save_figure(fig, path)

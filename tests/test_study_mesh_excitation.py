@@ -129,3 +129,16 @@ def test_a_helical_run_with_pitch_deviations_shows_the_hunting_period(tmp_path):
     # ideal helical teeth at ε_β ≈ 1: k_m nearly constant (the crowning adds little)
     k = data.mesh_cycle("stiffness")
     assert np.ptp(k) / k.mean() < 0.01
+
+
+def test_geardyn_report_redraws_the_mesh_excitation(ltca_runs, tmp_path):
+    from study.pipeline.replay import report_from_results
+
+    _, first, _ = ltca_runs
+    for p in first.out.glob("mesh_*.png"):
+        p.unlink()
+    res = report_from_results(ROOT / "scenes" / "gear-pair-ltca.toml", first.out, QUICK,
+                              cache=str(first.out.parent / "cache"))
+    assert res.keys["ltca"] == first.keys["ltca"]          # served from the stage cache
+    assert (first.out / "mesh_harris.png").exists()
+    assert "mesh excitation: k_m from `ltca`" in (first.out / "report.md").read_text()

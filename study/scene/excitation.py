@@ -78,16 +78,19 @@ def scene_pair(gear) -> GearPair:
                     addendum_coef=gear.addendum_coef, dedendum_coef=gear.dedendum_coef)
 
 
-def _refuse_fourier_keys(where: str, d: dict, raw: dict, keys: tuple[str, ...]) -> None:
+def _ignored_fourier_keys(where: str, d: dict, raw: dict, keys: tuple[str, ...]) -> None:
+    """The Fourier keys of a table whose source is ``ltca``/``table`` are ignored, with a
+    warning (so ``--set mesh_stiffness.source=ltca`` or an ``extends`` scene can switch a
+    Fourier scene without removing its harmonics)."""
     given = [k for k in keys if k in raw]
     if given:
-        raise SceneError(f"{where}.{given[0]} = {show(raw[given[0]])}: not used with "
-                         f"{where}.source = {d['source']!r} (remove it; the {d['source']} "
-                         "gives the series)")
+        logger.warning("%s.source = %r: %s ignored (the %s gives the series)", where,
+                       d["source"], ", ".join(f"{where}.{k}" for k in given), d["source"])
 
 
 def check_source_keys(where: str, d: dict, raw: dict) -> None:
-    """``file`` only with ``table``; the Fourier keys only with ``fourier``."""
+    """``file`` only with ``table``; the Fourier keys of another source are ignored
+    (logged)."""
     if d["source"] == "table" and not d["file"]:
         raise SceneError(f"{where}.file: missing (required with {where}.source = 'table': "
                          "the CSV of the mesh table)")
@@ -96,7 +99,7 @@ def check_source_keys(where: str, d: dict, raw: dict) -> None:
                          f"(source is {d['source']!r})")
     if d["source"] != "fourier":
         fourier = tuple(k for k in SCHEMA[where] if k not in ("source", "file", "kind"))
-        _refuse_fourier_keys(where, d, raw, fourier)
+        _ignored_fourier_keys(where, d, raw, fourier)
 
 
 def _flank(where: str, d: dict, pitch: tuple[float, ...]) -> Flank:

@@ -200,3 +200,30 @@ def test_bad_tables_are_refused_naming_the_file(tmp_path, csv, message):
     with pytest.raises(SceneError) as e:
         load_scene(tmp_path / "s.toml")
     assert message in str(e.value)
+
+
+def test_one_mesh_of_a_train_uses_the_same_function():
+    # the [[meshes]] tables of a train: the same keys, named by the mesh in messages
+    from study.scene.check import check_table
+    from study.scene.excitation import mesh_source, source_series
+    from study.scene.schema import SCHEMA
+
+    pair = gears.GearPair((23, 61), 2e-3, np.radians(20.0), 0.02)
+    raw_ms, raw_te = {"source": "ltca"}, {"source": "ltca"}
+    micro = {"gear1": {"tip_relief_um": 10.0, "tip_relief_start_diameter_mm": 48.0}}
+    names = ("meshes[1].mesh_stiffness", "meshes[1].transmission_error",
+             "meshes[1].micro_geometry", "meshes[1].ltca")
+    ms = check_table(names[0], raw_ms, SCHEMA["mesh_stiffness"])
+    te = check_table(names[1], raw_te, SCHEMA["transmission_error"])
+    lt = check_table(names[3], {}, SCHEMA["ltca"])
+    src = mesh_source(ms, te, raw_ms, raw_te, micro, lt, pair=pair, torque=50.0,
+                      harmonics=4, names=names)
+    assert src.case.flanks[0].tip_relief.amount == pytest.approx(10e-6)
+    assert src.case.flanks[1] == gears.Flank()
+    mean, amps, _ = source_series(src, "stiffness")
+    assert len(amps) == 4 and mean > 0
+    bad = {"gear1": {"tip_relief_um": 10.0, "tip_relief_start_diameter_mm": 60.0}}
+    with pytest.raises(SceneError, match=r"meshes\[1\].micro_geometry.gear1."
+                                         "tip_relief_start_diameter_mm"):
+        mesh_source(ms, te, raw_ms, raw_te, bad, lt, pair=pair, torque=50.0, harmonics=4,
+                    names=names)

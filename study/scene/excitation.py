@@ -88,7 +88,7 @@ def _ignored_fourier_keys(where: str, d: dict, raw: dict, keys: tuple[str, ...])
                        d["source"], ", ".join(f"{where}.{k}" for k in given), d["source"])
 
 
-def check_source_keys(where: str, d: dict, raw: dict) -> None:
+def check_source_keys(where: str, d: dict, raw: dict, section: str | None = None) -> None:
     """``file`` only with ``table``; the Fourier keys of another source are ignored
     (logged)."""
     if d["source"] == "table" and not d["file"]:
@@ -98,7 +98,8 @@ def check_source_keys(where: str, d: dict, raw: dict) -> None:
         raise SceneError(f"{where}.file = {d['file']!r}: only with {where}.source = 'table' "
                          f"(source is {d['source']!r})")
     if d["source"] != "fourier":
-        fourier = tuple(k for k in SCHEMA[where] if k not in ("source", "file", "kind"))
+        spec = SCHEMA[section or where.rsplit(".", 1)[-1]]
+        fourier = tuple(k for k in spec if k not in ("source", "file", "kind"))
         _ignored_fourier_keys(where, d, raw, fourier)
 
 
@@ -253,8 +254,8 @@ def mesh_source(ms: dict, te: dict, raw_ms: dict, raw_te: dict, micro_raw: Any, 
         than the harmonics.
     """
     w_ms, w_te, w_micro, w_ltca = names
-    check_source_keys(w_ms, ms, raw_ms)
-    check_source_keys(w_te, te, raw_te)
+    check_source_keys(w_ms, ms, raw_ms, "mesh_stiffness")
+    check_source_keys(w_te, te, raw_te, "transmission_error")
     uses_ltca = "ltca" in (ms["source"], te["source"])
     if te["source"] == "ltca" and te["kind"] != "loaded":
         raise SceneError(f"{w_te}.kind = {te['kind']!r}: source = 'ltca' gives the loaded "

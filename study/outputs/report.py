@@ -218,6 +218,26 @@ def rom_line(result) -> list[str]:
     return [head + txt + "; " + reach]
 
 
+
+def _mesh_source_lines(result) -> list[str]:
+    """The ``ltca``/``table`` sources of k_m and TE (none for ``fourier`` scenes)."""
+    src, data = result.scene.mesh_source, getattr(result, "mesh_excitation", None)
+    if src is None:
+        return []
+    out = [f"- mesh excitation: k_m from `{src.stiffness}`, TE from `{src.te}` "
+           f"({src.harmonics} mesh harmonics kept; arrays in results.h5 `/mesh_excitation`)"]
+    if data is not None and data.has_ltca:
+        a = data.arrays
+        i = int(np.argmin(a["harris_ste_peak_to_peak"]))
+        out.append(f"- LTCA at {data.torque:g} N·m ({data.periods} mesh period(s) × "
+                   f"{data.n_positions} positions, {data.n_slices} slice(s)): loaded STE "
+                   f"peak-to-peak {np.ptp(a['ste']) * 1e6:.3f} µm, k_m "
+                   f"{a['stiffness'].min() * 1e-6:.1f}–{a['stiffness'].max() * 1e-6:.1f} N/µm; "
+                   f"Harris map: smallest STE fluctuation "
+                   f"{a['harris_ste_peak_to_peak'][i] * 1e6:.3f} µm at "
+                   f"{a['harris_torque'][i]:.3g} N·m")
+    return out
+
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
@@ -234,6 +254,7 @@ def write_report(result) -> Path:
              f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
              f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
              f"{len(sc.transmission_error.amplitudes)} harmonics",
+             *_mesh_source_lines(result),
              f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
              f"{result.problem.harmonics.n_harmonics} indices of the "
              f"{result.problem.harmonics.fundamental} frequency, "

@@ -12,8 +12,8 @@ from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["write_partial", "export", "write_housing", "write_rom_group", "housing_fields",
-           "write_report_files", "write_attractor_files"]
+__all__ = ["write_partial", "export", "draw_figures", "write_housing", "write_rom_group",
+           "housing_fields", "write_report_files", "write_attractor_files"]
 
 
 def _settings(result) -> dict:
@@ -23,7 +23,8 @@ def _settings(result) -> dict:
 
 def _extra(result):
     nvh = getattr(result, "nvh", None)
-    if result.rom is None and nvh is None:
+    mesh = getattr(result, "mesh_excitation", None)
+    if result.rom is None and nvh is None and mesh is None:
         return None
 
     def extra(f) -> None:
@@ -31,6 +32,9 @@ def _extra(result):
             write_rom_group(f, result)
         if nvh is not None:
             write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+        if mesh is not None:
+            from study.outputs.mesh_excitation import write_group
+            write_group(f, mesh)
     return extra
 
 
@@ -126,10 +130,21 @@ def _render(result, paths: list[Path]) -> None:
             result.figures.append(png)
 
 
-def _figures(result) -> None:
+def draw_figures(result) -> None:
+    """The PNG plots of a run: those the scene's ``[outputs] plots`` asks for
+    (:func:`study.plots.figures.draw_all`) and those of an ``ltca``/``table`` mesh
+    excitation (:func:`study.plots.mesh_excitation.mesh_excitation_plots`)."""
     from study.plots.figures import draw_all
 
     result.figures += draw_all(result)
+    if getattr(result, "mesh_excitation", None) is not None:
+        from study.plots.mesh_excitation import mesh_excitation_plots
+        result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
+                                                Path(result.out))
+
+
+def _figures(result) -> None:
+    draw_figures(result)
     if result.scene.outputs.report:
         write_report_files(result)
     else:                       # time responses asked for are kept without report.md too

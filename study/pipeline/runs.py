@@ -81,6 +81,9 @@ class RunResult:
         :class:`study.outputs.attractors.Attractor` per unstable segment (``[outputs]
         attractor_transient_turns`` > 0; computed by the export, with or without
         report.md).
+    mesh_excitation
+        :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
+        source (None: both ``fourier``).
     """
 
     out: Path
@@ -95,3 +98,4 @@ class RunResult:
     rom: Any = None
     nvh: Any = None
     attractors: list = field(default_factory=list)
+    mesh_excitation: Any = None

@@ -13,12 +13,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gears.excitation import fourier_sample
+from gears.ltca import LtcaCase
 from gears.pair import GearPair, contact_path_length
+from gears.te_table import MeshTable
 
 __all__ = ["Scene", "SceneInfo", "GearData", "FourierSeries", "MeshStiffness",
            "TransmissionError", "LoadData", "AeroLoad", "Unbalance", "ExternalData",
            "DampingData", "LumpedData", "RomData", "HbmData", "ContinuationData",
-           "OutputsData", "AcousticsData", "Accelerometer"]
+           "OutputsData", "AcousticsData", "Accelerometer", "MeshSource"]
 
 
 @dataclass(frozen=True)
@@ -120,6 +122,38 @@ class TransmissionError(FourierSeries):
     """Transmission error (m, rad); ``kind`` is ``loaded`` (STE q_s) or ``unloaded`` (e)."""
 
     kind: str = "loaded"
+
+
+@dataclass(frozen=True)
+class MeshSource:
+    """Where a mesh's stiffness and transmission error come from when either is not
+    ``fourier`` (``[mesh_stiffness] source``, ``[transmission_error] source``; issue 38).
+
+    Attributes
+    ----------
+    stiffness, te : str
+        ``fourier``, ``ltca`` or ``table`` for k_m and for the TE.
+    harmonics : int
+        Mesh harmonics kept from the LTCA or the table (those the HBM set uses).
+    case : gears.LtcaCase or None
+        The LTCA's inputs (macro- and micro-geometry, torque, settings) when a source is
+        ``ltca``; hashable, the cache key of the ltca stage.
+    harris_torques : tuple of float
+        Torques (N·m) of the Harris map drawn beside the LTCA.
+    tables : dict
+        ``{"stiffness" | "te": gears.MeshTable}`` read for the ``table`` sources.
+    """
+
+    stiffness: str
+    te: str
+    harmonics: int
+    case: LtcaCase | None = None
+    harris_torques: tuple[float, ...] = ()
+    tables: dict[str, MeshTable] = field(default_factory=dict)
+
+    @property
+    def uses_ltca(self) -> bool:
+        return "ltca" in (self.stiffness, self.te)
 
 
 @dataclass(frozen=True)
@@ -281,6 +315,8 @@ class Scene:
     #: ``[calibration]``: paper.md row key -> what the scene fitted to that finding (only
     #: the rows it declares)
     calibration: dict[str, str] = field(default_factory=dict, compare=False)
+    #: ``ltca``/``table`` sources of the mesh excitation (None: both ``fourier``)
+    mesh_source: MeshSource | None = None
 
     @property
     def static_load(self) -> float:

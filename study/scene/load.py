@@ -29,6 +29,7 @@ from study.scene.data import (
     HbmData,
     LoadData,
     LumpedData,
+    MeshSource,
     MeshStiffness,
     OutputsData,
     RomData,
@@ -38,6 +39,14 @@ from study.scene.data import (
     Unbalance,
 )
 from study.scene.errors import SceneError, StageUnavailable
+from study.scene.excitation import (
+    check_source_keys,
+    mesh_source,
+    scene_pair,
+    set_mesh_harmonics,
+    source_series,
+    uses_other_source,
+)
 from study.scene.overrides import apply_overrides
 from study.scene.schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, TOP_LEVEL, attr_name
 
@@ -308,13 +317,14 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
         raw_out = dict(raw_out)
         accel_raw = raw_out.pop("accelerometer")
     sec = {s: check_table(s, raw_out if s == "outputs" else raw.get(s, {}), SCHEMA[s])
-           for s in TOP_LEVEL if s not in ("external", *FE_SECTIONS)}
+           for s in TOP_LEVEL if s not in ("external", "micro_geometry", *FE_SECTIONS)}
     return sec, accel_raw
 
 
 # --------------------------------------------------------------------------- loading
 
-def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
+def scene_from_dict(raw: dict, name: str = "scene", text: str = "",
+                    base: Path | None = None) -> Scene:
     """Validate a parsed scene table and return the SI :class:`Scene`.
 
     Parameters
@@ -325,6 +335,9 @@ def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
         Default scene name (the file stem) when ``[scene] name`` is absent.
     text : str
         The original file text, kept for records.
+    base : Path, optional
+        Folder the scene's relative file names (mesh tables) are read from (default: the
+        working directory).
 
     Raises
     ------
@@ -332,21 +345,56 @@ def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
         On any invalid field; the message names the field, its value and what is allowed.
     """
     try:
-        return _scene_from_dict(raw, name, text)
+        return _scene_from_dict(raw, name, text, base)
     except (SceneError, StageUnavailable):
         raise
     except (TypeError, ValueError, ArithmeticError, KeyError) as exc:  # defensive: never leak
         raise SceneError(f"scene could not be validated: {exc}") from exc
 
 
-def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
+def _mesh_excitation(sec: dict, raw: dict, gear: GearData, external: ExternalData,
+                     base: Path | None
+                     ) -> tuple[MeshStiffness, TransmissionError, MeshSource]:
+    """k_m and TE of a pair scene whose ``[mesh_stiffness]`` or ``[transmission_error]``
+    source is ``ltca`` or ``table`` (:mod:`study.scene.excitation`); a ``fourier`` one of
+    the two is read as usual."""
+    ms_d, te_d = sec["mesh_stiffness"], sec["transmission_error"]
+    src = mesh_source(ms_d, te_d, raw.get("mesh_stiffness", {}),
+                      raw.get("transmission_error", {}), raw.get("micro_geometry"),
+                      sec["ltca"], pair=scene_pair(gear), torque=sec["load"]["torque"],
+                      harmonics=set_mesh_harmonics(sec["hbm"], gear.teeth, external.present),
+                      base=base)
+    static_load = sec["load"]["torque"] / gear.base_radius
+    if src.stiffness == "fourier":
+        ms = _mesh_stiffness(ms_d, gear, static_load)
+    else:
+        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True)
+    if src.te == "fourier":
+        te = _transmission_error(te_d, ms, static_load)
+    else:
+        kind = "loaded" if src.te == "ltca" else te_d["kind"]
+        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind)
+    return ms, te, src
+
+
+def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) -> Scene:
     sec, accel_raw = _check_sections(raw)
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
     gear = _build_gear(sec["gear"])
     static_load = sec["load"]["torque"] / gear.base_radius
-    ms = _mesh_stiffness(sec["mesh_stiffness"], gear, static_load)
-    te = _transmission_error(sec["transmission_error"], ms, static_load)
-    external = _build_external(raw.get("external"), info.kind)
+    source = None
+    if uses_other_source(sec["mesh_stiffness"], sec["transmission_error"]):
+        external = _build_external(raw.get("external"), info.kind)
+        ms, te, source = _mesh_excitation(sec, raw, gear, external, base)
+    else:
+        if raw.get("micro_geometry"):
+            raise SceneError("[micro_geometry]: used only with source = 'ltca' (in "
+                             "[mesh_stiffness] or [transmission_error])")
+        for where in ("mesh_stiffness", "transmission_error"):
+            check_source_keys(where, sec[where], raw.get(where, {}))
+        ms = _mesh_stiffness(sec["mesh_stiffness"], gear, static_load)
+        te = _transmission_error(sec["transmission_error"], ms, static_load)
+        external = _build_external(raw.get("external"), info.kind)
     lumped = _lumped(sec["lumped"])
     rom = RomData(**sec["rom"])
     hbm = _hbm(sec["hbm"], ms, te, gear, external)
@@ -357,7 +405,7 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
                                 DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,
                                 fe, copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
                                 {k: v.strip() for k, v in sec["calibration"].items()
-                                 if v.strip()}))
+                                 if v.strip()}, source))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:
@@ -429,7 +477,7 @@ def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Sce
     raw, text = _resolve(p)
     if overrides:
         raw = apply_overrides(raw, overrides)
-    return scene_from_dict(raw, p.stem, text)
+    return scene_from_dict(raw, p.stem, text, p.resolve().parent)
 
 
 def resolved_table(path: str | Path, overrides: dict[str, Any] | None = None) -> dict:

@@ -14,8 +14,8 @@ from typing import Any
 from core.errors import range_text
 from core.units import TO_SI
 
-__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
-           "attr_name", "schema_markdown"]
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "MESH_SOURCES", "mesh_source_schema",
+           "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS", "attr_name", "schema_markdown"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,9 @@ def _c(default, choices, doc=""):
     return Spec("choice", default, "", None, None, False, False, tuple(choices), doc)
 
 
+#: Where a mesh's stiffness and transmission error come from (issue 38).
+MESH_SOURCES = ("fourier", "ltca", "table")
+
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
@@ -78,6 +81,50 @@ CALIBRATION_ROWS = {
     "dte_modulation": "slow DTE modulation at 2970 rpm (Fig. 15d)",
 }
 
+def mesh_source_schema() -> dict[str, dict[str, Spec]]:
+    """The sections of the ``ltca`` source of a mesh (issue 38): ``[micro_geometry]`` (its
+    ``gear1``, ``gear2`` and ``both`` subtables share one spec) and ``[ltca]``; the same
+    tables serve the one mesh of a pair scene and each ``[[meshes]]`` of a train."""
+    flank = {
+        "tip_relief_um": _f(0.0, "um", 0, 1e4, doc="tip relief C_a removed at the tip "
+                            "diameter (0: none)"),
+        "tip_relief_start_diameter_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                                           doc="d_Ca where the tip relief starts (between "
+                                           "the reference and the tip diameter)"),
+        "tip_relief_shape": _c("linear", ("linear", "parabolic"), "growth of the tip relief"),
+        "root_relief_um": _f(0.0, "um", 0, 1e4, doc="root relief C_f removed at the form "
+                             "diameter (0: none)"),
+        "root_relief_start_diameter_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                                            doc="d_Cf where the root relief starts (between "
+                                            "the form and the reference diameter)"),
+        "root_relief_shape": _c("linear", ("linear", "parabolic"), "growth of the root relief"),
+        "crowning_um": _f(0.0, "um", 0, 1000, doc="lead crowning C_β at each face end"),
+        "profile_slope_um": _f(0.0, "um", -1000, 1000, doc="profile slope deviation f_Hα"),
+        "profile_form_um": _f(0.0, "um", -1000, 1000, doc="profile form deviation f_fα "
+                              "(+: barrelled)"),
+        "lead_slope_um": _f(0.0, "um", -1000, 1000, doc="helix slope deviation f_Hβ"),
+        "pitch_deviations_um": _f([], "um", -1000, 1000, kind="floats",
+                                  doc="single pitch deviations f_pt of teeth 0 … z − 1 "
+                                  "(sum 0; shaft orders over the hunting period)"),
+    }
+    ltca = {
+        "n_positions": _f(64, "", 8, 100_000, kind="int",
+                          doc="roll positions per mesh period (> 2 × the mesh harmonics kept)"),
+        "n_slices": _f(200, "", 1, 10_000, kind="int",
+                       doc="thin slices across the face (helix, crowning, lead slope)"),
+        "bore_diameter_mm": _f([], "mm", 0, 1e5, lo_open=True, kind="floats",
+                               doc="[gear 1, gear 2] diameter where each body is held "
+                               "(default: the root radius r_f, i.e. r_int = r_f/2)"),
+        "youngs_modulus_GPa": _f(210.0, "GPa", 0, 1e4, lo_open=True, doc="E of both gears"),
+        "poisson_ratio": _f(0.3, "", 0, 0.5, hi_open=True, doc="ν of both gears"),
+        "harris_torque_Nm": _f(None, "Nm", 0, 1e7, lo_open=True, kind="pair",
+                               doc="[lowest, highest] torque of the Harris map (default: "
+                               "0.2 and 2 × load.torque_Nm)"),
+        "harris_points": _f(20, "", 2, 1000, kind="int", doc="torques of the Harris map"),
+    }
+    return {"micro_geometry.gear": flank, "ltca": ltca}
+
+
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
 #: sections (``external.aero``, ``external.unbalance``) have their own entries.
 SCHEMA: dict[str, dict[str, Spec]] = {
@@ -102,6 +149,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "backlash_um": _f(40.0, "um", 0, 1e5, lo_open=True, doc="half backlash b"),
     },
     "mesh_stiffness": {
+        "source": _c("fourier", MESH_SOURCES, "`fourier`: the harmonics below (or the estimate); "
+                     "`ltca`: loaded tooth contact analysis of [gear] with [micro_geometry] at "
+                     "the scene's torque ([ltca] settings); `table`: the CSV `file` "
+                     "(docs/gears.md)"),
+        "file": Spec("str", "", doc="`source = \"table\"`: CSV of the stiffness against the mesh "
+                     "position, roll angle or roll distance, relative to the scene file"),
         "estimate": Spec("bool", False, doc="estimate from geometry and load (ISO 6336-1)"),
         "mean_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, doc="mean mesh stiffness k̄_m"),
         "amplitudes_N_per_um": _f([], "N_per_um", 0, 1e7, kind="floats",
@@ -111,6 +164,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "cm": _f(0.8, "", 0.1, 1.0, doc="ISO 6336 correction C_M of the estimate"),
     },
     "transmission_error": {
+        "source": _c("fourier", MESH_SOURCES, "`fourier`: the harmonics below (or the estimate); "
+                     "`ltca`: the loaded STE of the tooth contact analysis (kind = 'loaded'); "
+                     "`table`: the CSV `file`"),
+        "file": Spec("str", "", doc="`source = \"table\"`: CSV of the TE against the mesh "
+                     "position, roll angle or roll distance, relative to the scene file"),
         "kind": _c("loaded", ("loaded", "unloaded"),
                    "`loaded`: static TE q_s under F_s (paper's STE); `unloaded`: geometric e(t)"),
         "estimate": Spec("bool", False, doc="loaded STE of perfect teeth, q_s = F_s/k_m(t)"),
@@ -240,11 +298,13 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="measuring axis (x, y, z); [0, 0, 0]: the outer surface normal"),
     },
 }
+SCHEMA.update(mesh_source_schema())
 for _s in FE_SECTIONS:
     SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
 
 #: Top-level sections of a scene file, in the order they are checked.
-TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
+TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "micro_geometry",
+             "ltca", "load", "external",
              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
              "calibration", *FE_SECTIONS)
 
@@ -264,6 +324,8 @@ def schema_markdown() -> str:
         if not specs:
             continue
         head = f"[[{sec}]]" if "." in sec else f"[{sec}]"
+        if sec == "micro_geometry.gear":
+            head = "[micro_geometry.gear1]`, `[micro_geometry.gear2]`, `[micro_geometry.both]"
         lines += [f"### `{head}`", "", "| key | type | default | allowed | meaning |",
                   "|---|---|---|---|---|"]
         for key, sp in specs.items():

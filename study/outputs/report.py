@@ -69,8 +69,12 @@ def _largest_line(s: dict, stability: bool) -> str:
     return f"{line}, **an unstable orbit** ({s['max_std_kind']}): {other}"
 
 
-def _stability_lines(s: dict, stability: bool, attractors) -> list[str]:
+def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
+                     ) -> list[str]:
     """Report lines on the Floquet verdicts, or that none were computed."""
+    if not periodic:
+        return ["- stability: **not computed on a torus** (a quasi-periodic response has no "
+                "monodromy matrix; docs/theory.md §14.2): no verdict on any point"]
     if not stability:
         return ["- stability: **not computed** (`[hbm] stability = false`): every point is "
                 "listed as stable without a check"]
@@ -267,10 +271,11 @@ def write_report(result) -> Path:
              *_loops(result.branch),
              f"- largest relative residual {s['max_residual']:.2e} "
              f"(tolerance {sc.continuation.tolerance:g})",
-             _largest_line(s, sc.hbm.stability),
+             _largest_line(s, sc.hbm.stability and result.problem.periodic),
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
-             *_stability_lines(s, sc.hbm.stability, result.attractors),
+             *_stability_lines(s, sc.hbm.stability, result.attractors,
+                               result.problem.periodic),
              "- folds (jumps) near: " + _folds_text(s["folds"]),
              "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]

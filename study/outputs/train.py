@@ -51,10 +51,9 @@ def order_names(meshes, shafts, max_harmonic: int = 8, max_shaft_order: int = 4
         if o <= 0:
             continue
         cost = sum(abs(m) for m in ms)
-        parts = []
-        for m, (_, name) in zip(ms, freqs, strict=True):
-            if m:
-                parts.append(("− " if m < 0 else "+ ") + _term(abs(m), name))
+        parts = [("− " if m < 0 else "+ ") + _term(abs(m), name)
+                 for m, (_, name) in sorted(zip(ms, freqs, strict=True),
+                                            key=lambda t: t[0] < 0) if m]
         label = " ".join(parts).removeprefix("+ ")
         if o not in best or cost < best[o][0]:
             best[o] = (cost, label)

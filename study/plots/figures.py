@@ -24,7 +24,7 @@ def draw_all(result) -> list[Path]:
     br, pb = result.branch, result.problem
     paths: list[Path] = []
     name = result.scene.name
-    if "forced_response" in want:
+    if "forced_response" in want and not result.scene.is_train:
         paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
     speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
     for rpm in speeds:

@@ -13,7 +13,42 @@ import numpy as np
 from study.outputs.train import order_name, order_names, train_frequencies
 from study.plots.common import plt, save_figure
 
-__all__ = ["train_spectrum_plot", "train_order_map", "train_campbell", "train_plots"]
+__all__ = ["train_forced_response", "train_spectrum_plot", "train_order_map",
+           "train_campbell", "train_plots"]
+
+
+def train_forced_response(branch, path: Path, title: str, periodic: bool = True) -> Path:
+    """Std of each mesh's dynamic load against the drive speed, one colour per mesh, its
+    grazing points as diamonds; unstable orbits dashed (periodic basis; on a torus the
+    stability is not computed and every curve is drawn solid)."""
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    rpm = np.asarray(branch.rpm)
+    stable = np.asarray(branch.stable, dtype=bool) if periodic else np.ones(rpm.size, bool)
+    for e in range(max(branch.n_elements, 1)):
+        cur = branch.element(e)
+        std = np.asarray(cur.mesh_load_std)
+        colour = f"C{e}"
+        start = 0
+        for i in range(1, rpm.size + 1):
+            if i == rpm.size or stable[i] != stable[start]:
+                sl = slice(start, min(i + 1, rpm.size))
+                ax.plot(rpm[sl], std[sl], color=colour, lw=1.3,
+                        ls="-" if stable[start] else "--",
+                        label=cur.name if start == 0 else None)
+                start = i
+        for g in cur.grazing:
+            ax.plot([g.rpm], [np.interp(g.rpm, rpm, std) if np.all(np.diff(rpm) > 0)
+                              else std[int(np.argmin(np.abs(rpm - g.rpm)))]],
+                    "D", ms=5, mfc="white", mec=colour, mew=1.2, zorder=5)
+    ax.plot([], [], "D", ms=5, mfc="white", mec="k", ls="", label="grazing")
+    if periodic:
+        ax.plot([], [], "k--", label="unstable")
+    ax.set_xlabel("drive speed Ω (rpm)")
+    ax.set_ylabel("std of dynamic mesh load (N)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title + ("" if periodic else " (torus: stability not computed)"), fontsize=10)
+    return save_figure(fig, path)
 
 
 def train_spectrum_plot(problem, point, e: int, names: dict, path: Path,
@@ -140,6 +175,10 @@ def train_plots(result, want: set, speeds) -> list[Path]:
     h = result.scene.hbm.mesh_harmonics
     names = order_names(meshes, shafts, max_harmonic=max(h, 1))
     paths: list[Path] = []
+    if "forced_response" in want and len(br):
+        paths.append(train_forced_response(br, out / "forced_response.png",
+                                           f"{result.scene.name}: forced response per mesh",
+                                           pb.harmonics.periodic))
     if "spectrum" in want and pb.harmonics.periodic:
         for rpm in speeds:
             _, pt = nearest_point(result, rpm)

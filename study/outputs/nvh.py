@@ -251,7 +251,28 @@ def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
                     "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
                     int(bool(branch.stable[i]))])
     path = Path(path)
+    text = buf.getvalue()
+    if nvh.ptp_per_mesh is not None:       # several meshes: their own columns
+        text = _per_mesh_columns(text, branch, nvh)
     with atomic_write(path, "w") as fh:
-        fh.write(buf.getvalue())
+        fh.write(text)
     logger.info("wrote %s", path)
     return path
+
+
+def _per_mesh_columns(text: str, branch, nvh: NVH) -> str:
+    """``curves.csv`` of several meshes: the columns above (the first mesh's) followed by
+    ``<mesh>_std_N``, ``<mesh>_max_N``, ``<mesh>_peak_to_peak_N``, ``<mesh>_contact_class``
+    for every mesh."""
+    rows = text.splitlines()
+    head = [f"{n}_{c}" for n in nvh.mesh_names
+            for c in ("std_N", "max_N", "peak_to_peak_N", "contact_class")]
+    out = [rows[0] + "," + ",".join(head)]
+    curves = [branch.element(e) for e in range(len(nvh.mesh_names))]
+    for i, row in enumerate(rows[1:]):
+        cells = []
+        for e, cur in enumerate(curves):
+            cells += [f"{cur.mesh_load_std[i]:.8g}", f"{cur.mesh_load_max[i]:.8g}",
+                      f"{nvh.ptp_per_mesh[i, e]:.8g}", str(int(cur.contact[i]))]
+        out.append(row + "," + ",".join(cells))
+    return "\n".join(out) + "\n"

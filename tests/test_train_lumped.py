@@ -306,3 +306,33 @@ def test_hunting_period_above_the_bound_says_the_set_size():
     assert "85 harmonics up to index 480 and 4096 AFT samples" in msg, msg
     sc = load_scene("scenes/two-stage-lumped.toml", {"hbm.max_aft_samples": 2048})
     assert train_basis_choice(sc, machine_for(sc).layout).kind == "torus"
+
+
+def test_load_shares_and_stated_phase():
+    """Two loads (30 % taken off the intermediate shaft, 70 % at the output): mesh 1 carries
+    all of T / r_b1, mesh 2 70 % of the intermediate shaft's torque T Z_w1/Z_p1; a stated
+    phase_deg is the element's phase; phase and phase_deg together are refused."""
+    t = train_toml(**TWO_STAGE, torque=40.0)
+    t = t.replace('[[loads]]\nshaft = "out"\n', '[[loads]]\nshaft = "mid"\nshare = 0.3\n'
+                  'inertia_kgm2 = 0.1\n[[loads]]\nshaft = "out"\nshare = 0.7\n')
+    t = t.replace('name = "m2"\n', 'name = "m2"\nphase_deg = 30.0\n')
+    sc = parse_scene(t, "shares")
+    machine = machine_for(sc)
+    lay = machine.layout
+    rb = {g.name: g.base_radius for g in lay.gears}
+    assert machine.static_mesh_loads() == pytest.approx(
+        [40.0 / rb["p1"], 0.7 * 40.0 * 30 / 20 / rb["p2"]], rel=1e-14)
+    assert lay.load_torques == pytest.approx({"mid": 0.3 * 40.0 * 1.5, "out": 0.7 * 40.0 * 4.5})
+    assert lay.meshes[1].phase == pytest.approx(math.radians(30.0), abs=1e-15)
+    assert lay.meshes[1].phase_source == "given"
+    # the static torques balance: no net torque on the free rotation of the train
+    lm = machine.linear_model()
+    rigid = np.array([1.0] + [lay.shaft(g.shaft).sense * float(lay.shaft(g.shaft).speed_ratio)
+                              for g in lay.gears]
+                     + [lay.shaft(ld.shaft).sense * float(lay.shaft(ld.shaft).speed_ratio)
+                        for ld in sc.loads])
+    assert abs(rigid @ lm.constant[0].real) < 1e-12 * 40.0
+    assert np.allclose(lm.K @ rigid, 0.0, atol=1e-9) and np.allclose(lm.G.T @ rigid, 0.0,
+                                                                     atol=1e-15)
+    _refused(t.replace('phase_deg = 30.0\n', 'phase_deg = 30.0\nphase = "geometry"\n'),
+             "meshes[1].phase_deg", "not both")

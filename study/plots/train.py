@@ -146,7 +146,7 @@ def train_campbell(result, path: Path, mesh_harmonics: int = 3) -> Path:
         for k in range(1, mesh_harmonics + 1):
             y = k * float(f) * rpm / 60.0
             ax.plot(rpm, y, lw=1.4 if k == 1 else 0.8)
-            ax.annotate(f"{k if k > 1 else ''}{name} (×{k * float(f):.4g})",
+            ax.annotate(f"{f'{k} ' if k > 1 else ''}{name} (×{k * float(f):.4g})",
                         (rpm[-1], y[-1]), fontsize=7, ha="right", va="bottom")
     for name, rho in shafts:
         y = float(rho) * rpm / 60.0

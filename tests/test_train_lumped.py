@@ -95,6 +95,16 @@ def test_layout_of_the_shipped_two_stage_scene():
     assert lay.hunting_fundamental(shaft_orders=True) == Fraction(1, 4087)
     assert m1.vector[5] == pytest.approx(rb["p1"]) and m1.vector[11] == pytest.approx(rb["w1"])
     assert m2.vector[5] == pytest.approx(-rb["p2"]) and m2.vector[11] == pytest.approx(-rb["w2"])
+    # the ISO 6336 estimate of each pair at its own static load: mean c' b ε_α
+    from gears.iso6336 import approximate_virtual_teeth, single_stiffness
+    for m, data in zip(lay.meshes, sc.meshes, strict=True):
+        p = m.pair
+        zn = [approximate_virtual_teeth(z, 0.0) for z in p.teeth]
+        single = single_stiffness(zn, p.profile_shift, 0.0, p.pressure_angle, p.face_width,
+                                  static_load=m.static_load)
+        assert data.mesh_stiffness.estimated and len(data.mesh_stiffness.amplitudes) == 5
+        assert data.mesh_stiffness.mean == pytest.approx(single * p.transverse_contact_ratio,
+                                                         rel=1e-14)
     # the line of action is unit and normal to the shafts; the two gears see it opposite
     for m in (m1, m2):
         assert np.linalg.norm(m.vector[:3]) == pytest.approx(1.0, abs=1e-15)

@@ -18,7 +18,14 @@ __all__ = ["write_partial", "export", "draw_figures", "write_housing", "write_ro
 
 def _settings(result) -> dict:
     c = result.scene.continuation
-    return {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+    out = {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+    if result.scene.is_train:   # the basis chosen and both sizes (hbm.basis)
+        from machines import machine_for
+        from study.pipeline.model import train_basis_choice
+
+        choice = train_basis_choice(result.scene, machine_for(result.scene).layout)
+        out.update(choice.attributes())
+    return out
 
 
 def _extra(result):

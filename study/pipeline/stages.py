@@ -336,10 +336,16 @@ class Pipeline:
         bar = ProgressBar(lo, hi, self.progress)
         ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
         t = time.perf_counter()
+        stability = self.scene.hbm.stability
+        if stability and not problem.periodic:
+            logger.warning("stability: not computed on a torus (a quasi-periodic response; "
+                           "docs/theory.md §14.2): every point is written stable = False, "
+                           "floquet_kind = -1")
+            stability = False
         try:
             br = trace(problem, lo, hi, step=c.step / span, min_step=c.min_step / span,
                        max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
-                       on_point=ck, resume=resume, stability=self.scene.hbm.stability)
+                       on_point=ck, resume=resume, stability=stability)
         finally:
             bar.close()
         dt = time.perf_counter() - t

@@ -202,6 +202,13 @@ class Element(ABC):
         """Harmonics of the base frequency present in the parameters (0: the mean)."""
         return ()
 
+    @property
+    def sub_periods(self) -> int:
+        """Periods its statistics count in per base period (a gear mesh whose parameters
+        repeat every ``cycles`` mesh periods: ``cycles``); the statistics grid holds a
+        whole number of samples in each. Default 1."""
+        return 1
+
     @abstractmethod
     def sample(self, phase: np.ndarray) -> Any:
         """The parameters at the base phases ``phase`` (rad) (``base_ratio Omega t``):

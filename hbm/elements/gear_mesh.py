@@ -5,7 +5,10 @@ Along the line of action ``g`` (eq. 11) the mesh deflection is ``Delta = g^T q``
 approach net of the unloaded transmission error ``p = Delta - e(t)``, and the force the
 dead-zone law of eq. (13) with the mesh stiffness ``k_m(t)``
 (:mod:`hbm.elements.contact_law`). Stiffness and transmission error are Fourier series of
-the mesh frequency ``Z rho Omega`` (Z teeth on a gear turning at ``rho Omega``).
+the mesh frequency ``Z rho Omega`` (Z teeth on a gear turning at ``rho Omega``), or, with
+``cycles = c > 1``, of ``Z rho Omega / c``: parameters that repeat only every c mesh
+periods (pitch deviations of the teeth: the hunting period of the pair, whose harmonics
+are the mesh harmonics and their shaft-order sidebands).
 """
 from __future__ import annotations
 
@@ -102,6 +105,11 @@ class GearMesh(Element):
         Mesh phase at t = 0 (rad): the stiffness and TE at time t are those at the mesh
         phase ``Z rho Omega t + phase`` (two meshes on one gear: their relative phasing
         from the geometry, :func:`gears.train.mesh_phase`; default 0).
+    cycles
+        Mesh periods over which stiffness and TE repeat (default 1): their keys are
+        harmonics of ``Z rho Omega / cycles`` (the base frequency); with pitch deviations
+        the hunting period of the pair in mesh periods (:attr:`gears.LtcaCase.periods`).
+        The statistics still count impacts per mesh period.
     """
 
     kind = "gear_mesh"
@@ -125,6 +133,7 @@ class GearMesh(Element):
     speed_ratio: Fraction = Fraction(1)
     name: str = "gear mesh"
     phase: float = 0.0
+    cycles: int = 1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", check_direction("mesh", self.direction))
@@ -154,11 +163,17 @@ class GearMesh(Element):
         if isinstance(self.phase, bool) or not np.isfinite(float(self.phase)):
             raise ValueError(f"mesh.phase = {self.phase!r}: must be a finite angle (rad)")
         object.__setattr__(self, "phase", float(self.phase))
-        phase = 2 * np.pi * np.arange(4096) / 4096
+        c = self.cycles
+        if isinstance(c, bool) or int(c) != c or c < 1:
+            raise ValueError(f"mesh.cycles = {self.cycles!r}: must be an integer >= 1 (mesh "
+                             "periods over which stiffness and TE repeat)")
+        object.__setattr__(self, "cycles", int(c))
+        n_check = max(4096, 16 * max(list(k) + list(te) + [0]))
+        phase = 2 * np.pi * np.arange(n_check) / n_check
         kmin = float(np.min(mesh_signal(k, phase)))
         if kmin <= 0:
             raise ValueError(
-                f"mesh.stiffness: k_m(t) reaches {kmin:.4g} N/m over the mesh period; "
+                f"mesh.stiffness: k_m(t) reaches {kmin:.4g} N/m over its period; "
                 "must stay > 0")
 
     # ------------------------------------------------------------------ parameters
@@ -174,24 +189,39 @@ class GearMesh(Element):
 
     @property
     def base_ratio(self) -> Fraction:
-        """Mesh frequency over Omega: ``Z rho``."""
-        return self.n_teeth * self.speed_ratio
+        """Base frequency of the parameters over Omega: the mesh frequency ``Z rho``, or
+        ``Z rho / cycles``."""
+        if self.cycles == 1:
+            return self.n_teeth * self.speed_ratio
+        return self.n_teeth * self.speed_ratio / self.cycles
+
+    @property
+    def sub_periods(self) -> int:
+        """Mesh periods per base period (``cycles``)."""
+        return self.cycles
 
     @property
     def max_harmonic(self) -> int:
-        """Largest mesh harmonic in stiffness or te."""
+        """Largest harmonic of the base frequency in stiffness or te."""
         return max(list(self.stiffness) + list(self.te) + [0])
+
+    @property
+    def phase_offset(self) -> float:
+        """:attr:`phase` on the base phase (``phase / cycles``, rad)."""
+        return self.phase if self.cycles == 1 else self.phase / self.cycles
 
     @property
     def parameter_harmonics(self) -> tuple[int, ...]:
         return tuple(sorted(set(self.stiffness) | set(self.te)))
 
     def stiffness_at(self, mesh_phase: np.ndarray) -> np.ndarray:
-        """k_m (N/m) at mesh phase ``Z rho Omega t`` (rad)."""
+        """k_m (N/m) at base phase ``Z rho Omega t / cycles`` (rad; the mesh phase when
+        ``cycles = 1``)."""
         return mesh_signal(self.stiffness, np.asarray(mesh_phase, dtype=float))
 
     def error_at(self, mesh_phase: np.ndarray) -> np.ndarray:
-        """Unloaded transmission error e (m) at mesh phase ``Z rho Omega t`` (rad)."""
+        """Unloaded transmission error e (m) at base phase ``Z rho Omega t / cycles``
+        (rad)."""
         ph = np.asarray(mesh_phase, dtype=float)
         e = mesh_signal(self.te, ph)
         if self.te_kind == "loaded":
@@ -199,10 +229,10 @@ class GearMesh(Element):
         return e
 
     def sample(self, phase: np.ndarray) -> MeshSamples:
-        """Stiffness and TE at the base phases ``phase`` (rad), i.e. at the mesh phases
-        ``phase + self.phase``."""
+        """Stiffness and TE at the base phases ``phase`` (rad), shifted by the mesh phase
+        :attr:`phase` (:attr:`phase_offset` on the base phase)."""
         if self.phase:
-            phase = phase + self.phase
+            phase = phase + self.phase_offset
         return MeshSamples(self.stiffness_at(phase), self.error_at(phase))
 
     # ------------------------------------------------------------------ force
@@ -256,7 +286,7 @@ class GearMesh(Element):
         loaded = self.te_kind == "loaded"
         fs = self.static_load
         b = self.backlash
-        offset = self.phase
+        offset = self.phase_offset
 
         def f(delta: float, ph: float) -> float:
             if offset:
@@ -292,7 +322,9 @@ class GearMesh(Element):
         ``impacts_per_mesh_period``: mean re-contacts per mesh period; ``margin_active``
         ``min_t (Delta - e - b)`` (m, > 0: permanent active contact, phi_GR of eq. 30);
         ``margin_reverse`` ``max_t (e - Delta - b)`` (m, > 0: the reverse flank is hit);
-        ``ipp``: impacts in each mesh period along the fundamental period.
+        ``ipp``: impacts in each mesh period along the fundamental period (``periods``
+        base periods of ``cycles`` mesh periods each; per base period when the samples
+        do not split evenly into mesh periods).
         """
         b = self.backlash
         p = delta - samples.e
@@ -307,7 +339,10 @@ class GearMesh(Element):
             contact = 2
         else:
             contact = 1
-        ipp = impacts_per_mesh_period(loss, periods)
+        mesh_periods = periods * self.cycles
+        if loss.shape[-1] % mesh_periods:
+            mesh_periods = periods
+        ipp = impacts_per_mesh_period(loss, mesh_periods)
         return {"mesh_load_std": float(np.std(f)), "mesh_load_max": float(np.max(f)),
                 "contact": contact, "contact_loss_fraction": float(np.mean(loss)),
                 "impacts_per_mesh_period": float(np.mean(ipp)),

@@ -520,10 +520,12 @@ class HBMProblem:
 
     def fine_periods(self, n_time=None):
         """A sample count over one fundamental period, at least ``n_time`` (default four
-        times the AFT grid's), that every element's base period divides evenly; on a torus
+        times the AFT grid's), that every element's base period (and each of its
+        :attr:`~hbm.elements.base.Element.sub_periods`) divides evenly; on a torus
         the statistics grid (:meth:`hbm.torus.TorusBasis.refined_grid`)."""
         if not self.periodic:
             return self.harmonics.refined_grid(n_time)
-        step = math.lcm(*(s for s in self.steps if s), 1)
+        step = math.lcm(*(s * el.sub_periods for s, el in zip(self.steps, self.elements,
+                                                               strict=True) if s), 1)
         n = 4 * self.harmonics.n_time if n_time is None else int(n_time)
         return step * int(np.ceil(n / step))

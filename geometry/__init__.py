@@ -19,7 +19,11 @@ from typing import TYPE_CHECKING, Any
 _WHERE = {
     "CadPart": "cad", "HealOptions": "cad", "LENGTH_UNITS": "cad", "ImportedSolid": "cad",
     "import_part": "cad", "write_step": "cad",
-    "build_housing": "housing",
+    "build_housing": "housing", "build_box_housing": "housing",
+    "build_gearbox": "gearbox", "gear_node": "gearbox",
+    "GearboxParams": "gearbox_params", "GearboxShaftParams": "gearbox_params",
+    "GearboxHousingParams": "gearbox_params", "GearSeatParams": "gearbox_params",
+    "JournalParams": "gearbox_params", "Bore": "params", "BoxHousing": "params",
     "import_cad": "imported", "import_mesh": "imported",
     "BearingSeat": "locate", "Mount": "locate", "MountReport": "locate",
     "SeatReport": "locate",
@@ -38,6 +42,16 @@ _WHERE = {
 
 __all__ = [
     "LENGTH_UNITS",
+    "Bore",
+    "BoxHousing",
+    "GearSeatParams",
+    "GearboxHousingParams",
+    "GearboxParams",
+    "GearboxShaftParams",
+    "JournalParams",
+    "build_box_housing",
+    "build_gearbox",
+    "gear_node",
     "BearingSeat",
     "CadPart",
     "HealOptions",
@@ -75,7 +89,15 @@ __all__ = [
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
     from .cad import LENGTH_UNITS, CadPart, HealOptions, ImportedSolid, import_part, write_step
-    from .housing import build_housing
+    from .gearbox import build_gearbox, gear_node
+    from .gearbox_params import (
+        GearboxHousingParams,
+        GearboxParams,
+        GearboxShaftParams,
+        GearSeatParams,
+        JournalParams,
+    )
+    from .housing import build_box_housing, build_housing
     from .imported import import_cad, import_mesh
     from .io import write_msh
     from .locate import BearingSeat, Mount, MountReport, SeatReport
@@ -84,6 +106,8 @@ if TYPE_CHECKING:  # static analysers see the names eagerly
     from .model import ImportedModel, MeshedModel, PartEntities, QualityReport
     from .params import (
         SHAFT_NAMES,
+        Bore,
+        BoxHousing,
         HousingParams,
         MeshOptions,
         PumpParams,

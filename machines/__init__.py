@@ -8,8 +8,10 @@ model, ROM and the forcing on the reduced coordinates, a lumped machine
 (:class:`LumpedMachine`) its linear system. The registry (:mod:`machines.registry`)
 picks the machine of a scene by ``scene.kind``: ``"fe"`` the pump
 (:class:`machines.pump.Pump`), ``"lumped"`` the single-DOF gear pair
-(:class:`machines.lumped.LumpedGearPair`, model ``"sdof"``), ``"gearbox"`` the FE
-gearbox of N parallel shafts (:class:`machines.gearbox.Gearbox`).
+(:class:`machines.lumped.LumpedGearPair`, model ``"sdof"``), ``"train"`` the lumped
+torsional gear train (:class:`machines.train.LumpedTrain`, on the layout of
+:mod:`machines.train.layout`), ``"gearbox"`` the FE gearbox of N parallel shafts on the
+same layout (:class:`machines.gearbox.Gearbox`).
 
 Imports core, gears, geometry, fem and reduction — the FE stack only inside functions,
 so that ``import machines`` and a lumped scene load no dolfinx, gmsh or petsc4py — and
@@ -30,7 +32,9 @@ from machines.gearbox import Gearbox
 from machines.lumped import LumpedGearPair
 from machines.pump import Pump
 from machines.registry import kinds, machine_class, machine_for, models, register
+from machines.train.lumped import LumpedTrain
 
 __all__ = ["Machine", "FEMachine", "LumpedMachine", "GearBody", "GearMeshSpec", "Shaft",
            "Part", "LinearModel", "check_contract", "register", "kinds", "models",
-           "machine_class", "machine_for", "Pump", "LumpedGearPair", "Gearbox"]
+           "machine_class", "machine_for", "Pump", "LumpedGearPair", "LumpedTrain",
+           "Gearbox"]

@@ -578,11 +578,14 @@ def _place(names: list[str], meshes: list[Any], graph: _Graph, gears: tuple[Trai
             elif e in parent.get(here, []):
                 continue
             elif r != ratio[other] or sense[other] != -sense[here]:
+                way = {1: "counter-clockwise", -1: "clockwise"}
                 raise InputError(f"meshes[{e}].gears = {list(m.gears)}: the torque path does "
-                                 f"not close: mesh {m.name!r} turns shaft {other!r} at "
-                                 f"{r} of the drive speed, other meshes at {ratio[other]}",
+                                 f"not close: mesh {m.name!r} closes a loop at shaft "
+                                 f"{other!r}, turning it at {r} of the drive speed "
+                                 f"{way[-sense[here]]}, the meshes before at {ratio[other]} "
+                                 f"{way[sense[other]]} (the loop locks)",
                                  field=f"meshes[{e}].gears", value=list(m.gears),
-                                 allowed="one speed per shaft")
+                                 allowed="one speed and sense per shaft")
             elif parent[other] and _same_edge(graph, parent[other][0], e):
                 if e not in parent[other]:
                     parent[other].append(e)     # a mesh in parallel with the first

@@ -218,26 +218,45 @@ def rom_line(result) -> list[str]:
     return [head + txt + "; " + reach]
 
 
+def _pair_model_lines(result) -> list[str]:
+    """The model lines of a one-pair scene: gears, load, mesh, damping, harmonic set."""
+    sc = result.scene
+    g = sc.gear
+    return [f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
+            f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
+            f"ε_α = {g.contact_ratio:.3f}",
+            f"- torque T = {sc.load.torque:g} N·m, static load F_s = {sc.static_load:.2f} N, "
+            f"half backlash b = {g.backlash * 1e6:g} µm",
+            f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
+            f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
+            f"{len(sc.transmission_error.amplitudes)} harmonics",
+            f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
+            f"{result.problem.harmonics.n_harmonics} indices of the "
+            f"{result.problem.harmonics.fundamental} frequency, "
+            f"{result.problem.harmonics.n_time} AFT samples"]
+
+
+def _train_model_lines(result) -> list[str]:
+    """The model lines of a train: drive, loads, damping; its meshes follow in their own
+    section (:func:`study.outputs.train.mesh_report_lines`)."""
+    sc = result.scene
+    return [f"- drive: {sc.drive.torque:g} N·m on shaft `{sc.drive.shaft}` (its speed is the "
+            "reference Ω); loads: " + ", ".join(f"`{ld.shaft}` ({ld.share:g})"
+                                                for ld in sc.loads),
+            f"- {len(sc.meshes)} meshes (section Meshes); damping ξ = "
+            f"{sc.damping.modal_ratio:g}",
+            "- the sections below up to the meshes' are those of the first mesh "
+            f"(`{sc.meshes[0].name}`)"]
+
+
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
-    g = sc.gear
     lines = [f"# {sc.name}", "", sc.scene.description or "", "",
              "## Model", "",
              f"- kind: {sc.scene.kind}; {result.problem.system.n_dof} DOF, condensation "
              f"`{result.problem.condensation}`", *rom_line(result),
-             f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
-             f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
-             f"ε_α = {g.contact_ratio:.3f}",
-             f"- torque T = {sc.load.torque:g} N·m, static load F_s = {sc.static_load:.2f} N, "
-             f"half backlash b = {g.backlash * 1e6:g} µm",
-             f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
-             f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
-             f"{len(sc.transmission_error.amplitudes)} harmonics",
-             f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
-             f"{result.problem.harmonics.n_harmonics} indices of the "
-             f"{result.problem.harmonics.fundamental} frequency, "
-             f"{result.problem.harmonics.n_time} AFT samples",
+             *(_train_model_lines(result) if sc.is_train else _pair_model_lines(result)),
              "", "## Continuation", "",
              f"- {s['points']} points from {sc.continuation.speed[0]:g} to "
              f"{sc.continuation.speed[1]:g} rpm, status `{s['status']}`",
@@ -260,6 +279,10 @@ def write_report(result) -> Path:
     for c, iv in s["intervals"].items():
         txt = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
         lines.append(f"- {_CLASS[c]}: {txt}")
+    if sc.is_train:
+        from study.outputs.train import mesh_report_lines
+
+        lines += ["", *mesh_report_lines(result)]
     nvh = getattr(result, "nvh", None)
     if nvh is not None and nvh.erp is not None and len(result.branch):
 

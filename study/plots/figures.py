@@ -32,11 +32,15 @@ def draw_all(result) -> list[Path]:
         tag = f"{pt.rpm:.0f}rpm"
         cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[
             int(br.element(0).contact[i])]
-        if "time_series" in want:
+        if "time_series" in want and pb.harmonics.periodic:
             paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))
-        if "spectrum" in want:
+        if "spectrum" in want and not result.scene.is_train:
             paths.append(spectrum_plot(pb, pt, out / f"spectrum_{tag}.png"))
+    if result.scene.is_train:   # per mesh, orders named by shaft and mesh (study.plots.train)
+        from study.plots.train import train_plots
+
+        return paths + train_plots(result, want, speeds)
     nvh = getattr(result, "nvh", None)
     z = result.scene.gear.teeth
     if nvh is not None and "order_maps" in want and len(br) > 0:

@@ -14,9 +14,9 @@ from typing import Any
 from core.errors import range_text
 from core.units import TO_SI
 
-__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
-           "TRAIN_KINDS", "TRAIN_SECTIONS", "PAIR_SECTIONS", "HEADINGS", "attr_name",
-           "schema_markdown"]
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "GEARBOX_SECTIONS", "PLOT_NAMES", "TOP_LEVEL",
+           "CALIBRATION_ROWS", "TRAIN_KINDS", "TRAIN_SECTIONS", "PAIR_SECTIONS", "HEADINGS",
+           "attr_name", "schema_markdown"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,8 @@ def _c(default, choices, doc=""):
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
+#: The free FE tables of a gearbox scene (machines.gearbox.params checks them).
+GEARBOX_SECTIONS = ("housing", "mesh", "materials")
 #: Machine kinds described by ``[[shafts]]``, ``[[gears]]``, ``[[meshes]]``, ``[drive]`` and
 #: ``[[loads]]`` (issue 36): the lumped torsional train and the FE gearbox.
 TRAIN_KINDS = ("train", "gearbox")
@@ -91,9 +93,11 @@ CALIBRATION_ROWS = {
 SCHEMA: dict[str, dict[str, Spec]] = {
     "scene": {
         "name": Spec("str", None, doc="scene name (default: the file stem)"),
-        "kind": _c("lumped", ("lumped", "fe", "train"), "`lumped`: single-DOF gear pair, "
-                   "no FE; `fe`: geometry → FE → ROM; `train`: lumped torsional gear train "
-                   "of `[[shafts]]`, `[[gears]]`, `[[meshes]]` (no FE)"),
+        "kind": _c("lumped", ("lumped", "fe", "train", "gearbox"), "`lumped`: single-DOF "
+                   "gear pair, no FE; `fe`: geometry → FE → ROM; `train`: lumped torsional "
+                   "gear train of `[[shafts]]`, `[[gears]]`, `[[meshes]]` (no FE); "
+                   "`gearbox`: the same train on FE shafts in a housing (`[housing]`, "
+                   "`[mesh]`, `[materials]`) → FE → ROM"),
         "description": Spec("str", "", doc="free text"),
     },
     "gear": {
@@ -335,14 +339,14 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="measuring axis (x, y, z); [0, 0, 0]: the outer surface normal"),
     },
 }
-for _s in FE_SECTIONS:
+for _s in (*FE_SECTIONS, *GEARBOX_SECTIONS):
     SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
 
 #: Top-level sections of a scene file, in the order they are checked (the train sections
 #: and ``[drive]`` of a train are checked by the loader, :mod:`study.scene.load`).
 TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
-             "calibration", *FE_SECTIONS, *TRAIN_SECTIONS)
+             "calibration", *FE_SECTIONS, "housing", *TRAIN_SECTIONS)
 
 #: How :func:`schema_markdown` heads a section (default ``[sec]``, ``[[sec]]`` if dotted).
 HEADINGS = {"shafts": "[[shafts]]", "gears": "[[gears]]", "meshes": "[[meshes]]",

@@ -342,7 +342,8 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
         raw_out = dict(raw_out)
         accel_raw = raw_out.pop("accelerometer")
     sec = {s: check_table(s, raw_out if s == "outputs" else raw.get(s, {}), SCHEMA[s])
-           for s in TOP_LEVEL if s not in ("external", *FE_SECTIONS, *TRAIN_SECTIONS)}
+           for s in TOP_LEVEL if s not in ("external", *FE_SECTIONS, *GEARBOX_SECTIONS,
+                                               *TRAIN_SECTIONS)}
     return sec, accel_raw
 
 

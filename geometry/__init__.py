@@ -20,7 +20,7 @@ _WHERE = {
     "CadPart": "cad", "HealOptions": "cad", "LENGTH_UNITS": "cad", "ImportedSolid": "cad",
     "import_part": "cad", "write_step": "cad",
     "build_housing": "housing", "build_box_housing": "housing",
-    "build_gearbox": "gearbox", "gear_node": "gearbox",
+    "build_gearbox": "gearbox", "gear_node": "gearbox", "CadHousing": "gearbox",
     "GearboxParams": "gearbox_params", "GearboxShaftParams": "gearbox_params",
     "GearboxHousingParams": "gearbox_params", "GearSeatParams": "gearbox_params",
     "JournalParams": "gearbox_params", "Bore": "params", "BoxHousing": "params",
@@ -44,6 +44,7 @@ __all__ = [
     "LENGTH_UNITS",
     "Bore",
     "BoxHousing",
+    "CadHousing",
     "GearSeatParams",
     "GearboxHousingParams",
     "GearboxParams",
@@ -89,7 +90,7 @@ __all__ = [
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
     from .cad import LENGTH_UNITS, CadPart, HealOptions, ImportedSolid, import_part, write_step
-    from .gearbox import build_gearbox, gear_node
+    from .gearbox import CadHousing, build_gearbox, gear_node
     from .gearbox_params import (
         GearboxHousingParams,
         GearboxParams,

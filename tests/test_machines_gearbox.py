@@ -90,3 +90,32 @@ def test_fe_statics_carry_the_torque_path(tmp_path) -> None:
     qc = q.getArray()[model.gear_dofs] if K.getComm().size == 1 else None
     forces = km * (model.G.T @ qc)
     np.testing.assert_allclose(forces, m.static_mesh_loads(), rtol=1e-9)
+
+
+@pytest.mark.fem
+def test_cad_housing_scene_finds_the_bores_from_the_shafts(tmp_path) -> None:
+    """scenes/two-stage-gearbox-cad.toml with the STEP housing of
+    scripts/gearbox_housing_step.py: the six bores found by the shafts' axes (radius
+    measured = given), the feet by their plane; the mesh holds every group the FE model
+    needs."""
+    pytest.importorskip("dolfinx")
+    import json
+
+    import cad_support as cs
+
+    from machines import machine_for
+    from study import load_scene
+
+    step = cs.gearbox_script().write(tmp_path / "housing.step")
+    scene = load_scene("scenes/two-stage-gearbox-cad.toml", {"housing.file": str(step)})
+    m = machine_for(scene)
+    m.check()
+    m.build_mesh(tmp_path)
+    info = json.loads((tmp_path / "mesh.json").read_text())
+    for s in ("input", "intermediate", "output"):
+        for e in ("a", "b"):
+            assert f"housing/bore_{s}_{e}" in info["groups"]
+            assert f"{s}/bearing_{e}" in info["groups"]
+            np.testing.assert_allclose(info["centres"][f"housing/bore_{s}_{e}"],
+                                       info["centres"][f"{s}/bearing_{e}"], atol=1e-9)
+    assert "housing/feet" in info["groups"]

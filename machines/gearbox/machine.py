@@ -5,8 +5,9 @@ The train sections (``[[shafts]]``, ``[[gears]]``, ``[[meshes]]``, ``[drive]``,
 centres, exact speed ratios and senses, eq. 11 per mesh in the global frame, static
 loads from the torque path); ``[housing]``, ``[mesh]`` and ``[materials]`` the FE model
 (:mod:`machines.gearbox.params`). The mesh is :func:`geometry.build_gearbox` (or, with
-``housing.source = "cad"``, the housing of a CAD file with its seats found from the
-shafts' axes and the parametric shafts, :mod:`machines.gearbox.cad`), the FE model
+``housing.source = "cad"``, the housing of a CAD file with its bores found from the
+shafts' axes and its feet by their plane, and the parametric shafts:
+:class:`geometry.CadHousing`), the FE model
 :func:`fem.build_gearbox_model`: one body per gear (6 DOF, global frame) on its seat,
 bearing springs between journals and bores, the motor on the drive shaft's start, each
 load's inertia on its coupling at its shaft's end; the housing radiates.
@@ -14,6 +15,7 @@ load's inertia on its coupling at its shaft's end; the housing radiates.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,7 @@ from machines.fe import FEMachine, load_mesh, write_mesh_info
 from machines.gearbox.params import (
     GearboxFEParams,
     bearing_names,
+    cad_housing,
     gearbox_geometry,
     gearbox_parameters,
 )
@@ -135,9 +138,14 @@ class Gearbox(FEMachine):
         vectors and the links; rom: ``[rom]``."""
         s = self.scene
         if stage == "mesh":
-            return {"geometry": dataclasses.asdict(self.geometry),
-                    "housing": dataclasses.asdict(self.params.options),
-                    "mesh": dataclasses.asdict(self.params.mesh)}
+            out = {"geometry": dataclasses.asdict(self.geometry),
+                   "housing": dataclasses.asdict(self.params.options),
+                   "mesh": dataclasses.asdict(self.params.mesh)}
+            if self.params.options.source == "cad":  # the file's content, not its name
+                f = Path(self.params.options.file)
+                out["cad_sha256"] = (hashlib.sha256(f.read_bytes()).hexdigest()
+                                     if f.is_file() else None)
+            return out
         if stage == "fe":
             return {"materials": dataclasses.asdict(self.params.materials),
                     "bearings": [[dataclasses.asdict(b) for b in sh.bearings]
@@ -169,12 +177,8 @@ class Gearbox(FEMachine):
         p = self.params
         with gmsh_session():
             try:
-                if p.options.source == "cad":
-                    from machines.gearbox.cad import build_cad_gearbox
-
-                    meshed = build_cad_gearbox(self.scene, self.geometry, p)
-                else:
-                    meshed = build_gearbox(self.geometry, p.mesh)
+                cad = cad_housing(p.options) if p.options.source == "cad" else None
+                meshed = build_gearbox(self.geometry, p.mesh, cad=cad)
             except InputError:
                 raise
             except (ValueError, RuntimeError) as exc:

@@ -19,7 +19,7 @@ from core.units import FE_SUFFIXES
 from machines.sections import FEParameterError, convert_section
 
 __all__ = ["HousingOptions", "GearboxFEParams", "gearbox_parameters", "gearbox_geometry",
-           "bearing_names"]
+           "bearing_names", "cad_housing"]
 
 #: Housing sources: the parametric box, or a CAD file (issue 37's geometry.cad).
 SOURCES = ("parametric", "cad")
@@ -49,7 +49,10 @@ class HousingOptions:
         CAD only: the bore radius of each shaft's bearings (m), in the order of
         ``[[shafts]]``; default shaft radius + ``bearing_section``.
     feet_y : float
-        CAD only: y of the feet's bolted faces (plane normal -y), m.
+        CAD only: y of the feet's bolted faces (plane normal -y) in the gearbox's frame, m.
+    offset : tuple of 3 floats
+        CAD only: translation of the file's geometry into the gearbox's frame (the first
+        shaft on the z axis, the shafts' starts at z = 0), m; empty: none.
     """
 
     source: str = "parametric"
@@ -61,6 +64,7 @@ class HousingOptions:
     bearing_width: float = 0.015
     bore_radii: tuple[float, ...] = ()
     feet_y: float = math.nan
+    offset: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if self.source not in SOURCES:
@@ -77,6 +81,9 @@ class HousingOptions:
             if not self.file:
                 raise FEParameterError("housing.file = '': source = 'cad' needs the CAD "
                                        "file (STEP, IGES, BREP)")
+            if self.offset and len(self.offset) != 3:
+                raise FEParameterError(f"housing.offset = {list(self.offset)}: must be 3 "
+                                       "lengths (x, y, z)")
             if not math.isfinite(self.feet_y):
                 raise FEParameterError("housing.feet_y: source = 'cad' needs the y of the "
                                        "feet's bolted faces (feet_y_mm)")
@@ -133,6 +140,16 @@ def gearbox_parameters(fe: dict[str, dict]) -> GearboxFEParams:
     except (TypeError, ValueError) as exc:
         raise FEParameterError(f"FE parameters: {exc}") from exc
     return GearboxFEParams(housing, options, opts, mats)
+
+
+def cad_housing(options: HousingOptions) -> Any:
+    """The :class:`geometry.CadHousing` of ``[housing]`` with ``source = "cad"``; the file
+    is relative to the working directory (or absolute)."""
+    import geometry
+
+    return geometry.CadHousing(options.file, options.unit,
+                               tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
+                               tuple(options.bore_radii), options.feet_y)
 
 
 def bearing_names(shaft: Any) -> list[str]:

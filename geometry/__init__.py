@@ -1,11 +1,12 @@
 """gmsh (OpenCASCADE) models meshed in 10-node tetrahedra with every region a later
-stage needs tagged: the parametric pump (shafts and housing), and imported parts (CAD
-files or existing volume meshes) with their bearing seats and mounts found from what a
-scene states about them.
+stage needs tagged: the parametric pump (shafts and housing), the parametric gearbox of N
+parallel shafts in a housing whose bores follow them (:mod:`geometry.gearbox`, also with
+a CAD housing), and imported parts (CAD files or existing volume meshes) with their
+bearing seats and mounts found from what a scene states about them.
 
 Never imports dolfinx. See docs/geometry.md for the frame, parameters, group names and
-presets, docs/cad-import.md for imported parts, and :mod:`geometry.pump` for the
-hand-over to DOLFINx.
+presets, docs/gearbox.md for the gearbox, docs/cad-import.md for imported parts, and
+:mod:`geometry.pump` for the hand-over to DOLFINx.
 
 The public names are resolved on first use (PEP 562), so importing the package or
 one of its light modules (``geometry.params``) does not load gmsh.

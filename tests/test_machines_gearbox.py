@@ -119,3 +119,21 @@ def test_cad_housing_scene_finds_the_bores_from_the_shafts(tmp_path) -> None:
             np.testing.assert_allclose(info["centres"][f"housing/bore_{s}_{e}"],
                                        info["centres"][f"{s}/bearing_{e}"], atol=1e-9)
     assert "housing/feet" in info["groups"]
+
+
+@pytest.mark.parametrize("path", ["scenes/two-stage-gearbox.toml",
+                                  "scenes/two-stage-gearbox-demo.toml",
+                                  "scenes/two-stage-gearbox-cad.toml"])
+def test_shipped_gearbox_scenes_load(path: str) -> None:
+    """The shipped scenes load, their machine checks them (geometry before meshing), the
+    overall ratio is 4087/437 = 9.35 and the static loads follow the torque path."""
+    pytest.importorskip("gmsh")
+    from machines import machine_for
+    from study import load_scene
+
+    m = machine_for(load_scene(path))
+    m.check()
+    assert m.kind == "gearbox"
+    assert 1 / m.shaft("output").speed_ratio == Fraction(4087, 437)
+    np.testing.assert_allclose(m.static_mesh_loads(), [2313.43, 7427.33], rtol=1e-5)
+    assert m.radiating_part == "housing"

@@ -10,6 +10,15 @@ vector G (Fig. 1, eq. 11) come from :mod:`gears.pair`. See docs/fem.md.
 
 from .dense import dense_projection
 from .eigen import eigenfrequencies
+from .gearbox import (
+    GearboxBearing,
+    GearboxDrive,
+    GearboxGear,
+    GearboxLoad,
+    build_gearbox_model,
+    gearbox_materials,
+    gearbox_spec,
+)
 from .housing import (
     MountSupport,
     SurfaceWeights,
@@ -42,6 +51,10 @@ __all__ = [
     "BearingParams",
     "DriveParams",
     "FEMesh",
+    "GearboxBearing",
+    "GearboxDrive",
+    "GearboxGear",
+    "GearboxLoad",
     "FEModel",
     "GearParams",
     "Link",
@@ -58,12 +71,15 @@ __all__ = [
     "add_mounts",
     "add_seats",
     "axial_spring",
+    "build_gearbox_model",
     "build_model",
     "build_prolongation",
     "build_pump_model",
     "dense_projection",
     "disk_mass",
     "eigenfrequencies",
+    "gearbox_materials",
+    "gearbox_spec",
     "gmsh_physical_groups",
     "housing_spec",
     "load_gmsh_mesh",

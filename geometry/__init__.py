@@ -1,11 +1,12 @@
 """gmsh (OpenCASCADE) models meshed in 10-node tetrahedra with every region a later
-stage needs tagged: the parametric pump (shafts and housing), and imported parts (CAD
-files or existing volume meshes) with their bearing seats and mounts found from what a
-scene states about them.
+stage needs tagged: the parametric pump (shafts and housing), the parametric gearbox of N
+parallel shafts in a housing whose bores follow them (:mod:`geometry.gearbox`, also with
+a CAD housing), and imported parts (CAD files or existing volume meshes) with their
+bearing seats and mounts found from what a scene states about them.
 
 Never imports dolfinx. See docs/geometry.md for the frame, parameters, group names and
-presets, docs/cad-import.md for imported parts, and :mod:`geometry.pump` for the
-hand-over to DOLFINx.
+presets, docs/gearbox.md for the gearbox, docs/cad-import.md for imported parts, and
+:mod:`geometry.pump` for the hand-over to DOLFINx.
 
 The public names are resolved on first use (PEP 562), so importing the package or
 one of its light modules (``geometry.params``) does not load gmsh.
@@ -19,7 +20,11 @@ from typing import TYPE_CHECKING, Any
 _WHERE = {
     "CadPart": "cad", "HealOptions": "cad", "LENGTH_UNITS": "cad", "ImportedSolid": "cad",
     "import_part": "cad", "write_step": "cad",
-    "build_housing": "housing",
+    "build_housing": "housing", "build_box_housing": "housing",
+    "build_gearbox": "gearbox", "gear_node": "gearbox", "CadHousing": "gearbox",
+    "GearboxParams": "gearbox_params", "GearboxShaftParams": "gearbox_params",
+    "GearboxHousingParams": "gearbox_params", "GearSeatParams": "gearbox_params",
+    "JournalParams": "gearbox_params", "Bore": "params", "BoxHousing": "params",
     "import_cad": "imported", "import_mesh": "imported",
     "BearingSeat": "locate", "Mount": "locate", "MountReport": "locate",
     "SeatReport": "locate",
@@ -38,6 +43,17 @@ _WHERE = {
 
 __all__ = [
     "LENGTH_UNITS",
+    "Bore",
+    "BoxHousing",
+    "CadHousing",
+    "GearSeatParams",
+    "GearboxHousingParams",
+    "GearboxParams",
+    "GearboxShaftParams",
+    "JournalParams",
+    "build_box_housing",
+    "build_gearbox",
+    "gear_node",
     "BearingSeat",
     "CadPart",
     "HealOptions",
@@ -75,7 +91,15 @@ __all__ = [
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
     from .cad import LENGTH_UNITS, CadPart, HealOptions, ImportedSolid, import_part, write_step
-    from .housing import build_housing
+    from .gearbox import CadHousing, build_gearbox, gear_node
+    from .gearbox_params import (
+        GearboxHousingParams,
+        GearboxParams,
+        GearboxShaftParams,
+        GearSeatParams,
+        JournalParams,
+    )
+    from .housing import build_box_housing, build_housing
     from .imported import import_cad, import_mesh
     from .io import write_msh
     from .locate import BearingSeat, Mount, MountReport, SeatReport
@@ -84,6 +108,8 @@ if TYPE_CHECKING:  # static analysers see the names eagerly
     from .model import ImportedModel, MeshedModel, PartEntities, QualityReport
     from .params import (
         SHAFT_NAMES,
+        Bore,
+        BoxHousing,
         HousingParams,
         MeshOptions,
         PumpParams,

@@ -77,6 +77,30 @@ def check_sizes(parts: dict[str, tuple[float, float, float, str, str]],
     return int(round(total))
 
 
+#: Surface physical tags are numbered from here, in group order (:func:`add_groups`).
+SURFACE_TAG0 = 101
+
+
+def add_groups(volumes: dict[str, PartEntities], volume_tags: dict[str, int]
+               ) -> dict[str, tuple[int, int]]:
+    """Create one physical volume per part (tag ``volume_tags[name]``) and the parts'
+    named surface groups (tags from :data:`SURFACE_TAG0` in the order of the parts and
+    their surfaces); returns name -> ``(dim, tag)``."""
+    groups: dict[str, tuple[int, int]] = {}
+    for vname, part in volumes.items():
+        tag = gmsh.model.addPhysicalGroup(3, [part.volume], volume_tags[vname])
+        gmsh.model.setPhysicalName(3, tag, vname)
+        groups[vname] = (3, tag)
+    next_tag = SURFACE_TAG0
+    for part in volumes.values():
+        for sname, faces in part.surfaces.items():
+            tag = gmsh.model.addPhysicalGroup(2, list(faces), next_tag)
+            gmsh.model.setPhysicalName(2, tag, sname)
+            groups[sname] = (2, tag)
+            next_tag += 1
+    return groups
+
+
 def configure(opts: MeshOptions) -> None:
     """Set the gmsh options that make meshing deterministic and second order."""
     set_ = gmsh.option.setNumber

@@ -374,6 +374,73 @@ class HousingParams:
                                  f"length_z/(rib_count+1) = {pitch:g} m")
 
 
+# ------------------------------------------------------- box housing (any shafts)
+
+
+@dataclass(frozen=True)
+class Bore:
+    """One shaft's bearing bores through both end walls and their bosses [m].
+
+    Attributes
+    ----------
+    shaft : str
+        Shaft name: the bores are the groups ``housing/bore_{shaft}_a`` (end wall at the
+        smaller z) and ``housing/bore_{shaft}_b``.
+    x, y : float
+        The bore axis (parallel to z).
+    radius : float
+        Bore radius (the bearing's outer ring seat).
+    boss_radius : float
+        Outer radius of the boss around it.
+    """
+
+    shaft: str
+    x: float
+    y: float
+    radius: float
+    boss_radius: float
+
+
+@dataclass(frozen=True)
+class BoxHousing:
+    """The solid :func:`build_box_housing` builds [m].
+
+    Box ``x ∈ x_range``, ``y ∈ [y0, y0 + height_y]``, ``z ∈ [z0, z0 + length_z]``,
+    hollowed to ``wall``; each end wall carries one boss per :class:`Bore` protruding
+    outwards by ``boss_length``, bored through wall and boss; four corner feet under the
+    bottom face (``foot_width`` along x, ``foot_depth`` along z, ``foot_height`` thick,
+    ``foot_overhang`` past the side walls); ribs of ``rib_thickness`` x ``rib_height``
+    across the top face at the global ``rib_z``.
+    """
+
+    x_range: tuple[float, float]
+    y0: float
+    height_y: float
+    z0: float
+    length_z: float
+    wall: float
+    boss_length: float
+    bores: tuple[Bore, ...]
+    foot_width: float
+    foot_depth: float
+    foot_height: float
+    foot_overhang: float
+    rib_z: tuple[float, ...] = ()
+    rib_thickness: float = 0.0
+    rib_height: float = 0.0
+
+    @property
+    def bore_a_z(self) -> tuple[float, float]:
+        """Global axial range of the bores of end wall ``a`` [m]."""
+        return (self.z0 - self.boss_length, self.z0 + self.wall)
+
+    @property
+    def bore_b_z(self) -> tuple[float, float]:
+        """Global axial range of the bores of end wall ``b`` [m]."""
+        z1 = self.z0 + self.length_z
+        return (z1 - self.wall, z1 + self.boss_length)
+
+
 # ---------------------------------------------------------------------------- pump
 
 

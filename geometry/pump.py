@@ -26,7 +26,7 @@ import gmsh
 import numpy as np
 
 from .housing import build_housing
-from .meshing import check_sizes, generate, set_part_size
+from .meshing import add_groups, check_sizes, generate, set_part_size
 from .model import MeshedModel, PartEntities
 from .params import SHAFT_NAMES, MeshOptions, PumpParams, ShaftParams, preset
 from .session import ensure_initialized, new_model
@@ -42,24 +42,6 @@ VOLUME_TAGS = {"shaft_in": 1, "shaft_out": 2, "housing": 3}
 # the curvature), a shaft at 3 diameters fails (flat tets, SICN 0), at 1.5 meshes.
 HOUSING_SIZE_PER_WALL = 8.0
 SHAFT_SIZE_PER_DIAMETER = 2.0
-SURFACE_TAG0 = 101  # surface physical tags are numbered from here in group order
-
-
-def _add_groups(volumes: dict[str, PartEntities]) -> dict[str, tuple[int, int]]:
-    """Create one physical volume per part and the named surface groups."""
-    groups: dict[str, tuple[int, int]] = {}
-    for vname, part in volumes.items():
-        tag = gmsh.model.addPhysicalGroup(3, [part.volume], VOLUME_TAGS[vname])
-        gmsh.model.setPhysicalName(3, tag, vname)
-        groups[vname] = (3, tag)
-    next_tag = SURFACE_TAG0
-    for part in volumes.values():
-        for sname, faces in part.surfaces.items():
-            tag = gmsh.model.addPhysicalGroup(2, list(faces), next_tag)
-            gmsh.model.setPhysicalName(2, tag, sname)
-            groups[sname] = (2, tag)
-            next_tag += 1
-    return groups
 
 
 def _shaft_size_limit(p: ShaftParams) -> float:
@@ -95,7 +77,7 @@ def _shaft_local_sizes(name: str, opts: MeshOptions) -> dict[str, float]:
 
 def _finish(volumes: dict[str, PartEntities], opts: MeshOptions,
             params: PumpParams | ShaftParams, model_name: str) -> MeshedModel:
-    groups = _add_groups(volumes)
+    groups = add_groups(volumes, VOLUME_TAGS)
     cad = {v: float(gmsh.model.occ.getMass(3, p.volume)) for v, p in volumes.items()}
     report = generate({v: p.volume for v, p in volumes.items()}, opts)
     centres: dict[str, np.ndarray] = {}

@@ -10,7 +10,8 @@ picks the machine of a scene by ``scene.kind``: ``"fe"`` the pump
 (:class:`machines.pump.Pump`), ``"lumped"`` the single-DOF gear pair
 (:class:`machines.lumped.LumpedGearPair`, model ``"sdof"``), ``"train"`` the lumped
 torsional gear train (:class:`machines.train.LumpedTrain`, on the layout of
-:mod:`machines.train.layout`).
+:mod:`machines.train.layout`), ``"gearbox"`` the FE gearbox of N parallel shafts on the
+same layout (:class:`machines.gearbox.Gearbox`).
 
 Imports core, gears, geometry, fem and reduction — the FE stack only inside functions,
 so that ``import machines`` and a lumped scene load no dolfinx, gmsh or petsc4py — and
@@ -27,6 +28,7 @@ from machines.base import (
     check_contract,
 )
 from machines.fe import FEMachine
+from machines.gearbox import Gearbox
 from machines.lumped import LumpedGearPair
 from machines.pump import Pump
 from machines.registry import kinds, machine_class, machine_for, models, register
@@ -34,4 +36,5 @@ from machines.train.lumped import LumpedTrain
 
 __all__ = ["Machine", "FEMachine", "LumpedMachine", "GearBody", "GearMeshSpec", "Shaft",
            "Part", "LinearModel", "check_contract", "register", "kinds", "models",
-           "machine_class", "machine_for", "Pump", "LumpedGearPair", "LumpedTrain"]
+           "machine_class", "machine_for", "Pump", "LumpedGearPair", "LumpedTrain",
+           "Gearbox"]

@@ -122,7 +122,7 @@ class Pump(FEMachine):
     def stage_code(self, stage: str) -> tuple[str, ...]:
         """geometry (mesh), fem (fe), reduction and fem.post (rom), each with this
         machine and :mod:`machines.fe` (and :mod:`machines.rom` for rom)."""
-        own = ("machines.fe", "machines.pump")
+        own = ("machines.fe", "machines.sections", "machines.pump")
         code = {"mesh": ("geometry", *own), "fe": ("fem", *own),
                 "rom": ("reduction", "fem.post", "machines.rom", *own)}
         if stage not in code:

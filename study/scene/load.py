@@ -57,6 +57,7 @@ from study.scene.excitation import (
 from study.scene.overrides import apply_overrides
 from study.scene.schema import (
     FE_SECTIONS,
+    GEARBOX_SECTIONS,
     PAIR_SECTIONS,
     PLOT_NAMES,
     SCHEMA,
@@ -300,14 +301,18 @@ def _outputs(o: dict, accel_raw: Any, kind: str, speed: tuple[float, float]) -> 
 
 
 def _fe_sections(raw: dict, kind: str) -> dict[str, dict]:
-    """The free FE tables (copied); the machine checks them (:func:`_check_machine`)."""
+    """The free FE tables (copied): the pump's (scene.kind "fe") or the gearbox's; the
+    machine checks them (:func:`_check_machine`)."""
     fe: dict[str, dict] = {}
-    for s in FE_SECTIONS:
+    by_kind = {"fe": FE_SECTIONS, "gearbox": GEARBOX_SECTIONS}
+    allowed = by_kind.get(kind, ())
+    for s in (*FE_SECTIONS, *GEARBOX_SECTIONS):
         t = raw.get(s)
-        if t is None or (s == "drive" and kind in TRAIN_KINDS):
+        if t is None or (s == "drive" and kind in TRAIN_KINDS) or s in fe:
             continue
-        if kind != "fe":
-            raise SceneError(f"[{s}]: only allowed when scene.kind = 'fe' (kind is "
+        if s not in allowed:
+            kinds = " or ".join(repr(k) for k, secs in by_kind.items() if s in secs)
+            raise SceneError(f"[{s}]: only allowed when scene.kind = {kinds} (kind is "
                              f"{kind!r})")
         if not isinstance(t, dict):
             raise SceneError(f"[{s}] = {show(t)}: must be a table")
@@ -346,8 +351,8 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
         raw_out = dict(raw_out)
         accel_raw = raw_out.pop("accelerometer")
     sec = {s: check_table(s, raw_out if s == "outputs" else raw.get(s, {}), SCHEMA[s])
-           for s in TOP_LEVEL
-           if s not in ("external", "micro_geometry", *FE_SECTIONS, *TRAIN_SECTIONS)}
+           for s in TOP_LEVEL if s not in ("external", "micro_geometry", *FE_SECTIONS,
+                                               *GEARBOX_SECTIONS, *TRAIN_SECTIONS)}
     return sec, accel_raw
 
 

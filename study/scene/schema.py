@@ -14,9 +14,9 @@ from typing import Any
 from core.errors import range_text
 from core.units import TO_SI
 
-__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "MESH_SOURCES", "mesh_source_schema",
-           "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS", "TRAIN_KINDS", "TRAIN_SECTIONS",
-           "PAIR_SECTIONS", "HEADINGS", "attr_name", "schema_markdown"]
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "GEARBOX_SECTIONS", "MESH_SOURCES",
+           "mesh_source_schema", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS", "TRAIN_KINDS",
+           "TRAIN_SECTIONS", "PAIR_SECTIONS", "HEADINGS", "attr_name", "schema_markdown"]
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,8 @@ MESH_SOURCES = ("fourier", "ltca", "table")
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
+#: The free FE tables of a gearbox scene (machines.gearbox.params checks them).
+GEARBOX_SECTIONS = ("housing", "mesh", "materials")
 #: Machine kinds described by ``[[shafts]]``, ``[[gears]]``, ``[[meshes]]``, ``[drive]`` and
 #: ``[[loads]]`` (issue 36): the lumped torsional train and the FE gearbox.
 TRAIN_KINDS = ("train", "gearbox")
@@ -138,9 +140,11 @@ def mesh_source_schema() -> dict[str, dict[str, Spec]]:
 SCHEMA: dict[str, dict[str, Spec]] = {
     "scene": {
         "name": Spec("str", None, doc="scene name (default: the file stem)"),
-        "kind": _c("lumped", ("lumped", "fe", "train"), "`lumped`: single-DOF gear pair, "
-                   "no FE; `fe`: geometry → FE → ROM; `train`: lumped torsional gear train "
-                   "of `[[shafts]]`, `[[gears]]`, `[[meshes]]` (no FE)"),
+        "kind": _c("lumped", ("lumped", "fe", "train", "gearbox"), "`lumped`: single-DOF "
+                   "gear pair, no FE; `fe`: geometry → FE → ROM; `train`: lumped torsional "
+                   "gear train of `[[shafts]]`, `[[gears]]`, `[[meshes]]` (no FE); "
+                   "`gearbox`: the same train on FE shafts in a housing (`[housing]`, "
+                   "`[mesh]`, `[materials]`) → FE → ROM"),
         "description": Spec("str", "", doc="free text"),
     },
     "gear": {
@@ -394,7 +398,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
 }
 SCHEMA.update(mesh_source_schema())
-for _s in FE_SECTIONS:
+for _s in (*FE_SECTIONS, *GEARBOX_SECTIONS):
     SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
 
 #: Top-level sections of a scene file, in the order they are checked (the train sections
@@ -402,7 +406,7 @@ for _s in FE_SECTIONS:
 TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "micro_geometry",
              "ltca", "load", "external",
              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
-             "calibration", *FE_SECTIONS, *TRAIN_SECTIONS)
+             "calibration", *FE_SECTIONS, "housing", *TRAIN_SECTIONS)
 
 #: How :func:`schema_markdown` heads a section (default ``[sec]``, ``[[sec]]`` if dotted).
 HEADINGS = {"shafts": "[[shafts]]", "gears": "[[gears]]", "meshes": "[[meshes]]",

@@ -12,10 +12,13 @@ The ERP is checked against a computation that shares neither the radiation matri
 every outer facet of ``radiation.h5`` (P2 triangles, the facet's normal) integrated
 exactly on the straight triangle with the P2 mass matrix, ``½ ρ c ω_k² ∫ |n·ũ|² dA``.
 W integrates the same P2 field on the curved facets with their own normals (degree 6), so
-the two differ by the facets' curvature only: measured 5e-4 relative on every order
-above 60 dB (the test: 5e-3); a wrong harmonic's frequency, one mesh's response only, a
-missing ½ or a field from another point fail it by far more. About 45 s in all (mesh, FE
-and ROM about 20 s of it, with the cores shared).
+the two differ by the facets' curvature only. Measured at 1950, 2000 and 2100 rpm on
+each of the 24 orders above 0 dB re 1 pW (both meshes' harmonics and their
+combinations, 31–90 dB): at most 6.6e-3 relative (stage1 − stage2 at 20 dB), 2e-4 to
+3e-3 on the loudest orders (stage1, 2 stage1, 3 stage1, 3 stage2); the test: 1e-2 per
+order, 2e-3 on the total. A wrong harmonic's frequency (a factor (k'/k)²), one mesh's
+response only (its orders missing), a missing ½ or a field of another point fail it by
+far more. About 25 s in all (mesh, FE and ROM about 15 s of it).
 """
 from __future__ import annotations
 
@@ -113,12 +116,12 @@ def test_erp_of_the_coupled_response_against_the_housing_rows(run) -> None:
     ac = res.scene.acoustics
     ref = _erp_from_housing_rows(res.rom.folder, qk, w, ac.air_density, ac.sound_speed)
     got = nvh.erp[i]
-    loud = 10 * np.log10(np.maximum(ref, 1e-300) / 1e-12) > 60.0
-    names = [nvh.order_names[j] for j in np.flatnonzero(loud)]
-    assert {"stage1", "stage2"} <= set(names), names      # both meshes radiate
-    rel = np.abs(got[loud] / ref[loud] - 1.0)
-    assert rel.max() < 5e-3, (rel.max(), names)
-    assert abs(nvh.erp_total[i] / ref.sum() - 1.0) < 5e-3
+    heard = ref > 1e-12                                        # above 0 dB re 1 pW
+    names = [nvh.order_names[j] for j in np.flatnonzero(heard)]
+    assert {"stage1", "stage2", "3 stage2", "stage1 + stage2"} <= set(names), names
+    rel = np.abs(got[heard] / ref[heard] - 1.0)
+    assert rel.max() < 1e-2, (rel.max(), names)
+    assert abs(nvh.erp_total[i] / ref.sum() - 1.0) < 2e-3
     with h5py.File(res.results, "r") as f:
         assert np.array_equal(f["nvh/erp"][i], got)
         assert f["nvh/erp_total_db"].shape == (len(res.branch),)

@@ -43,7 +43,7 @@ DEMO = ROOT / "scenes" / "two-stage-gearbox-demo.toml"
 RPM = 2000.0
 RUN = {"continuation.speed_rpm": [1900.0, 2100.0], "outputs.housing_field_rpm": [RPM],
        "outputs.time_series_rpm": [RPM],
-       "outputs.plots": ["time_series", "erp", "order_maps", "accelerometers"]}
+       "outputs.plots": ["time_series", "erp", "order_maps", "accelerometers", "rom_error"]}
 
 #: P2 mass matrix of a straight triangle of unit area, nodes: vertices 0, 1, 2 then the
 #: edge nodes of edges 01, 12, 20 (each vertex is orthogonal to its adjacent edges' nodes)
@@ -129,7 +129,7 @@ def test_erp_of_the_coupled_response_against_the_housing_rows(run) -> None:
     assert rows[1].split(",")[5] != ""                           # erp_dB_re_1pW filled
     report = (res.out / "report.md").read_text()
     assert "## Noise (equivalent radiated power of the housing)" in report
-    for png in ("erp", "order_map_erp", f"time_series_{pt.rpm:.0f}rpm"):
+    for png in ("erp", "order_map_erp", f"time_series_{pt.rpm:.0f}rpm", "rom_error"):
         assert (res.out / f"{png}.png").stat().st_size > 10_000
 
 

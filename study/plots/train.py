@@ -202,8 +202,9 @@ def train_time_series_plot(problem, point, path: Path, title: str = "") -> Path:
 def train_plots(result, want: set, speeds) -> list[Path]:
     """The train's plots the scene asks for: ``time_series`` (one panel per mesh) and
     ``spectrum`` per mesh at the time-series speeds (periodic basis), ``order_maps`` per
-    mesh (and of the housing's ERP), ``campbell``, and for a machine with a radiating
-    housing ``erp`` and ``accelerometers`` with the train's order names."""
+    mesh (and of the housing's ERP), ``campbell``, ``rom_error`` (an FE train's Fig. 9
+    check), and for a machine with a radiating housing ``erp`` and ``accelerometers``
+    with the train's order names."""
     from study.outputs.points import nearest_point
 
     out = Path(result.out)
@@ -242,6 +243,12 @@ def train_plots(result, want: set, speeds) -> list[Path]:
         paths += _housing_plots(result, want, names)
     if "campbell" in want:
         paths.append(train_campbell(result, out / "campbell.png"))
+    rd = result.rom
+    if "rom_error" in want and rd is not None and rd.validation is not None:
+        from study.plots.modes import rom_error_plot
+
+        paths.append(rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
+                                    out / "rom_error.png", rd.validation.relative_error))
     return paths
 
 

@@ -39,6 +39,7 @@ from study.scene.data import (
 )
 from study.scene.errors import SceneError, StageUnavailable
 from study.scene.overrides import apply_overrides
+from study.scene.plausibility import check_plausibility, check_required_sections
 from study.scene.schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, TOP_LEVEL, attr_name
 
 __all__ = ["scene_from_dict", "parse_scene", "load_scene"]
@@ -342,6 +343,7 @@ def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
 def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
     sec, accel_raw = _check_sections(raw)
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
+    check_required_sections(raw, info.kind)
     gear = _build_gear(sec["gear"])
     static_load = sec["load"]["torque"] / gear.base_radius
     ms = _mesh_stiffness(sec["mesh_stiffness"], gear, static_load)
@@ -353,11 +355,11 @@ def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
     cont = _continuation(sec["continuation"])
     outputs = _outputs(sec["outputs"], accel_raw, info.kind, sec["continuation"]["speed"])
     fe = _fe_sections(raw, info.kind)
-    return _check_machine(Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
-                                DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,
-                                fe, copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
-                                {k: v.strip() for k, v in sec["calibration"].items()
-                                 if v.strip()}))
+    scene = Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
+                  DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,
+                  fe, copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
+                  {k: v.strip() for k, v in sec["calibration"].items() if v.strip()})
+    return check_plausibility(_check_machine(scene))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

@@ -39,7 +39,8 @@ def write_partial(result, branch) -> None:
     from study.outputs.results import write_results
 
     write_results(result.results, result.scene, result.problem, branch,
-                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
+                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys,
+                  stages=result.status)
 
 
 def export(result, figures: bool = True, housing: bool = True) -> None:

@@ -81,6 +81,11 @@ class RunResult:
         :class:`study.outputs.attractors.Attractor` per unstable segment (``[outputs]
         attractor_transient_turns`` > 0; computed by the export, with or without
         report.md).
+    status : dict
+        Stage name -> :class:`StageStatus` (how it was served, its wall time); the
+        pipeline's own dict, so it fills as the stages run (``/provenance`` of results.h5).
+    checks : list
+        :class:`study.outputs.checks.Check` of the result (computed by the export).
     """
 
     out: Path
@@ -95,3 +100,5 @@ class RunResult:
     rom: Any = None
     nvh: Any = None
     attractors: list = field(default_factory=list)
+    status: dict = field(default_factory=dict)
+    checks: list = field(default_factory=list)

@@ -52,9 +52,14 @@ def git_revision(root: Path = SOURCE_ROOT) -> tuple[str, str]:
 def write_scene_as_run(group, scene) -> None:
     """``resolved`` and ``derived`` (JSON text) in the ``/scene`` group: the scene after
     overrides with every default filled in (the FE sections' from the machine's FE
-    parameters when it has them), and what the loader computed from it."""
+    parameters when it has them), and what the loader computed from it. Nothing for an
+    object that is not a :class:`study.scene.Scene` (a test's stand-in)."""
     from machines import machine_for
+    from study.scene.data import Scene
     from study.scene.resolved import resolved_json
+
+    if not isinstance(scene, Scene):
+        return
 
     fe_params = getattr(machine_for(scene), "params", None) if scene.fe else None
     resolved, derived = resolved_json(scene, fe_params)

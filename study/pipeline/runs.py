@@ -86,6 +86,9 @@ class RunResult:
         pipeline's own dict, so it fills as the stages run (``/provenance`` of results.h5).
     checks : list
         :class:`study.outputs.checks.Check` of the result (computed by the export).
+    speed_uses : list
+        :class:`study.outputs.points.SpeedUse` of every point output asked at a speed
+        (time series, spectra, housing fields): the speed it was computed at.
     """
 
     out: Path
@@ -102,3 +105,4 @@ class RunResult:
     attractors: list = field(default_factory=list)
     status: dict = field(default_factory=dict)
     checks: list = field(default_factory=list)
+    speed_uses: list = field(default_factory=list)

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from study.outputs.points import nearest_point, time_series_speeds
+from hbm import point_stats
+from study.outputs.points import nearest_point, point_at_speed, time_series_speeds
 from study.plots.modes import order_map_plot, rom_plots
 from study.plots.point import spectrum_plot, time_series_plot
 from study.plots.speed import accelerometer_plot, erp_plot, forced_response
@@ -27,11 +28,17 @@ def draw_all(result) -> list[Path]:
     if "forced_response" in want:
         paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
     speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
+    asked = bool(result.scene.outputs.time_series)   # else branch points (most loaded)
     for rpm in speeds:
-        i, pt = nearest_point(result, rpm)
+        if asked:
+            i, pt, use = point_at_speed(result, rpm, "time series and spectrum")
+            c = int(point_stats(pb, pt)[0]["contact"]) if use.how == "solved" else \
+                int(br.element(0).contact[i])
+        else:
+            i, pt = nearest_point(result, rpm)
+            c = int(br.element(0).contact[i])
         tag = f"{pt.rpm:.0f}rpm"
-        cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[
-            int(br.element(0).contact[i])]
+        cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[c]
         if "time_series" in want:
             paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))

@@ -135,3 +135,20 @@ def test_rom_validity_check_against_the_excitation():
     assert not _rom_check(res).passed and "not checked" in _rom_check(res).text
     res.rom.validation = SimpleNamespace(full_hz=np.array([3e4]), validity_hz=3e4, tol=1e-3)
     assert _rom_check(res).passed
+
+
+def test_spectrum_stops_at_20_khz_and_shades_beyond_the_rom(runs, monkeypatch, tmp_path):
+    import study.plots.point as point_plots
+
+    figs = []
+    monkeypatch.setattr(point_plots, "save_figure", lambda fig, path: figs.append(fig) or path)
+    r = runs[16]
+    _, pt, _ = point_at_speed(r, 1430.0, "test")
+    point_plots.spectrum_plot(r.problem, pt, tmp_path / "s.png", rom_valid_hz=2000.0)
+    ax = figs[0].axes[0]
+    f1 = 1430.0 / 60.0
+    # the set reaches 16 Z = order 1216 (29 kHz): the axis stops at 20 kHz
+    assert ax.get_xlim()[1] == pytest.approx(20_000.0 / f1)
+    band = [p for p in ax.patches if p.get_label() == "ROM not validated above 2000 Hz"][0]
+    x, _ = band.get_xy()
+    assert x == pytest.approx(2000.0 / f1) and x + band.get_width() == pytest.approx(20_000 / f1)

@@ -39,6 +39,9 @@ def test_shipped_scenes_load_without_warning(name, caplog):
     ({"gear.backlash_um": 0.04}, "gear.backlash_um", "µm", "0.04 µm"),
     ({"drive.motor_torsional_stiffness": 0.2}, "drive.motor_torsional_stiffness", "N·m/rad",
      "0.2 N·m/rad"),
+    ({"drive.impeller_inertia": 2e4}, "drive.impeller_inertia", "kg·m²", "2e+04 kg·m²"),
+    # 20 mm on module 1.316 mm is 15.2; 0.5 mm (a face width in cm mistaken for mm) is 0.38
+    ({"gear.face_width_mm": 0.5}, "gear.face_width_mm / gear.module_mm", "-", "0.38 -"),
 ])
 def test_implausible_fe_and_gear_inputs_are_refused(override, field, unit, shown):
     with pytest.raises(SceneError) as err:

@@ -65,7 +65,8 @@ class Bound:
 
 #: Factor from SI to each unit of :data:`BOUNDS` (N/(mm·µm): k [N/m] / b [m] · 1e-9).
 _FROM_SI = {"GPa": 1e-9, "kg/m³": 1.0, "-": 1.0, "N/µm": 1e-6, "µm": 1e6, "mm": 1e3,
-            "N/(mm·µm)": 1e-9, "N·m/rad": 1.0, "N/mm": 1e-3, "deg": 180.0 / math.pi}
+            "N/(mm·µm)": 1e-9, "N·m/rad": 1.0, "N/mm": 1e-3, "deg": 180.0 / math.pi,
+            "kg·m²": 1.0}
 
 _E = "Young's modulus; metals 40–450 GPa, polymers and composites from 1 GPa"
 _NU = "Poisson's ratio; metals 0.25–0.35"
@@ -79,6 +80,8 @@ BOUNDS: tuple[Bound, ...] = (
     Bound("gear.module", "mm", (0.05, 100.0), (0.3, 50.0), "module m of the pair"),
     Bound("gear.pressure_angle", "deg", (None, None), (14.5, 30.0),
           "normal pressure angle α; 20° is the standard"),
+    Bound("gear.face_width / gear.module", "-", (0.5, 200.0), (3.0, 40.0),
+          "face width over module b_f/m; spur gears 6–30"),
     Bound("mesh_stiffness.mean", "N/µm", (1.0, 1e5), (None, None),
           "mean mesh stiffness k̄_m"),
     Bound("mesh_stiffness.mean / gear.face_width", "N/(mm·µm)", (0.2, 300.0), (4.0, 30.0),
@@ -100,6 +103,8 @@ BOUNDS: tuple[Bound, ...] = (
     Bound("bearings.axial", "N/µm", (0.01, 1e6), (1.0, 5000.0), _BEAR),
     Bound("drive.motor_torsional_stiffness", "N·m/rad", (1.0, 1e9), (100.0, 1e8),
           "motor coupling; elastomer couplings from 100 N·m/rad"),
+    Bound("drive.impeller_inertia", "kg·m²", (None, 1e4), (None, 100.0),
+          "driven inertia on the output coupling"),
     Bound("rotors.lateral_stiffness", "N/µm", (0.1, 1e6), (10.0, 1e4),
           "radial spring beside each gear (0: none, not judged)"),
     Bound("rotors.torsional_stiffness", "N·m/rad", (1.0, 1e10), (100.0, 1e9),

@@ -40,17 +40,18 @@ def rom_label(valid_hz: float) -> str:
 
 
 def shade_beyond_rom(ax, valid_hz: float | None, top_hz: float, vertical: bool = False,
-                     hz_per_unit: float = 1.0) -> None:
+                     hz_per_unit: float = 1.0, zorder: float = 0.5) -> None:
     """Shade the band from ``valid_hz`` to ``top_hz`` of a frequency axis (y, or x with
     ``vertical``; the axis is in units of ``hz_per_unit`` Hz, e.g. shaft orders):
     where the ROM was not checked against the full FE model
     (:func:`study.outputs.checks.rom_limit_hz`); nothing when ``valid_hz`` is None or
-    above ``top_hz``."""
+    above ``top_hz``. ``zorder`` 0.5 puts it under the data; above 2, over it (a plot
+    whose background is data)."""
     if valid_hz is None or valid_hz >= top_hz:
         return
     span = ax.axvspan if vertical else ax.axhspan
-    span(valid_hz / hz_per_unit, top_hz / hz_per_unit, label=rom_label(valid_hz), zorder=0.5,
-         **ROM_SHADE)
+    span(valid_hz / hz_per_unit, top_hz / hz_per_unit, label=rom_label(valid_hz),
+         zorder=zorder, **ROM_SHADE)
 
 
 def save_figure(fig, path: Path) -> Path:

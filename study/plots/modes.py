@@ -200,7 +200,7 @@ def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_
                 bx.axhline(fm, color="tab:cyan", lw=0.5, alpha=0.6, zorder=0)
         bx.plot([], [], color="tab:cyan", lw=0.8, label="coupled modes")
     if rom_valid_hz is not None and rom_valid_hz < fmax:
-        shade_beyond_rom(bx, rom_valid_hz, fmax)
+        shade_beyond_rom(bx, rom_valid_hz, fmax, zorder=3)     # the lines fill the panel
         # left panel: the rows whose frequency order·Ω/2π is above the validity
         edge = np.array([np.sum(orders * r / 60.0 <= rom_valid_hz) for r in rpm]) - 0.5
         ax.fill_between(rpm, edge, len(orders) - 0.3, label=rom_label(rom_valid_hz),

@@ -106,12 +106,21 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
                                       for item in ext.get(name, [])]
                                for name in ("aero", "unbalance")}
             continue
+        if isinstance(raw.get(sec), list):        # an array of tables
+            out[sec] = [_filled(item, SCHEMA.get(sec, {})) for item in raw[sec]]
+            continue
+        if sec not in SCHEMA:                     # a section without a flat spec table
+            if sec in raw:
+                out[sec] = _plain(copy.deepcopy(raw[sec]))
+            continue
         given = dict(raw.get(sec, {}))
         accel = given.pop("accelerometer", None) if sec == "outputs" else None
         out[sec] = _filled(given, SCHEMA[sec]) if sec != "calibration" else _plain(given)
         if accel:
             out[sec]["accelerometer"] = [_filled(a, SCHEMA["outputs.accelerometer"])
                                          for a in accel]
+    for sec in raw:                               # anything the loop above does not know
+        out.setdefault(sec, _plain(copy.deepcopy(raw[sec])))
     if scene.scene.kind != "lumped":
         out.pop("lumped", None)
     _derived_defaults(scene, out)

@@ -125,15 +125,21 @@ def test_rom_validity_check_against_the_excitation():
     f, label = highest_excitation_hz(sc)
     assert f == pytest.approx(3 * 76 * 7000 / 60) and label == "3 Z at 7000 rpm"
     val = SimpleNamespace(full_hz=np.array([100.0, 3997.0, 4100.0]), validity_hz=3997.0,
-                          tol=1e-3)
+                          tol=1e-3, relative_error=np.array([1e-5, 1e-4, 2e-3]))
     res = SimpleNamespace(rom=SimpleNamespace(validation=val), scene=sc)
     assert rom_limit_hz(res.rom) == 3997.0 and rom_limit_hz(None) is None
     c = _rom_check(res)
     assert not c.passed and c.value == 3997.0 and c.limit == pytest.approx(26600.0)
-    assert "does not cover" in c.text
-    res.rom.validation = SimpleNamespace(full_hz=np.array([]), validity_hz=0.0, tol=1e-3)
+    assert "does not cover" in c.text and "raise `rom.n_cm`" in c.text
+    # every checked mode passes: the check stops at its last mode, raise n_check
+    res.rom.validation = SimpleNamespace(full_hz=np.array([100.0, 6903.0]), validity_hz=6903.0,
+                                         tol=1e-3, relative_error=np.array([1e-5, 7e-4]))
+    assert "raise `rom.n_check`" in _rom_check(res).text
+    res.rom.validation = SimpleNamespace(full_hz=np.array([]), validity_hz=0.0, tol=1e-3,
+                                         relative_error=np.array([]))
     assert not _rom_check(res).passed and "not checked" in _rom_check(res).text
-    res.rom.validation = SimpleNamespace(full_hz=np.array([3e4]), validity_hz=3e4, tol=1e-3)
+    res.rom.validation = SimpleNamespace(full_hz=np.array([3e4]), validity_hz=3e4, tol=1e-3,
+                                         relative_error=np.array([1e-4]))
     assert _rom_check(res).passed
 
 

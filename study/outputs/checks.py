@@ -138,12 +138,18 @@ def _rom_check(result) -> Check | None:
                      f"(`rom.n_check = 0`); the excitation reaches {f_exc:.0f} Hz ({label})",
                      lim, f_exc)
     ok = lim >= f_exc
+    v = result.rom.validation
     verdict = "covers" if ok else "**does not cover**"
+    # every checked mode passed: the check, not the ROM, stops at its last mode
+    short = bool(np.all(np.asarray(v.relative_error) <= v.tol))
+    advice = ("raise `rom.n_check` until the check reaches it (its last mode is the limit; "
+              "then `rom.n_cm` if it fails)" if short else
+              "raise `rom.n_cm` or set `rom.cutoff_Hz`")
     return Check("rom_validity", ok,
-                 f"ROM checked valid to {lim:.0f} Hz (tol {result.rom.validation.tol:g}), which "
-                 f"{verdict} the highest excitation frequency {f_exc:.0f} Hz ({label})"
-                 + ("" if ok else "; levels above it (shaded in the plots) are not "
-                    "trustworthy: raise `rom.n_cm` or set `rom.cutoff_Hz`"), lim, f_exc)
+                 f"ROM checked valid to {lim:.0f} Hz (tol {v.tol:g}), which {verdict} the "
+                 f"highest excitation frequency {f_exc:.0f} Hz ({label})"
+                 + ("" if ok else f"; levels above it (shaded in the plots) are not "
+                    f"trustworthy: {advice}"), lim, f_exc)
 
 
 def _truncation_check(result, extra_rpm) -> Check:

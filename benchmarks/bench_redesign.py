@@ -97,6 +97,9 @@ def largest_difference(old: Path, new: Path) -> float:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--baseline", required=True, help="git revision of the old code")
+    ap.add_argument("--new", default=None, help="git revision of the new code (default: "
+                    "this working tree; a revision is checked out apart, so that editing "
+                    "the tree during the run changes nothing)")
     ap.add_argument("--scene", default="scenes/pump.toml")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--name", default="redesign")
@@ -108,7 +111,11 @@ def main(argv: list[str] | None = None) -> int:
     if not old_tree.exists():
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(old_tree),
                         args.baseline], check=True, capture_output=True)
-    trees = {"old": old_tree, "new": ROOT}
+    new_tree = ROOT if args.new is None else work / "new"
+    if args.new is not None and not new_tree.exists():
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(new_tree),
+                        args.new], check=True, capture_output=True)
+    trees = {"old": old_tree, "new": new_tree}
     revs = {k: revision(t) for k, t in trees.items()}
     caches = {k: work / f"cache_{k}" for k in trees}
     for k, tree in trees.items():                 # mesh and ROM once per version
@@ -138,7 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     LOG.info(summary)
     write_json(args.name, {
         "command": f"python -m benchmarks.bench_redesign --baseline {args.baseline} "
-                   f"--repeats {args.repeats} --scene {args.scene}",
+                   + (f"--new {args.new} " if args.new else "")
+                   + f"--repeats {args.repeats} --scene {args.scene}",
         "summary": summary,
         "headline": {"hbm new/old": med["hbm"], "export new/old": med["export"]},
         "revisions": revs, "ratios": ratios, "results_max_rel_diff": diff,

@@ -15,7 +15,7 @@ __all__ = ["TO_SI", "FE_SUFFIXES"]
 TO_SI = {  # suffix -> factor to SI
     "mm": 1e-3, "um": 1e-6, "deg": math.pi / 180.0, "rpm": 1.0, "Nm": 1.0, "N": 1.0,
     "GPa": 1e9, "MPa": 1e6, "N_per_um": 1e6, "N_per_m": 1.0, "kgm": 1.0, "kg": 1.0,
-    "kgm2": 1.0, "kg_per_m3": 1.0, "Hz": 1.0, "m_per_s": 1.0, "": 1.0,
+    "kgm2": 1.0, "kg_per_m3": 1.0, "Hz": 1.0, "m_per_s": 1.0, "Nm_per_rad": 1.0, "": 1.0,
 }
 
 #: Suffixes allowed on the FE sections' SI field names (``wall_thickness_mm``), in the

@@ -171,7 +171,8 @@ class LtcaResult:
         Axial position of the slices (m), mid-face 0.
     teeth : ndarray (N, p, 2)
         Tooth index of gear 1 and gear 2 in each slot (they meet in mesh cycle c at
-        slot j as teeth (c + j) mod z_1 and (c + j) mod z_2).
+        slot j as teeth (c − j) mod z_1 and (c − j) mod z_2: a tooth pair moves up one
+        slot per cycle, so it keeps its number from the root to the tip (L.3)).
     """
 
     case: LtcaCase
@@ -243,7 +244,7 @@ class _Mesh:
             _CHEB_DEGREE, domain=[s_a - tol, s_e + tol])
         s_in = np.clip(s, s_a, s_e)
         self.k = np.where(inside, (b / n_s) / compliance(s_in), 0.0)           # N/m
-        tooth = (cycle[:, None] + self.slots[None, :])
+        tooth = (cycle[:, None] - self.slots[None, :])   # (L.3): c − j is one tooth pair
         self.teeth = np.stack([tooth % pair.teeth[0], tooth % pair.teeth[1]], axis=-1)
         f1, f2 = case.flanks
         gap = -(flank_deviation(f1, pair, 1, s_in, self.z)

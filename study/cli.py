@@ -14,6 +14,10 @@
     geardyn excitations SCENE --out DIR # the paper's three excitation cases (internal
                                         # only, all but TVMS, all) into DIR/<case>/ on
                                         # one ROM; comparison and paper.md in DIR
+    geardyn microgeometry SCENE --out DIR --set micro_geometry.both.tip_relief_um=0,6,12
+                                        # an LTCA scene with one micro-geometry key varied:
+                                        # table + plot of its effect on the mesh-load std,
+                                        # the grazing speeds and (FE) the ERP
 
 ``run``, ``mesh``, ``reduce``, ``export`` and ``report`` also run under ``mpirun -n N``
 (:mod:`study.pipeline.parallel`, docs/scale.md): FE stages distributed, files from rank 0, the
@@ -52,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 ok, 2 invalid input, 3 solver failure, 4 stage unavailable, "
                "5 file error, 130 interrupted.")
     p.add_argument("command", choices=["run", "mesh", "reduce", "export", "report", "convergence",
-                                        "excitations"],
+                                        "excitations", "microgeometry"],
                    help="what to do")
     p.add_argument("scene", help="scene file (TOML, see docs/scenes.md)")
     p.add_argument("--out", required=True, help="output folder")
@@ -214,6 +218,37 @@ def _excitations(args, scene_path: Path, overrides: dict) -> int:
     return EXIT_SOLVER if failed else EXIT_OK
 
 
+def _microgeometry(args, scene_path: Path) -> int:
+    """``geardyn microgeometry``: one ``--set`` key with several values (the varied
+    micro-geometry or LTCA parameter), others with one value (the base);
+    study.studies.microgeometry runs and compares them."""
+    from study.scene.overrides import parse_set_values
+    from study.studies.microgeometry import run_microgeometry, write_microgeometry
+
+    varied, base = [], {}
+    for item in args.set:
+        key, sep, val = item.partition("=")
+        vals = parse_set_values(val) if sep and val.strip() else []
+        if len(vals) > 1:
+            varied.append((key.strip(), vals))
+        else:
+            base.update(parse_sets([item])[0])
+    if len(varied) != 1:
+        raise SceneError("microgeometry: give exactly one --set SECTION.KEY=V1,V2,... with "
+                         "several values (e.g. --set micro_geometry.both.tip_relief_um="
+                         f"0,6,12); got {len(varied)}")
+    key, values = varied[0]
+    out = Path(args.out)
+    cache = args.cache or os.environ.get("GEARDYN_CACHE") or str(out.resolve() / ".cache")
+    variants = run_microgeometry(scene_path, out, key, values, base, cache_dir=cache,
+                                 refresh=args.no_cache, resume=args.resume,
+                                 progress=_progress(args))
+    if any(v.result is not None for v in variants):
+        write_microgeometry(out, key, variants)
+    return EXIT_SOLVER if any(v.result is None or v.result.branch.status != "completed"
+                              for v in variants) else EXIT_OK
+
+
 def _convergence(args, scene_path: Path) -> int:
     """``geardyn convergence``: one knob at a time, table + Pareto plot + advice."""
     from study.scene.overrides import parse_set_values
@@ -268,6 +303,11 @@ def _dispatch(args) -> int:
         if len(variants) != 1:
             raise SceneError("excitations: --set takes a single value per key")
         return _excitations(args, scene_path, variants[0])
+    if cmd == "microgeometry":
+        if world().size > 1:
+            raise SceneError(f"microgeometry under mpirun -n {world().size}: not supported; "
+                             "run it without mpirun")
+        return _microgeometry(args, scene_path)
     if cmd == "convergence":
         if world().size > 1:
             raise SceneError(f"convergence under mpirun -n {world().size}: not supported; "

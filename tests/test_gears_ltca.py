@@ -286,7 +286,7 @@ def test_harris_map_minimum_lies_at_the_design_load_of_a_tip_relief():
 def test_pitch_deviations_give_shaft_orders_over_the_hunting_period():
     """A once-per-turn cumulative pitch deviation of amplitude A on gear 1 (eccentricity)
     shifts every tooth pair by F_p cos α_t: q_s carries shaft order 1 of gear 1 at
-    A cos α_t (0.94 % less: in double contact the approach averages two neighbouring
+    A cos α_t (0.43 % less: in double contact the approach averages two neighbouring
     teeth), and its synchronous average — the mesh orders — is that of perfect teeth (to
     1e-3 of H_Z)."""
     p = spur(30, 45)
@@ -325,6 +325,24 @@ def test_a_single_pitch_error_unloads_its_neighbour():
     np.testing.assert_allclose(res.pair_load[rows][carrying[rows]], res.load, rtol=1e-12)
     np.testing.assert_allclose(res.no_load_te[rows], -5e-6 * math.cos(math.radians(20.0)),
                                rtol=1e-12)
+
+
+def test_a_tooth_pair_keeps_its_number_from_root_to_tip():
+    # (L.3): slot j of cycle c holds teeth (c − j): while a pair is on the path its
+    # position only grows, across the cycle changes too, and it covers the whole path
+    p = spur(30, 45)
+    case = g.LtcaCase(p, 20.0, half_bores(p), flanks=(g.Flank(pitch_deviations=(
+        (1e-6, -1e-6) + (0.0,) * 28)), g.Flank()), n_positions=32)
+    res = g.solve_ltca(case)
+    s_a, s_e = p.path
+    for tooth in (7, 15, 22):                   # away from the ends of the hunting period
+        rows, cols = np.nonzero((res.teeth[..., 0] == tooth)
+                                & (res.slot_s >= s_a) & (res.slot_s <= s_e))
+        s = res.slot_s[rows, cols]
+        assert np.all(np.diff(rows) == 1)                      # one stretch of positions
+        assert np.all(np.diff(s) > 0)                          # moving root -> tip
+        assert s[-1] - s[0] == pytest.approx(s_e - s_a, abs=p.base_pitch / 32 * 1.01)
+        np.testing.assert_array_equal(res.teeth[rows, cols, 1], tooth % 45)
 
 
 def test_contact_pattern_of_crowned_and_misaligned_teeth():

@@ -127,3 +127,16 @@ def test_docs_table_matches_the_code():
     text = (ROOT / "docs" / "scenes.md").read_text()
     assert bounds_markdown() in text
     assert len(BOUNDS) == bounds_markdown().count("\n") - 1
+
+
+def test_train_meshes_are_judged_one_by_one():
+    train = ROOT / "scenes" / "two-stage-lumped.toml"
+    assert plausibility_warnings(load_scene(train)) == []
+    import tomllib
+
+    raw = tomllib.loads(train.read_text())
+    raw["meshes"][1]["backlash_um"] = 0.04
+    with pytest.raises(SceneError, match=r"^meshes\[1\]\.backlash_um = 0\.04 µm: outside the "
+                       r"plausible range >= 1 µm") as err:
+        scene_from_dict(raw)
+    assert err.value.unit == "µm"

@@ -81,3 +81,18 @@ def test_results_store_the_scene_as_run_and_stage_times(tmp_path):
     with h5py.File(res2.results, "r") as f:
         assert f["provenance/stages"].attrs["hbm_state"] == "cached"
         assert math.isnan(f["provenance/stages"].attrs["hbm_seconds"])
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "scenes").glob("*.toml")), ids=lambda p: p.stem)
+def test_every_shipped_scene_round_trips(path):
+    """The resolved table of each shipped scene (pairs, LTCA source, train, FE) loads back
+    into the same scene (FE: the same FE parameters)."""
+    from machines import machine_for
+
+    s = load_scene(path)
+    fe = machine_for(s).params if s.fe else None
+    back = scene_from_dict(json.loads(json.dumps(resolved_table(s, fe))))
+    if fe is None:
+        assert back == s
+    else:
+        assert machine_for(back).params == fe

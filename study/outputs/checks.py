@@ -78,13 +78,30 @@ def rom_limit_hz(rom) -> float | None:
     return float(v.validity_hz)
 
 
+def _harmonics(ms, te) -> int:
+    """Mesh harmonics excited by a mesh stiffness and a TE series (at least 1)."""
+    return max(len(ms.amplitudes) if ms is not None else 0,
+               len(te.amplitudes) if te is not None else 0, 1)
+
+
 def highest_excitation_hz(scene) -> tuple[float, str]:
     """(Hz, label) of the highest excitation frequency of the run: the highest excited
-    mesh harmonic k·Z (k up to the number of mesh-stiffness or TE harmonics) or external
-    shaft order, at the top speed of the range."""
-    z = scene.gear.teeth
-    k = max(len(scene.mesh_stiffness.amplitudes), len(scene.transmission_error.amplitudes), 1)
+    mesh harmonic k·Z (k up to the number of mesh-stiffness or TE harmonics; in a gear
+    train, of each mesh at its mesh frequency) or external shaft order, at the top speed
+    of the range (the drive shaft's)."""
     top = scene.continuation.speed[1]
+    if getattr(scene, "is_train", False):
+        from machines import machine_for
+
+        best = (0.0, "")
+        for m, md in zip(machine_for(scene).layout.meshes, scene.meshes, strict=True):
+            k = _harmonics(md.mesh_stiffness, md.transmission_error)
+            order = k * float(m.frequency_ratio)
+            if order > best[0]:
+                best = (order, f"{k} × the mesh frequency of `{md.name}` at {top:g} rpm")
+        return best[0] * top / 60.0, best[1]
+    z = scene.gear.teeth
+    k = _harmonics(scene.mesh_stiffness, scene.transmission_error)
     order, label = k * z, f"{k} Z" if k > 1 else "Z"
     ext = max(scene.external.orders, default=0)
     if ext > order:
@@ -92,7 +109,7 @@ def highest_excitation_hz(scene) -> tuple[float, str]:
     return order * top / 60.0, f"{label} at {top:g} rpm"
 
 
-def truncation_share(problem, point) -> float:
+def truncation_share(problem, point, element: int = 0) -> float:
     """Share of the mesh-load variance outside the retained harmonic set at ``point``.
 
     The mesh load f(t) is rebuilt on a grid four times finer than the AFT's from the
@@ -102,7 +119,7 @@ def truncation_share(problem, point) -> float:
     """
     from hbm import spectrum
 
-    sp = spectrum(problem, point)
+    sp = spectrum(problem, point, element=element)
     idx, amp = np.asarray(sp["index"]), np.asarray(sp["amplitude"], dtype=float)
     power = amp ** 2
     total = float(np.sum(power[idx >= 1]))
@@ -123,9 +140,18 @@ def truncation_survey(result, extra_rpm=()) -> tuple[float, float, int]:
     idx = set(np.linspace(0, n - 1, min(n, TRUNCATION_POINTS)).round().astype(int).tolist())
     idx.add(int(np.argmax(br.element(0).mesh_load_std)))
     idx |= {int(np.argmin(np.abs(br.rpm - r))) for r in extra_rpm}
-    shares = {i: truncation_share(result.problem, point_at(result, i)) for i in sorted(idx)}
+    meshes = _gear_meshes(result.problem)
+    shares = {i: max(truncation_share(result.problem, point_at(result, i), e) for e in meshes)
+              for i in sorted(idx)}
     i = max(shares, key=shares.get)
     return shares[i], float(br.rpm[i]), len(idx)
+
+
+def _gear_meshes(problem) -> list[int]:
+    """Indices of the problem's gear-mesh elements."""
+    from hbm import GearMesh
+
+    return [e for e, el in enumerate(problem.elements) if isinstance(el, GearMesh)]
 
 
 def _rom_check(result) -> Check | None:
@@ -153,6 +179,9 @@ def _rom_check(result) -> Check | None:
 
 
 def _truncation_check(result, extra_rpm) -> Check:
+    if not result.problem.periodic:
+        return Check("harmonic_truncation", True, "harmonic truncation not measured (a torus "
+                     "basis: its response is quasi-periodic)")
     try:
         share, at, n = truncation_survey(result, extra_rpm)
     except (NotImplementedError, ValueError, RuntimeError) as exc:   # e.g. a torus basis
@@ -197,19 +226,37 @@ def run_checks(result) -> list:
     out.append(Check("inputs", not warn, "inputs inside their usual ranges" if not warn else
                      "unusual inputs: " + "; ".join(warn)))
     if len(br):
-        mx = br.element(0).mesh_load_max
-        i = int(np.argmax(mx))
-        w = dynamic_ratio_warning(float(mx[i]), sc.static_load, float(br.rpm[i]))
-        if sc.static_load > 0:
-            ratio = float(mx[i]) / sc.static_load
-            out.append(Check("dynamic_ratio", w is None, w or f"peak mesh load {ratio:.3g} × "
-                             f"the static load (at {br.rpm[i]:.1f} rpm)", ratio,
+        ratio = _dynamic_ratio(result)
+        if ratio is not None:
+            r, peak, static, rpm, name = ratio
+            w = dynamic_ratio_warning(peak, static, rpm)
+            out.append(Check("dynamic_ratio", w is None, (w or f"peak mesh load {r:.3g} × the "
+                             f"static load (at {rpm:.1f} rpm)") + name, r,
                              DYNAMIC_RATIO_USUAL))
     uses = getattr(result, "speed_uses", [])
     if uses:
         out.append(Check("speeds", all(u.exact for u in uses),
                          "; ".join(u.text for u in uses)))
     return out
+
+
+def _dynamic_ratio(result) -> tuple[float, float, float, float, str] | None:
+    """(ratio, peak load N, static load N, rpm, " (mesh `name`)" or "") of the gear mesh
+    whose peak mesh load is the largest multiple of its static load; None without a
+    loaded gear mesh."""
+    br, best = result.branch, None
+    els = result.problem.elements
+    for e in _gear_meshes(result.problem):
+        static = float(els[e].static_load)
+        if static <= 0:
+            continue
+        mx = np.asarray(br.element(e).mesh_load_max)
+        i = int(np.argmax(mx))
+        name = f" (mesh `{els[e].name}`)" if len(els) > 1 else ""
+        cand = (float(mx[i]) / static, float(mx[i]), static, float(br.rpm[i]), name)
+        if best is None or cand[0] > best[0]:
+            best = cand
+    return best
 
 
 def banner_lines(checks: list) -> list[str]:

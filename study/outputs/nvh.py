@@ -83,6 +83,11 @@ class NVH:
     accel_velocity: np.ndarray | None = None
     accel_position: np.ndarray | None = None
     accel_direction: np.ndarray | None = None
+    #: several gear meshes (a train): their names, and per mesh the amplitudes (n, E, n_h;
+    #: NaN on a torus) and peak-to-peak loads (n, E); the fields above are mesh 0's
+    mesh_names: tuple = ()
+    amplitude_per_mesh: np.ndarray | None = None
+    ptp_per_mesh: np.ndarray | None = None
 
     @property
     def erp_db(self) -> np.ndarray | None:
@@ -93,11 +98,55 @@ class NVH:
         return None if self.erp_total is None else power_db(self.erp_total)
 
 
+def _orders(hs) -> np.ndarray:
+    """Shaft orders (of the reference shaft) of the set's harmonics: integers for an integer
+    fundamental, else floats (a train's hunting fundamental, or a torus's frequencies)."""
+    if not hs.periodic:
+        return np.asarray(hs.frequency_index, dtype=float) * float(hs.ratio)
+    idx = np.asarray(hs.indices, dtype=int)
+    if hs.ratio.denominator == 1:
+        return idx * hs.integer_ratio
+    return idx * float(hs.ratio)
+
+
+def _train_nvh(result) -> NVH:
+    """Mesh-load amplitudes and peak-to-peak values of every mesh of a problem with several
+    gear meshes: over one period of a periodic set; on a torus, the peak-to-peak along
+    the time line over :data:`hbm.post.torus.LINE_PERIODS` base periods of the mesh (the
+    amplitudes per harmonic vector are not computed there: NaN)."""
+    from hbm import time_series
+    from hbm.post.torus import line_series
+
+    pb, br = result.problem, result.branch
+    hs = pb.harmonics
+    idx = np.asarray(hs.indices, dtype=int)
+    n, n_el, n_h = len(br), len(pb.elements), len(hs.indices)
+    amp = np.full((n, n_el, n_h), np.nan)
+    ptp = np.zeros((n, n_el))
+    for i in range(n):
+        pt = point_at(result, i)
+        for e in range(n_el):
+            if hs.periodic:
+                f = time_series(pb, pt, element=e).load
+                c = np.fft.rfft(f) / f.size
+                c[1:] *= 2.0
+                amp[i, e] = np.abs(c[idx])
+            else:
+                f = line_series(pb, pt, element=e).load
+            ptp[i, e] = float(np.ptp(f))
+    return NVH(idx, _orders(hs), amp[:, 0], ptp[:, 0], None, None,
+               result.scene.acoustics.air_density, result.scene.acoustics.sound_speed,
+               mesh_names=tuple(el.name for el in pb.elements), amplitude_per_mesh=amp,
+               ptp_per_mesh=ptp)
+
+
 def compute_nvh(result) -> NVH:
     """NVH quantities at every point of ``result.branch``."""
     from hbm import time_series
 
     pb, br = result.problem, result.branch
+    if len(pb.elements) > 1 or not pb.harmonics.periodic:
+        return _train_nvh(result)
     hs = pb.harmonics
     idx = np.asarray(hs.indices, dtype=int)
     n = len(br)
@@ -128,7 +177,7 @@ def compute_nvh(result) -> NVH:
     if erp is not None and n:
         logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
                     float(power_db(total).min()), float(power_db(total).max()))
-    out = NVH(idx, idx * hs.integer_ratio, amp, ptp, erp, total, ac.air_density, ac.sound_speed)
+    out = NVH(idx, _orders(hs), amp, ptp, erp, total, ac.air_density, ac.sound_speed)
     if accels:
         out.accel_names = tuple(a.name for a in accels)
         out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
@@ -139,10 +188,16 @@ def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:
     """Write ``/nvh`` of results.h5 (docs/results-format.md)."""
     g = f.create_group("nvh")
     g["harmonics"] = nvh.harmonics.astype(np.int64)
-    g["orders"] = nvh.orders.astype(np.int64)
-    g["mesh_load_amplitude"] = nvh.mesh_load_amplitude
+    g["orders"] = (nvh.orders.astype(np.int64) if nvh.orders.dtype.kind in "iu"
+                   else nvh.orders)
+    if nvh.amplitude_per_mesh is not None:     # several meshes: (n, E, n_h) and (n, E)
+        g.attrs["elements"] = list(nvh.mesh_names)
+        g["mesh_load_amplitude"] = nvh.amplitude_per_mesh
+        g["mesh_load_ptp"] = nvh.ptp_per_mesh
+    else:
+        g["mesh_load_amplitude"] = nvh.mesh_load_amplitude
+        g["mesh_load_ptp"] = nvh.mesh_load_ptp
     g["mesh_load_amplitude"].attrs["unit"] = "N"
-    g["mesh_load_ptp"] = nvh.mesh_load_ptp
     g["mesh_load_ptp"].attrs["unit"] = "N"
     if nvh.erp is None:
         return
@@ -196,7 +251,28 @@ def write_curves_csv(path: Path, branch, nvh: NVH) -> Path:
                     "" if db is None else f"{db[i]:.4f}", cls, CONTACT_NAMES[cls],
                     int(bool(branch.stable[i]))])
     path = Path(path)
+    text = buf.getvalue()
+    if nvh.ptp_per_mesh is not None:       # several meshes: their own columns
+        text = _per_mesh_columns(text, branch, nvh)
     with atomic_write(path, "w") as fh:
-        fh.write(buf.getvalue())
+        fh.write(text)
     logger.info("wrote %s", path)
     return path
+
+
+def _per_mesh_columns(text: str, branch, nvh: NVH) -> str:
+    """``curves.csv`` of several meshes: the columns above (the first mesh's) followed by
+    ``<mesh>_std_N``, ``<mesh>_max_N``, ``<mesh>_peak_to_peak_N``, ``<mesh>_contact_class``
+    for every mesh."""
+    rows = text.splitlines()
+    head = [f"{n}_{c}" for n in nvh.mesh_names
+            for c in ("std_N", "max_N", "peak_to_peak_N", "contact_class")]
+    out = [rows[0] + "," + ",".join(head)]
+    curves = [branch.element(e) for e in range(len(nvh.mesh_names))]
+    for i, row in enumerate(rows[1:]):
+        cells = []
+        for e, cur in enumerate(curves):
+            cells += [f"{cur.mesh_load_std[i]:.8g}", f"{cur.mesh_load_max[i]:.8g}",
+                      f"{nvh.ptp_per_mesh[i, e]:.8g}", str(int(cur.contact[i]))]
+        out.append(row + "," + ",".join(cells))
+    return "\n".join(out) + "\n"

@@ -70,8 +70,12 @@ def _largest_line(s: dict, stability: bool) -> str:
     return f"{line}, **an unstable orbit** ({s['max_std_kind']}): {other}"
 
 
-def _stability_lines(s: dict, stability: bool, attractors) -> list[str]:
+def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
+                     ) -> list[str]:
     """Report lines on the Floquet verdicts, or that none were computed."""
+    if not periodic:
+        return ["- stability: **not computed on a torus** (a quasi-periodic response has no "
+                "monodromy matrix; docs/theory.md §14.2): no verdict on any point"]
     if not stability:
         return ["- stability: **not computed** (`[hbm] stability = false`): every point is "
                 "listed as stable without a check"]
@@ -219,27 +223,68 @@ def rom_line(result) -> list[str]:
     return [head + txt + "; " + reach]
 
 
+
+def _mesh_source_lines(result) -> list[str]:
+    """The ``ltca``/``table`` sources of k_m and TE (none for ``fourier`` scenes)."""
+    src, data = result.scene.mesh_source, getattr(result, "mesh_excitation", None)
+    if src is None:
+        return []
+    out = [f"- mesh excitation: k_m from `{src.stiffness}`, TE from `{src.te}` "
+           f"({src.harmonics} mesh harmonics kept; arrays in results.h5 `/mesh_excitation`)"]
+    if data is not None and data.has_ltca:
+        a = data.arrays
+        i = int(np.argmin(a["harris_ste_peak_to_peak"]))
+        out.append(f"- LTCA at {data.torque:g} N·m ({data.periods} mesh period(s) × "
+                   f"{data.n_positions} positions, {data.n_slices} slice(s)): loaded STE "
+                   f"peak-to-peak {np.ptp(a['ste']) * 1e6:.3f} µm, k_m "
+                   f"{a['stiffness'].min() * 1e-6:.1f}–{a['stiffness'].max() * 1e-6:.1f} N/µm; "
+                   f"Harris map: smallest STE fluctuation "
+                   f"{a['harris_ste_peak_to_peak'][i] * 1e6:.3f} µm at "
+                   f"{a['harris_torque'][i]:.3g} N·m")
+    return out
+
+
+def _pair_model_lines(result) -> list[str]:
+    """The model lines of a one-pair scene: gears, load, mesh, damping, harmonic set."""
+    sc = result.scene
+    g = sc.gear
+    return [f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
+            f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
+            f"ε_α = {g.contact_ratio:.3f}",
+            f"- torque T = {sc.load.torque:g} N·m, static load F_s = {sc.static_load:.2f} N, "
+            f"half backlash b = {g.backlash * 1e6:g} µm",
+            f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
+            f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
+            f"{len(sc.transmission_error.amplitudes)} harmonics",
+            *_mesh_source_lines(result),
+            f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
+            f"{result.problem.harmonics.n_harmonics} indices of the "
+            f"{result.problem.harmonics.fundamental} frequency, "
+            f"{result.problem.harmonics.n_time} AFT samples"]
+
+
+def _train_model_lines(result) -> list[str]:
+    """The model lines of a train: drive, loads, damping; its meshes follow in their own
+    section (:func:`study.outputs.train.mesh_report_lines`)."""
+    sc = result.scene
+    return [f"- drive: {sc.drive.torque:g} N·m on shaft `{sc.drive.shaft}` (its speed is the "
+            "reference Ω); loads: " + ", ".join(f"`{ld.shaft}` ({ld.share:g})"
+                                                for ld in sc.loads),
+            f"- {len(sc.meshes)} meshes (section Meshes); damping ξ = "
+            f"{sc.damping.modal_ratio:g}",
+            "- the sections below up to the meshes' are those of the first mesh "
+            f"(`{sc.meshes[0].name}`)"]
+
+
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
-    g = sc.gear
     checks = list(getattr(result, "checks", []) or [])
     lines = [f"# {sc.name}", "", *banner_lines(checks), sc.scene.description or "", "",
              "## Model", "",
              f"- kind: {sc.scene.kind}; {result.problem.system.n_dof} DOF, condensation "
              f"`{result.problem.condensation}`", *rom_line(result),
-             f"- gears: Z = {g.teeth}, r_b = {g.base_radius * 1e3:.3f} mm, α = "
-             f"{np.degrees(g.pressure_angle):.1f}°, b_f = {g.face_width * 1e3:.1f} mm, "
-             f"ε_α = {g.contact_ratio:.3f}",
-             f"- torque T = {sc.load.torque:g} N·m, static load F_s = {sc.static_load:.2f} N, "
-             f"half backlash b = {g.backlash * 1e6:g} µm",
-             f"- mean mesh stiffness {sc.mesh_stiffness.mean / 1e6:.1f} N/µm, "
-             f"{len(sc.mesh_stiffness.amplitudes)} harmonics; TE ({sc.transmission_error.kind}) "
-             f"{len(sc.transmission_error.amplitudes)} harmonics",
-             f"- damping ξ = {sc.damping.modal_ratio:g}; harmonic set: "
-             f"{result.problem.harmonics.n_harmonics} indices of the "
-             f"{result.problem.harmonics.fundamental} frequency, "
-             f"{result.problem.harmonics.n_time} AFT samples",
+             *(_train_model_lines(result) if sc.is_train else _pair_model_lines(result)),
              "", "## Continuation", "",
              f"- {s['points']} points from {sc.continuation.speed[0]:g} to "
              f"{sc.continuation.speed[1]:g} rpm, status `{s['status']}`",
@@ -250,10 +295,11 @@ def write_report(result) -> Path:
              *_loops(result.branch),
              f"- largest relative residual {s['max_residual']:.2e} "
              f"(tolerance {sc.continuation.tolerance:g})",
-             _largest_line(s, sc.hbm.stability),
+             _largest_line(s, sc.hbm.stability and result.problem.periodic),
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
-             *_stability_lines(s, sc.hbm.stability, result.attractors),
+             *_stability_lines(s, sc.hbm.stability, result.attractors,
+                               result.problem.periodic),
              "- folds (jumps) near: " + _folds_text(s["folds"]),
              "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]
@@ -262,6 +308,10 @@ def write_report(result) -> Path:
     for c, iv in s["intervals"].items():
         txt = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
         lines.append(f"- {_CLASS[c]}: {txt}")
+    if sc.is_train:
+        from study.outputs.train import mesh_report_lines
+
+        lines += ["", *mesh_report_lines(result)]
     nvh = getattr(result, "nvh", None)
     if nvh is not None and nvh.erp is not None and len(result.branch):
 

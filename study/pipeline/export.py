@@ -13,18 +13,26 @@ from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["write_partial", "export", "write_housing", "write_rom_group", "housing_fields",
-           "write_report_files", "write_attractor_files", "record_checks"]
+__all__ = ["write_partial", "export", "draw_figures", "write_housing", "write_rom_group",
+           "housing_fields", "write_report_files", "write_attractor_files", "record_checks"]
 
 
 def _settings(result) -> dict:
     c = result.scene.continuation
-    return {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+    out = {"tolerance": c.tolerance, "checkpoint_every": c.checkpoint_every}
+    if result.scene.is_train:   # the basis chosen and both sizes (hbm.basis)
+        from machines import machine_for
+        from study.pipeline.model import train_basis_choice
+
+        choice = train_basis_choice(result.scene, machine_for(result.scene).layout)
+        out.update(choice.attributes())
+    return out
 
 
 def _extra(result):
     nvh = getattr(result, "nvh", None)
-    if result.rom is None and nvh is None:
+    mesh = getattr(result, "mesh_excitation", None)
+    if result.rom is None and nvh is None and mesh is None:
         return None
 
     def extra(f) -> None:
@@ -32,6 +40,9 @@ def _extra(result):
             write_rom_group(f, result)
         if nvh is not None:
             write_nvh_group(f, nvh, getattr(result.rom, "radiation", None))
+        if mesh is not None:
+            from study.outputs.mesh_excitation import write_group
+            write_group(f, mesh)
     return extra
 
 
@@ -143,10 +154,21 @@ def _render(result, paths: list[Path]) -> None:
             result.figures.append(png)
 
 
-def _figures(result) -> None:
+def draw_figures(result) -> None:
+    """The PNG plots of a run: those the scene's ``[outputs] plots`` asks for
+    (:func:`study.plots.figures.draw_all`) and those of an ``ltca``/``table`` mesh
+    excitation (:func:`study.plots.mesh_excitation.mesh_excitation_plots`)."""
     from study.plots.figures import draw_all
 
     result.figures += draw_all(result)
+    if getattr(result, "mesh_excitation", None) is not None:
+        from study.plots.mesh_excitation import mesh_excitation_plots
+        result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
+                                                Path(result.out))
+
+
+def _figures(result) -> None:
+    draw_figures(result)
     result.checks = run_checks(result)
     if result.scene.outputs.report:
         write_report_files(result)

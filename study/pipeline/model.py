@@ -9,7 +9,10 @@ of the machine.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,7 +21,8 @@ from study.scene.data import Scene
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["gear_meshes", "harmonic_set", "build_problem", "scene_problem"]
+__all__ = ["gear_meshes", "harmonic_set", "build_problem", "scene_problem", "BasisChoice",
+           "train_basis_choice"]
 
 
 def gear_meshes(scene: Scene, machine: Machine, G) -> list:
@@ -32,8 +36,17 @@ def gear_meshes(scene: Scene, machine: Machine, G) -> list:
     if G.ndim != 2 or G.shape[1] != len(specs):
         raise ValueError(f"G.shape = {G.shape}: must be (n, {len(specs)}), one direction per "
                          "gear mesh of the machine")
-    te = scene.transmission_error
     loads = machine.static_mesh_loads()
+    if scene.is_train:
+        layout = machine.layout
+        return [GearMesh(direction=np.ascontiguousarray(G[:, e]), n_teeth=m.teeth,
+                         stiffness=sm.mesh_stiffness.coefficients(),
+                         te=sm.transmission_error.coefficients(), backlash=sm.backlash,
+                         static_load=loads[e], te_kind=sm.transmission_error.kind,
+                         speed_ratio=m.speed_ratio, name=m.name,
+                         phase=layout.meshes[e].phase)
+                for e, (m, sm) in enumerate(zip(specs, scene.meshes, strict=True))]
+    te = scene.transmission_error
     return [GearMesh(direction=np.ascontiguousarray(G[:, e]), n_teeth=m.teeth,
                      stiffness=scene.mesh_stiffness.coefficients(),
                      te=te.coefficients(), backlash=scene.gear.backlash,
@@ -42,14 +55,98 @@ def gear_meshes(scene: Scene, machine: Machine, G) -> list:
             for e, m in enumerate(specs)]
 
 
-def harmonic_set(scene: Scene):
+@dataclass(frozen=True)
+class BasisChoice:
+    """The harmonic basis of a train and what the other one would have cost.
+
+    Attributes
+    ----------
+    basis : hbm.HarmonicSet or hbm.TorusBasis
+        The basis chosen.
+    kind : str
+        ``"periodic"`` (one fundamental: the hunting fundamental) or ``"torus"``.
+    requested : str
+        ``hbm.basis`` of the scene (``auto``, ``periodic``, ``torus``).
+    fundamental : Fraction
+        The hunting fundamental over the drive speed.
+    periodic_harmonics, periodic_samples : int
+        Harmonics and AFT samples per period of the periodic set.
+    torus_harmonics, torus_samples : int
+        Harmonic vectors and AFT samples (product of the grid) of the torus.
+    """
+
+    basis: Any
+    kind: str
+    requested: str
+    fundamental: Fraction
+    periodic_harmonics: int
+    periodic_samples: int
+    torus_harmonics: int
+    torus_samples: int
+
+    def attributes(self) -> dict[str, Any]:
+        """The choice as results.h5 attributes (``/continuation``)."""
+        return {"basis": self.kind, "basis_requested": self.requested,
+                "hunting_fundamental": str(self.fundamental),
+                "periodic_harmonics": self.periodic_harmonics,
+                "periodic_aft_samples": self.periodic_samples,
+                "torus_harmonics": self.torus_harmonics,
+                "torus_aft_samples": self.torus_samples}
+
+
+def train_basis_choice(scene: Scene, layout) -> BasisChoice:
+    """The basis of a train scene (docs/hbm.md, "Several base frequencies"): the
+    one-dimensional set over the hunting fundamental (every combination of the meshes'
+    harmonics up to ``hbm.mesh_harmonics``, :meth:`TrainLayout.periodic_indices`), or the
+    torus with one base per distinct mesh frequency (:func:`hbm.train_basis`). ``auto``
+    takes the periodic set when its AFT grid stays within ``hbm.max_aft_samples``;
+    ``periodic`` above it is refused (naming the field and the size it needs). The
+    choice and both sizes are logged."""
+    from hbm import HarmonicSet, train_basis
+
+    h = scene.hbm
+    H = h.mesh_harmonics
+    r = layout.hunting_fundamental()
+    idx = layout.periodic_indices(H)
+    n_periodic = h.aft_samples or layout.periodic_aft_samples(H)
+    bases: dict[str, Fraction] = {}
+    for m in layout.meshes:
+        if m.frequency_ratio not in bases.values():
+            bases[m.name] = m.frequency_ratio
+    torus = train_basis(bases, H)
+    n_torus = int(np.prod(torus.n_time))
+    if h.basis == "periodic":
+        layout.check_periodic(H, h.max_aft_samples)
+    kind = h.basis if h.basis != "auto" else (
+        "periodic" if n_periodic <= h.max_aft_samples else "torus")
+    if kind == "periodic":
+        basis = HarmonicSet(idx, ratio=r, fundamental="hunting" if len(bases) > 1 else "mesh",
+                            n_time=n_periodic)
+    else:
+        basis = torus
+    choice = BasisChoice(basis, kind, h.basis, r, len(idx), n_periodic,
+                         len(torus.indices), n_torus)
+    logger.info("harmonic basis: %s (hbm.basis = %r); periodic over the hunting fundamental "
+                "%s Omega: %d harmonics, %d AFT samples; torus of %d bases: %d harmonics, "
+                "%d AFT samples", kind, h.basis, r, len(idx), n_periodic, len(bases),
+                len(torus.indices), n_torus)
+    return choice
+
+
+def harmonic_set(scene: Scene, machine: Machine | None = None):
     """The :class:`hbm.HarmonicSet`: explicit list, or built from the excitation orders.
 
     Without external excitation the fundamental is the mesh frequency ZΩ and the
     indices are 0…n (``hbm.mesh_harmonics``); with it, the shaft frequency Ω with
-    mesh harmonics kZ, the external orders and their sidebands.
+    mesh harmonics kZ, the external orders and their sidebands. A train's basis is
+    :func:`train_basis_choice`'s (periodic or torus).
     """
     from hbm import HarmonicSet
+
+    if scene.is_train:
+        if machine is None:
+            machine = machine_for(scene)
+        return train_basis_choice(scene, machine.layout).basis
 
     h = scene.hbm
     n_time = h.aft_samples or None
@@ -70,7 +167,8 @@ def build_problem(scene: Scene, machine: Machine, linear: LinearModel):
     system = LinearSystem(np.asarray(linear.M), np.asarray(linear.C), np.asarray(linear.K))
     exc = Excitation(system.n_dof, constant=linear.constant,
                      omega_squared=linear.omega_squared or {})
-    return HBMProblem(system, gear_meshes(scene, machine, linear.G), exc, harmonic_set(scene),
+    return HBMProblem(system, gear_meshes(scene, machine, linear.G), exc,
+                      harmonic_set(scene, machine),
                       condensation=scene.hbm.condensation,
                       linear_solver=scene.hbm.linear_solver)
 

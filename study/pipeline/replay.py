@@ -11,11 +11,10 @@ from pathlib import Path
 
 from study.outputs.nvh import compute_nvh
 from study.outputs.results import read_branch
-from study.pipeline.export import write_housing, write_report_files
+from study.pipeline.export import draw_figures, write_housing, write_report_files
 from study.pipeline.parallel import mark_collective
 from study.pipeline.runs import RunResult
 from study.pipeline.stages import Pipeline
-from study.plots.figures import draw_all
 from study.scene.errors import SceneError
 from study.scene.load import load_scene
 
@@ -42,10 +41,12 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                                          "with them first"))
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
+    if scene.mesh_source is not None:           # the ltca stage's arrays (cached)
+        res.mesh_excitation = pipe.comm.root_call(pipe.run_mesh_excitation)
 
     def draw() -> None:
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
-        res.figures += draw_all(res)
+        draw_figures(res)
         write_report_files(res)
     if scene.scene.kind == "fe" and scene.outputs.housing_field:
         write_housing(res)                          # from the cached ROM, rank 0 writes

@@ -89,6 +89,9 @@ class RunResult:
     speed_uses : list
         :class:`study.outputs.points.SpeedUse` of every point output asked at a speed
         (time series, spectra, housing fields): the speed it was computed at.
+    mesh_excitation
+        :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
+        source (None: both ``fourier``).
     """
 
     out: Path
@@ -106,3 +109,4 @@ class RunResult:
     status: dict = field(default_factory=dict)
     checks: list = field(default_factory=list)
     speed_uses: list = field(default_factory=list)
+    mesh_excitation: Any = None

@@ -12,6 +12,9 @@ fe        mesh key, the machine's FE inputs (the pump: ``[materials]``,
           ``[bearings]``, ``[drive]``, ``[rotors]``, ``[links]``, gear data of G)
           (key only: the FE model is rebuilt from the cached mesh when needed)
 rom       fe key, ``[rom]``
+ltca      (``source = "ltca"`` only) the LTCA's inputs (macro- and micro-geometry,
+          torque, positions, slices, bodies), Harris torques, harmonics; the arrays
+          of the outputs (the scene's series come from the same solve)
 hbm       rom key (FE) or the lumped machine's linear key (``[lumped]`` + gear),
           mesh stiffness, TE, load, backlash, external, damping, ``[hbm]``,
           ``[continuation]``
@@ -225,6 +228,41 @@ class Pipeline:
         self._log_stage("rom", StageStatus("ran", seconds=time.perf_counter() - t))
         return d
 
+    # ------------------------------------------------------------------ ltca
+    def ltca_key(self) -> str:
+        """Key of the ltca stage: the LTCA's inputs (:class:`gears.LtcaCase`), the Harris
+        torques, the harmonics and sources, and the code of gears and of the arrays."""
+        src = self.scene.mesh_source
+        return stage_key("ltca", {"case": src.case, "harris_torques": src.harris_torques,
+                                  "harmonics": src.harmonics, "stiffness": src.stiffness,
+                                  "te": src.te},
+                         source_hash("gears", "study.scene.excitation",
+                                     "study.outputs.mesh_excitation"))
+
+    def run_mesh_excitation(self):
+        """The arrays of an ``ltca``/``table`` mesh excitation
+        (:class:`study.outputs.mesh_excitation.MeshExcitation`), the LTCA's cached by
+        :meth:`ltca_key` (stage ``ltca``); None when both sources are ``fourier``."""
+        from study.outputs.mesh_excitation import MeshExcitation, from_source
+
+        src = self.scene.mesh_source
+        if src is None:
+            return None
+        if src.case is None:                       # tables only: nothing to solve
+            return from_source(src)
+        key = self.keys["ltca"] = self.ltca_key()
+        hit = self.cache.lookup("ltca", key)
+        if hit is not None:
+            self._log_stage("ltca", StageStatus("cached", from_cache=True))
+            return MeshExcitation.load(hit / "ltca.npz")
+        t = time.perf_counter()
+        data = from_source(src)
+        dt = time.perf_counter() - t
+        self.cache.store("ltca", key, lambda tmp: data.save(tmp / "ltca.npz"),
+                         {"positions": int(data.arrays["t"].size)}, elapsed=dt)
+        self._log_stage("ltca", StageStatus("ran", seconds=time.perf_counter() - t))
+        return data
+
     # ------------------------------------------------------------------ hbm
     def problem(self):
         """The HBM problem and (FE) the ROM it was built from."""
@@ -298,10 +336,16 @@ class Pipeline:
         bar = ProgressBar(lo, hi, self.progress)
         ck = Checkpointer(results, c.checkpoint_every, write_checkpoint, bar.update)
         t = time.perf_counter()
+        stability = self.scene.hbm.stability
+        if stability and not problem.periodic:
+            logger.warning("stability: not computed on a torus (a quasi-periodic response; "
+                           "docs/theory.md §14.2): every point is written stable = False, "
+                           "floquet_kind = -1")
+            stability = False
         try:
             br = trace(problem, lo, hi, step=c.step / span, min_step=c.min_step / span,
                        max_step=c.max_step / span, tol=c.tolerance, max_points=c.max_points,
-                       on_point=ck, resume=resume, stability=self.scene.hbm.stability)
+                       on_point=ck, resume=resume, stability=stability)
         finally:
             bar.close()
         dt = time.perf_counter() - t
@@ -358,6 +402,8 @@ class Pipeline:
         self.keys.setdefault("hbm", self.hbm_key())
         result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
                            self.keys, rom=rom, status=self.status)
+        if s.mesh_source is not None:
+            result.mesh_excitation = self.comm.root_call(self.run_mesh_excitation)
 
         def checkpoint(branch) -> None:
             write_partial(result, branch)

@@ -26,7 +26,7 @@ def draw_all(result) -> list[Path]:
     br, pb = result.branch, result.problem
     paths: list[Path] = []
     name = result.scene.name
-    if "forced_response" in want:
+    if "forced_response" in want and not result.scene.is_train:
         paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
     valid_hz = rom_limit_hz(result.rom)          # None for a lumped scene
     speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
@@ -41,12 +41,16 @@ def draw_all(result) -> list[Path]:
             c = int(br.element(0).contact[i])
         tag = f"{pt.rpm:.0f}rpm"
         cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[c]
-        if "time_series" in want:
+        if "time_series" in want and pb.harmonics.periodic:
             paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))
-        if "spectrum" in want:
+        if "spectrum" in want and not result.scene.is_train:
             paths.append(spectrum_plot(pb, pt, out / f"spectrum_{tag}.png",
                                        rom_valid_hz=valid_hz))
+    if result.scene.is_train:   # per mesh, orders named by shaft and mesh (study.plots.train)
+        from study.plots.train import train_plots
+
+        return paths + train_plots(result, want, speeds)
     nvh = getattr(result, "nvh", None)
     z = result.scene.gear.teeth
     if nvh is not None and "order_maps" in want and len(br) > 0:

@@ -13,12 +13,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gears.excitation import fourier_sample
+from gears.ltca import LtcaCase
 from gears.pair import GearPair, contact_path_length
+from gears.te_table import MeshTable
 
 __all__ = ["Scene", "SceneInfo", "GearData", "FourierSeries", "MeshStiffness",
            "TransmissionError", "LoadData", "AeroLoad", "Unbalance", "ExternalData",
            "DampingData", "LumpedData", "RomData", "HbmData", "ContinuationData",
-           "OutputsData", "AcousticsData", "Accelerometer"]
+           "OutputsData", "AcousticsData", "Accelerometer", "MeshSource", "BearingData",
+           "ShaftData", "TrainGearData", "MeshData", "DriveData", "TrainLoadData"]
 
 
 @dataclass(frozen=True)
@@ -123,6 +126,38 @@ class TransmissionError(FourierSeries):
 
 
 @dataclass(frozen=True)
+class MeshSource:
+    """Where a mesh's stiffness and transmission error come from when either is not
+    ``fourier`` (``[mesh_stiffness] source``, ``[transmission_error] source``; issue 38).
+
+    Attributes
+    ----------
+    stiffness, te : str
+        ``fourier``, ``ltca`` or ``table`` for k_m and for the TE.
+    harmonics : int
+        Mesh harmonics kept from the LTCA or the table (those the HBM set uses).
+    case : gears.LtcaCase or None
+        The LTCA's inputs (macro- and micro-geometry, torque, settings) when a source is
+        ``ltca``; hashable, the cache key of the ltca stage.
+    harris_torques : tuple of float
+        Torques (N·m) of the Harris map drawn beside the LTCA.
+    tables : dict
+        ``{"stiffness" | "te": gears.MeshTable}`` read for the ``table`` sources.
+    """
+
+    stiffness: str
+    te: str
+    harmonics: int
+    case: LtcaCase | None = None
+    harris_torques: tuple[float, ...] = ()
+    tables: dict[str, MeshTable] = field(default_factory=dict)
+
+    @property
+    def uses_ltca(self) -> bool:
+        return "ltca" in (self.stiffness, self.te)
+
+
+@dataclass(frozen=True)
 class LoadData:
     """``[load]``: input torque T (N·m)."""
 
@@ -208,6 +243,8 @@ class HbmData:
     condensation: str
     stability: bool = True
     linear_solver: str = "auto"
+    basis: str = "auto"
+    max_aft_samples: int = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -259,6 +296,91 @@ class OutputsData:
 
 
 @dataclass(frozen=True)
+class BearingData:
+    """``[[shafts.bearings]]``: axial position (m), radial and axial stiffness (N/m)."""
+
+    position: float
+    radial: float
+    axial: float
+
+
+@dataclass(frozen=True)
+class ShaftData:
+    """``[[shafts]]`` of a train, SI: length and diameter (m, None if not given), extra
+    rotor inertia (kg m²), torsional stiffness between its gears (N m/rad, None: from G J
+    / spacing), bearings."""
+
+    name: str
+    length: float | None
+    diameter: float | None
+    inertia: float
+    torsional_stiffness: float | None
+    bearings: tuple[BearingData, ...] = ()
+
+
+@dataclass(frozen=True)
+class TrainGearData:
+    """``[[gears]]`` of a train, SI: axial position (m), teeth, normal module (m), normal
+    pressure angle and signed helix angle (rad, + right hand), face width (m), profile
+    shift, addendum/dedendum coefficients, inertia (kg m²) and mass (kg) or None."""
+
+    name: str
+    shaft: str
+    position: float
+    teeth: int
+    module: float
+    pressure_angle: float
+    helix_angle: float
+    face_width: float
+    profile_shift: float
+    addendum_coef: float
+    dedendum_coef: float
+    inertia: float | None
+    mass: float | None
+
+
+@dataclass(frozen=True)
+class MeshData:
+    """``[[meshes]]`` of a train, SI: the two gears (gear 1 drives), line-of-centres angle
+    (rad), centre distance (m, None if not given), half backlash (m), phase at t = 0
+    (``phase_mode`` ``"geometry"``: from the layout; ``"given"``: ``phase`` in rad), and
+    its mesh stiffness and transmission error (per mesh harmonic; ``estimated`` when the
+    ISO 6336 estimate filled them in)."""
+
+    name: str
+    gears: tuple[str, str]
+    angle: float
+    centre_distance: float | None
+    backlash: float
+    phase_mode: str
+    phase: float
+    mesh_stiffness: MeshStiffness | None = None
+    transmission_error: TransmissionError | None = None
+
+
+@dataclass(frozen=True)
+class DriveData:
+    """``[drive]`` of a train: the drive shaft, input torque (N m), motor inertia (kg m²)
+    and coupling stiffness (N m/rad)."""
+
+    shaft: str
+    torque: float
+    motor_inertia: float
+    motor_torsional_stiffness: float
+
+
+@dataclass(frozen=True)
+class TrainLoadData:
+    """``[[loads]]`` of a train: the shaft, its share of the power, the load inertia
+    (kg m²) and coupling stiffness (N m/rad)."""
+
+    shaft: str
+    share: float
+    inertia: float
+    torsional_stiffness: float
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene in SI units. ``raw`` is the parsed file (for hashing/records)."""
 
@@ -281,6 +403,20 @@ class Scene:
     #: ``[calibration]``: paper.md row key -> what the scene fitted to that finding (only
     #: the rows it declares)
     calibration: dict[str, str] = field(default_factory=dict, compare=False)
+    #: ``ltca``/``table`` sources of the mesh excitation (None: both ``fourier``)
+    mesh_source: MeshSource | None = None
+    #: ``[[shafts]]``, ``[[gears]]``, ``[[meshes]]``, ``[drive]``, ``[[loads]]`` of a train
+    #: (scene.kind "train" or "gearbox"); empty/None otherwise
+    shafts: tuple[ShaftData, ...] = ()
+    gears: tuple[TrainGearData, ...] = ()
+    meshes: tuple[MeshData, ...] = ()
+    drive: DriveData | None = None
+    loads: tuple[TrainLoadData, ...] = ()
+
+    @property
+    def is_train(self) -> bool:
+        """Whether the scene is a train (``[[meshes]]`` instead of ``[gear]``)."""
+        return bool(self.meshes)
 
     @property
     def static_load(self) -> float:

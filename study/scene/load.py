@@ -9,6 +9,7 @@ fixed order, so the first error in a file is always the same one.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -22,25 +23,49 @@ from study.scene.data import (
     Accelerometer,
     AcousticsData,
     AeroLoad,
+    BearingData,
     ContinuationData,
     DampingData,
+    DriveData,
     ExternalData,
     GearData,
     HbmData,
     LoadData,
     LumpedData,
+    MeshData,
+    MeshSource,
     MeshStiffness,
     OutputsData,
     RomData,
     Scene,
     SceneInfo,
+    ShaftData,
+    TrainGearData,
+    TrainLoadData,
     TransmissionError,
     Unbalance,
 )
 from study.scene.errors import SceneError, StageUnavailable
+from study.scene.excitation import (
+    check_source_keys,
+    mesh_source,
+    scene_pair,
+    set_mesh_harmonics,
+    source_series,
+    uses_other_source,
+)
 from study.scene.overrides import apply_overrides
 from study.scene.plausibility import check_plausibility, check_required_sections
-from study.scene.schema import FE_SECTIONS, PLOT_NAMES, SCHEMA, TOP_LEVEL, attr_name
+from study.scene.schema import (
+    FE_SECTIONS,
+    PAIR_SECTIONS,
+    PLOT_NAMES,
+    SCHEMA,
+    TOP_LEVEL,
+    TRAIN_KINDS,
+    TRAIN_SECTIONS,
+    attr_name,
+)
 
 __all__ = ["scene_from_dict", "parse_scene", "load_scene"]
 
@@ -197,10 +222,23 @@ def _lumped(lum: dict) -> LumpedData:
 
 
 def _hbm(h: dict, ms: MeshStiffness, te: TransmissionError, gear: GearData,
-         external: ExternalData) -> HbmData:
+         external: ExternalData, kind: str = "lumped") -> HbmData:
     """``[hbm]``: an explicit harmonic set must hold 0, the excited mesh harmonics and
-    the external shaft orders."""
+    the external shaft orders; a train takes its set from the meshes (``basis``), the
+    one-pair scenes know no ``basis``."""
     hs = h["harmonics"]
+    if kind in TRAIN_KINDS:
+        if hs is not None:
+            raise SceneError(f"hbm.harmonics = {list(hs)}: not for a train (scene.kind = "
+                             f"{kind!r}); its set follows from hbm.mesh_harmonics, "
+                             "hbm.basis and the meshes")
+        if h["sideband_order"] != 0:
+            raise SceneError(f"hbm.sideband_order = {h['sideband_order']}: a train without "
+                             "shaft-order excitation has no sidebands (omit it)")
+        return HbmData(**h)
+    if h["basis"] != "auto":
+        raise SceneError(f"hbm.basis = {h['basis']!r}: only for a train (scene.kind = "
+                         f"'train' or 'gearbox'); this scene has one fundamental")
     if hs is not None:
         if 0 not in hs:
             raise SceneError(f"hbm.harmonics = {list(hs)}: must contain 0 (the mean)")
@@ -267,7 +305,7 @@ def _fe_sections(raw: dict, kind: str) -> dict[str, dict]:
     fe: dict[str, dict] = {}
     for s in FE_SECTIONS:
         t = raw.get(s)
-        if t is None:
+        if t is None or (s == "drive" and kind in TRAIN_KINDS):
             continue
         if kind != "fe":
             raise SceneError(f"[{s}]: only allowed when scene.kind = 'fe' (kind is "
@@ -309,13 +347,175 @@ def _check_sections(raw: Any) -> tuple[dict[str, dict], Any]:
         raw_out = dict(raw_out)
         accel_raw = raw_out.pop("accelerometer")
     sec = {s: check_table(s, raw_out if s == "outputs" else raw.get(s, {}), SCHEMA[s])
-           for s in TOP_LEVEL if s not in ("external", *FE_SECTIONS)}
+           for s in TOP_LEVEL
+           if s not in ("external", "micro_geometry", *FE_SECTIONS, *TRAIN_SECTIONS)}
     return sec, accel_raw
+
+
+# --------------------------------------------------------------------------- gear trains
+
+def _array(raw: dict, name: str) -> list:
+    items = raw.get(name, [])
+    if not isinstance(items, list) or not all(isinstance(t, dict) for t in items):
+        raise SceneError(f"{name} = {show(items)}: must be an array of tables ([[{name}]])")
+    return items
+
+
+def _train_tables(raw: dict, kind: str) -> tuple:
+    """``[[shafts]]`` (with ``[[shafts.bearings]]``), ``[[gears]]``, ``[[meshes]]`` (their
+    ``mesh_stiffness``/``transmission_error`` subtables returned raw, checked once the
+    static loads are known), ``[drive]`` and ``[[loads]]`` of a train scene; refused in
+    any other scene, as are the one-pair sections in a train."""
+    if kind not in TRAIN_KINDS:
+        for s in TRAIN_SECTIONS:
+            if s in raw:
+                raise SceneError(f"[[{s}]]: only for a gear train (scene.kind = 'train' or "
+                                 f"'gearbox'; kind is {kind!r})")
+        return (), (), (), None, (), ()
+    for s in PAIR_SECTIONS:
+        if s in raw:
+            raise SceneError(f"[{s}]: not in a gear train (scene.kind = {kind!r}): each "
+                             "[[meshes]] has its own gears, backlash, mesh_stiffness and "
+                             "transmission_error, [drive] the torque")
+    if raw.get("external"):
+        raise SceneError(f"[external]: not yet for a gear train (scene.kind = {kind!r}); "
+                         "shaft-order excitation of trains is not implemented")
+    shafts = []
+    for i, t in enumerate(_array(raw, "shafts")):
+        t = dict(t)
+        bearings = t.pop("bearings", [])
+        if not isinstance(bearings, list):
+            raise SceneError(f"shafts[{i}].bearings = {show(bearings)}: must be an array of "
+                             "tables ([[shafts.bearings]])")
+        d = check_table(f"shafts[{i}]", t, SCHEMA["shafts"])
+        b = tuple(BearingData(**check_table(f"shafts[{i}].bearings[{j}]", bt,
+                                            SCHEMA["shafts.bearings"]))
+                  for j, bt in enumerate(bearings))
+        shafts.append(ShaftData(**d, bearings=b))
+    if len(shafts) < 2:
+        raise SceneError(f"shafts: {len(shafts)} [[shafts]]: a train needs at least two")
+    gears = []
+    for i, t in enumerate(_array(raw, "gears")):
+        d = check_table(f"gears[{i}]", t, SCHEMA["gears"])
+        if d["dedendum_coef"] <= d["addendum_coef"]:
+            raise SceneError(f"gears[{i}].dedendum_coef = {d['dedendum_coef']:g}: must be > "
+                             f"gears[{i}].addendum_coef = {d['addendum_coef']:g}")
+        gears.append(TrainGearData(**d))
+    meshes, subtables = [], []
+    for i, t in enumerate(_array(raw, "meshes")):
+        t = dict(t)
+        sub = {k: t.pop(k) for k in ("mesh_stiffness", "transmission_error") if k in t}
+        d = check_table(f"meshes[{i}]", t, SCHEMA["meshes"])
+        if len(d["gears"]) != 2:
+            raise SceneError(f"meshes[{i}].gears = {list(d['gears'])}: must be two gear names "
+                             "[driving, driven]")
+        if "phase" in t and "phase_deg" in t:
+            raise SceneError(f"meshes[{i}].phase_deg: give phase = 'geometry' or phase_deg, "
+                             "not both")
+        given = d.pop("phase")      # phase_deg's value (phase and phase_deg share the name)
+        mode = "given" if "phase_deg" in t else "geometry"
+        meshes.append(MeshData(name=d["name"], gears=tuple(d["gears"]), angle=d["angle"],
+                               centre_distance=d["centre_distance"], backlash=d["backlash"],
+                               phase_mode=mode, phase=given if mode == "given" else 0.0))
+        subtables.append(sub)
+    if "drive" not in raw:
+        raise SceneError(f"[drive]: missing (scene.kind = {kind!r}: shaft and torque_Nm "
+                         "where the torque enters)")
+    drive = DriveData(**check_table("drive", raw["drive"], SCHEMA["train.drive"]))
+    loads = tuple(TrainLoadData(**check_table(f"loads[{i}]", t, SCHEMA["loads"]))
+                  for i, t in enumerate(_array(raw, "loads")))
+    return tuple(shafts), tuple(gears), tuple(meshes), drive, loads, tuple(subtables)
+
+
+def _series_table(where: str, table: Any, spec: str) -> dict:
+    if not isinstance(table, dict):
+        raise SceneError(f"[{where}] = {show(table)}: must be a table")
+    return check_table(where, table, SCHEMA[spec])
+
+
+def _train_mesh_stiffness(i: int, sub: dict, mesh: Any) -> MeshStiffness:
+    """``[meshes.mesh_stiffness]``: given harmonics, or (omitted, or ``estimate = true``)
+    the ISO 6336-1 estimate of the pair at its static load, as the one-pair scenes'
+    :func:`_mesh_stiffness` (rectangular wave between c' b and 2 c' b)."""
+    where = f"meshes[{i}].mesh_stiffness"
+    d = _series_table(where, sub.get("mesh_stiffness", {"estimate": True}), "mesh_stiffness")
+    if d["estimate"]:
+        if d["mean"] is not None or d["amplitudes"]:
+            raise SceneError(f"{where}.estimate = true: remove mean_N_per_um and "
+                             "amplitudes_N_per_um (they would be ignored)")
+        pair = mesh.pair
+        zn = tuple(approximate_virtual_teeth(z, pair.helix_angle) for z in pair.teeth)
+        single = single_stiffness(zn, pair.profile_shift, pair.helix_angle,
+                                  pair.pressure_angle, pair.face_width, c_m=d["cm"],
+                                  static_load=mesh.static_load)
+        return MeshStiffness(*rectangular_mesh_stiffness(
+            single, pair.transverse_contact_ratio, d["n_harmonics"]), estimated=True)
+    if d["mean"] is None:
+        raise SceneError(f"{where}.mean_N_per_um: missing (give it, or estimate = true, or "
+                         "omit the table for the ISO 6336 estimate)")
+    a, p = _harmonic_pairs(where, d, "amplitudes_N_per_um", "phases_deg")
+    ms = MeshStiffness(d["mean"], a, p)
+    if ms.minimum() <= 0:
+        raise SceneError(f"{where}.amplitudes_N_per_um = {[x / 1e6 for x in a]}: their sum "
+                         f"must be < mean_N_per_um = {ms.mean / 1e6:g} so that k_m(t) > 0")
+    return ms
+
+
+def _train_te(i: int, sub: dict, ms: MeshStiffness, static_load: float) -> TransmissionError:
+    """``[meshes.transmission_error]``: as :func:`_transmission_error`, per mesh (omitted:
+    no transmission error)."""
+    where = f"meshes[{i}].transmission_error"
+    d = _series_table(where, sub.get("transmission_error", {}), "transmission_error")
+    if d["estimate"]:
+        if d["amplitudes"] or d["mean"] != 0.0:
+            raise SceneError(f"{where}.estimate = true: remove mean_um and amplitudes_um")
+        if d["kind"] != "loaded":
+            raise SceneError(f"{where}.kind = {d['kind']!r}: the estimate is a loaded STE")
+        series = (ms.mean, ms.amplitudes, ms.phases)
+        return TransmissionError(*perfect_teeth_ste(series, static_load,
+                                                    max(len(ms.amplitudes), 1)),
+                                 estimated=True, kind="loaded")
+    a, p = _harmonic_pairs(where, d, "amplitudes_um", "phases_deg")
+    return TransmissionError(d["mean"], a, p, kind=d["kind"])
+
+
+def _with_train_meshes(scene: Scene, subtables: tuple) -> Scene:
+    """The train scene with each mesh's stiffness and TE (the ISO estimates need the static
+    loads of the torque path: :class:`machines.train.layout.TrainLayout`, whose refusals
+    become :class:`SceneError`); its one-pair fields ``gear``, ``mesh_stiffness``,
+    ``transmission_error`` and ``load`` are those of the first mesh (gear 1, the drive
+    torque), for outputs that label one pair."""
+    from machines.train.layout import TrainLayout
+
+    try:
+        layout = TrainLayout.from_scene(scene)
+    except SceneError:
+        raise
+    except InputError as exc:
+        raise SceneError(str(exc), field=exc.field, value=exc.value, unit=exc.unit,
+                         allowed=exc.allowed) from exc
+    meshes = []
+    for i, (m, lm) in enumerate(zip(scene.meshes, layout.meshes, strict=True)):
+        ms = _train_mesh_stiffness(i, subtables[i], lm)
+        te = _train_te(i, subtables[i], ms, lm.static_load)
+        meshes.append(dataclasses.replace(m, mesh_stiffness=ms, transmission_error=te))
+    first = layout.meshes[0]
+    g1 = layout.gear(first.gears[0])
+    gear = GearData(teeth=g1.teeth, base_radius=g1.base_radius, module=g1.module,
+                    pressure_angle=first.pair.working_pressure_angle,
+                    helix_angle=first.pair.helix_angle, face_width=first.pair.face_width,
+                    addendum_coef=g1.addendum_coef, dedendum_coef=g1.dedendum_coef,
+                    profile_shift=g1.profile_shift, backlash=first.backlash)
+    return dataclasses.replace(
+        scene, meshes=tuple(meshes), gear=gear, mesh_stiffness=meshes[0].mesh_stiffness,
+        transmission_error=meshes[0].transmission_error,
+        load=LoadData(first.static_load * g1.base_radius))
 
 
 # --------------------------------------------------------------------------- loading
 
-def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
+def scene_from_dict(raw: dict, name: str = "scene", text: str = "",
+                    base: Path | None = None) -> Scene:
     """Validate a parsed scene table and return the SI :class:`Scene`.
 
     Parameters
@@ -326,6 +526,9 @@ def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
         Default scene name (the file stem) when ``[scene] name`` is absent.
     text : str
         The original file text, kept for records.
+    base : Path, optional
+        Folder the scene's relative file names (mesh tables) are read from (default: the
+        working directory).
 
     Raises
     ------
@@ -333,32 +536,81 @@ def scene_from_dict(raw: dict, name: str = "scene", text: str = "") -> Scene:
         On any invalid field; the message names the field, its value and what is allowed.
     """
     try:
-        return _scene_from_dict(raw, name, text)
+        return _scene_from_dict(raw, name, text, base)
     except (SceneError, StageUnavailable):
         raise
     except (TypeError, ValueError, ArithmeticError, KeyError) as exc:  # defensive: never leak
         raise SceneError(f"scene could not be validated: {exc}") from exc
 
 
-def _scene_from_dict(raw: dict, name: str, text: str) -> Scene:
+def _mesh_excitation(sec: dict, raw: dict, gear: GearData, external: ExternalData,
+                     base: Path | None
+                     ) -> tuple[MeshStiffness, TransmissionError, MeshSource]:
+    """k_m and TE of a pair scene whose ``[mesh_stiffness]`` or ``[transmission_error]``
+    source is ``ltca`` or ``table`` (:mod:`study.scene.excitation`); a ``fourier`` one of
+    the two is read as usual."""
+    ms_d, te_d = sec["mesh_stiffness"], sec["transmission_error"]
+    src = mesh_source(ms_d, te_d, raw.get("mesh_stiffness", {}),
+                      raw.get("transmission_error", {}), raw.get("micro_geometry"),
+                      sec["ltca"], pair=scene_pair(gear), torque=sec["load"]["torque"],
+                      harmonics=set_mesh_harmonics(sec["hbm"], gear.teeth, external.present),
+                      base=base)
+    static_load = sec["load"]["torque"] / gear.base_radius
+    if src.stiffness == "fourier":
+        ms = _mesh_stiffness(ms_d, gear, static_load)
+    else:
+        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True)
+    if src.te == "fourier":
+        te = _transmission_error(te_d, ms, static_load)
+    else:
+        kind = "loaded" if src.te == "ltca" else te_d["kind"]
+        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind)
+    return ms, te, src
+
+
+def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) -> Scene:
     sec, accel_raw = _check_sections(raw)
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
     check_required_sections(raw, info.kind)
+    shafts, gears, meshes, drive, loads, subtables = _train_tables(raw, info.kind)
+    train = info.kind in TRAIN_KINDS
     gear = _build_gear(sec["gear"])
     static_load = sec["load"]["torque"] / gear.base_radius
-    ms = _mesh_stiffness(sec["mesh_stiffness"], gear, static_load)
-    te = _transmission_error(sec["transmission_error"], ms, static_load)
-    external = _build_external(raw.get("external"), info.kind)
+    source = None
+    if train:   # the first mesh's, filled in by _with_train_meshes
+        if uses_other_source(sec["mesh_stiffness"], sec["transmission_error"]) \
+                or raw.get("micro_geometry"):
+            raise SceneError("[mesh_stiffness] / [transmission_error] source and "
+                             "[micro_geometry]: not yet for a gear train (scene.kind = "
+                             f"{info.kind!r}); give each [[meshes]] its Fourier series or "
+                             "the ISO 6336 estimate")
+        ms, te = MeshStiffness(1.0, (), ()), TransmissionError(0.0, (), ())
+        external = _build_external(raw.get("external"), info.kind)
+    elif uses_other_source(sec["mesh_stiffness"], sec["transmission_error"]):
+        external = _build_external(raw.get("external"), info.kind)
+        ms, te, source = _mesh_excitation(sec, raw, gear, external, base)
+    else:
+        if raw.get("micro_geometry"):
+            raise SceneError("[micro_geometry]: used only with source = 'ltca' (in "
+                             "[mesh_stiffness] or [transmission_error])")
+        for where in ("mesh_stiffness", "transmission_error"):
+            check_source_keys(where, sec[where], raw.get(where, {}))
+        ms = _mesh_stiffness(sec["mesh_stiffness"], gear, static_load)
+        te = _transmission_error(sec["transmission_error"], ms, static_load)
+        external = _build_external(raw.get("external"), info.kind)
     lumped = _lumped(sec["lumped"])
     rom = RomData(**sec["rom"])
-    hbm = _hbm(sec["hbm"], ms, te, gear, external)
+    hbm = _hbm(sec["hbm"], ms, te, gear, external, info.kind)
     cont = _continuation(sec["continuation"])
     outputs = _outputs(sec["outputs"], accel_raw, info.kind, sec["continuation"]["speed"])
     fe = _fe_sections(raw, info.kind)
     scene = Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
                   DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,
                   fe, copy.deepcopy(raw), text, AcousticsData(**sec["acoustics"]),
-                  {k: v.strip() for k, v in sec["calibration"].items() if v.strip()})
+                  {k: v.strip() for k, v in sec["calibration"].items() if v.strip()},
+                  source, shafts, gears, meshes, drive, loads)
+    if train:
+        scene = _with_train_meshes(scene, subtables)
     return check_plausibility(_check_machine(scene))
 
 
@@ -431,7 +683,7 @@ def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Sce
     raw, text = _resolve(p)
     if overrides:
         raw = apply_overrides(raw, overrides)
-    return scene_from_dict(raw, p.stem, text)
+    return scene_from_dict(raw, p.stem, text, p.resolve().parent)
 
 
 def resolved_table(path: str | Path, overrides: dict[str, Any] | None = None) -> dict:

@@ -120,6 +120,15 @@ DYNAMIC_RATIO_USUAL = 10.0
 REQUIRED_SECTIONS: dict[str, tuple[str, ...]] = {
     "lumped": ("gear", "mesh_stiffness", "load", "continuation"),
     "fe": ("gear", "mesh_stiffness", "load", "continuation", "materials", "bearings"),
+    "train": ("continuation",),     # [[shafts]], [[gears]], [[meshes]], [drive]: its loader
+}
+
+#: Rows judged per [[meshes]] entry of a gear train (their pair rows are not: a train has
+#: no [gear], [mesh_stiffness], [load]): row field -> (key in the mesh, getter).
+_MESH_ROWS: dict[str, tuple[str, Callable[[Any], float | None]]] = {
+    "gear.backlash": ("backlash_um", lambda m: m.backlash),
+    "mesh_stiffness.mean": ("mesh_stiffness.mean_N_per_um",
+                            lambda m: None if m.mesh_stiffness is None else m.mesh_stiffness.mean),
 }
 
 _SCENE_FIELDS: dict[str, Callable[[Scene], float | None]] = {
@@ -211,13 +220,7 @@ def _judge(scene: Scene, b: Bound) -> Finding | None:
     si = vals[0][1] if len(vals) == 1 else vals[0][1] / vals[1][1]
     if b.field.startswith("rotors.") and si == 0.0:
         return None
-    written = vals[0][2] if len(vals) == 1 else None
-    x = si * _FROM_SI[b.unit]
-    for rng, fatal in ((b.error, True), (b.usual, False)):
-        lo, hi = rng
-        if (lo is not None and x < lo) or (hi is not None and x > hi):
-            return Finding(b, key, x, fatal, written)
-    return None
+    return _judge_value(b, key, si, vals[0][2] if len(vals) == 1 else None)
 
 
 def check_required_sections(raw: dict, kind: str) -> None:
@@ -228,8 +231,33 @@ def check_required_sections(raw: dict, kind: str) -> None:
                              "no default is assumed, docs/scenes.md)", field=sec)
 
 
+def _judge_value(b: Bound, key: str, si: float, written: float | None) -> Finding | None:
+    x = si * _FROM_SI[b.unit]
+    for rng, fatal in ((b.error, True), (b.usual, False)):
+        lo, hi = rng
+        if (lo is not None and x < lo) or (hi is not None and x > hi):
+            return Finding(b, key, x, fatal, written)
+    return None
+
+
 def _findings(scene: Scene) -> list[Finding]:
-    return [f for b in BOUNDS if (f := _judge(scene, b)) is not None]
+    if not getattr(scene, "is_train", False):
+        return [f for b in BOUNDS if (f := _judge(scene, b)) is not None]
+    # a train: the rows of its own sections (FE, damping), then each mesh's
+    own = [b for b in BOUNDS if b.field.split(".")[0] not in ("gear", "mesh_stiffness", "load",
+                                                              "lumped")]
+    out = [f for b in own if (f := _judge(scene, b)) is not None]
+    rows = {b.field: b for b in BOUNDS}
+    for i, m in enumerate(scene.meshes):
+        for field, (key, get) in _MESH_ROWS.items():
+            v = get(m)
+            if v is not None:
+                b = rows[field]
+                f = _judge_value(b, f"meshes[{i}].{key}", float(v),
+                                 float(v) * _FROM_SI[b.unit])
+                if f is not None:
+                    out.append(f)
+    return out
 
 
 def check_plausibility(scene: Scene) -> Scene:
@@ -237,7 +265,9 @@ def check_plausibility(scene: Scene) -> Scene:
     torque) with a :class:`SceneError` naming the key and its unit; log the unusual ones
     as warnings. Returns ``scene``."""
     te = scene.transmission_error
-    if te.kind == "loaded" and scene.load.torque == 0.0 and \
+    if getattr(scene, "is_train", False):
+        _check_train_torque(scene)
+    elif te.kind == "loaded" and scene.load.torque == 0.0 and \
             (te.mean != 0.0 or any(a != 0.0 for a in te.amplitudes)):
         raise SceneError("load.torque_Nm = 0 (N·m) with transmission_error.kind = 'loaded': a "
                          "loaded STE is the error under the static load; give the torque it "
@@ -253,10 +283,26 @@ def check_plausibility(scene: Scene) -> Scene:
     return scene
 
 
+def _check_train_torque(scene: Scene) -> None:
+    """A train's loaded TE needs the drive torque."""
+    if scene.drive is None or scene.drive.torque != 0.0:
+        return
+    for i, m in enumerate(scene.meshes):
+        te = m.transmission_error
+        if te is not None and te.kind == "loaded" and \
+                (te.mean != 0.0 or any(a != 0.0 for a in te.amplitudes)):
+            raise SceneError(f"drive.torque_Nm = 0 (N·m) with meshes[{i}].transmission_error"
+                             ".kind = 'loaded': a loaded STE is the error under the static "
+                             "load; give the torque, or kind = 'unloaded'",
+                             field="drive.torque_Nm", value=0.0, unit="N·m", allowed="> 0")
+
+
 def plausibility_warnings(scene: Scene) -> list[str]:
     """The unusual inputs of a (valid) scene, one sentence each (report.md lists them)."""
     out = [f.text for f in _findings(scene) if not f.fatal]
     te, ms = scene.transmission_error, scene.mesh_stiffness
+    if getattr(scene, "is_train", False):
+        return out
     if te.kind == "loaded" and scene.load.torque > 0 and te.mean != 0.0 and ms.mean > 0:
         static = scene.static_load / ms.mean
         if not static / 3.0 <= te.mean <= 3.0 * static:

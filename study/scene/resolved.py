@@ -20,7 +20,15 @@ from typing import Any
 
 from core.units import FE_SUFFIXES
 from study.scene.data import Scene
-from study.scene.schema import FE_SECTIONS, SCHEMA, TOP_LEVEL, Spec
+from study.scene.schema import (
+    FE_SECTIONS,
+    PAIR_SECTIONS,
+    SCHEMA,
+    TOP_LEVEL,
+    TRAIN_KINDS,
+    TRAIN_SECTIONS,
+    Spec,
+)
 
 __all__ = ["resolved_table", "derived_quantities", "resolved_json"]
 
@@ -51,8 +59,9 @@ def _filled(given: dict, specs: dict[str, Spec]) -> dict:
 
 def _derived_defaults(scene: Scene, table: dict) -> None:
     """Fill the keys whose default the loader derives (in place)."""
-    g, c = table["gear"], table["continuation"]
-    g.setdefault("module_mm", scene.gear.module * 1e3)
+    c = table["continuation"]
+    if "gear" in table:
+        table["gear"].setdefault("module_mm", scene.gear.module * 1e3)
     c.setdefault("step_rpm", scene.continuation.step)
     c.setdefault("min_step_rpm", scene.continuation.min_step)
     c.setdefault("max_step_rpm", scene.continuation.max_step)
@@ -91,7 +100,13 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
     """
     raw = scene.raw
     out: dict[str, Any] = {}
+    train = scene.scene.kind in TRAIN_KINDS
     for sec in TOP_LEVEL:
+        if (train and sec in PAIR_SECTIONS) or (sec in TRAIN_SECTIONS and sec not in raw):
+            continue                              # refused in a train / only in a train
+        if train and sec == "drive":
+            out[sec] = _filled(raw.get(sec, {}), SCHEMA["train.drive"])
+            continue
         if sec in FE_SECTIONS:
             if sec in raw or (fe_params is not None and sec in _FE_PARAMS):
                 obj = getattr(fe_params, _FE_PARAMS[sec], None) if fe_params is not None \
@@ -102,6 +117,8 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
             continue
         if sec == "external":
             ext = raw.get("external", {})
+            if train and not ext:
+                continue
             out["external"] = {name: [_filled(item, SCHEMA[f"external.{name}"])
                                       for item in ext.get(name, [])]
                                for name in ("aero", "unbalance")}
@@ -115,7 +132,10 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
             continue
         given = dict(raw.get(sec, {}))
         accel = given.pop("accelerometer", None) if sec == "outputs" else None
-        out[sec] = _filled(given, SCHEMA[sec]) if sec != "calibration" else _plain(given)
+        # the calibration's rows, and a series an ltca/table source gives: as given (the
+        # loader refuses or ignores their other keys)
+        as_given = sec == "calibration" or given.get("source", "fourier") != "fourier"
+        out[sec] = _plain(given) if as_given else _filled(given, SCHEMA[sec])
         if accel:
             out[sec]["accelerometer"] = [_filled(a, SCHEMA["outputs.accelerometer"])
                                          for a in accel]
@@ -135,6 +155,14 @@ def derived_quantities(scene: Scene) -> dict:
                 "estimated": s.estimated}
     te = series(scene.transmission_error)
     te["kind"] = scene.transmission_error.kind
+    if getattr(scene, "is_train", False):
+        return {"meshes": [{"name": m.name, "backlash_m": m.backlash,
+                            "mesh_stiffness_N_per_m": series(m.mesh_stiffness)
+                            if m.mesh_stiffness is not None else None,
+                            "transmission_error_m": series(m.transmission_error)
+                            if m.transmission_error is not None else None}
+                           for m in scene.meshes],
+                "speed_rpm": list(scene.continuation.speed), "phases_unit": "rad"}
     return {"static_load_N": scene.static_load, "module_m": scene.gear.module,
             "pitch_radius_m": scene.gear.pitch_radius,
             "contact_ratio": scene.gear.contact_ratio,

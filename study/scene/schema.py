@@ -14,8 +14,9 @@ from typing import Any
 from core.errors import range_text
 from core.units import TO_SI
 
-__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS",
-           "attr_name", "schema_markdown"]
+__all__ = ["Spec", "SCHEMA", "FE_SECTIONS", "MESH_SOURCES", "mesh_source_schema",
+           "PLOT_NAMES", "TOP_LEVEL", "CALIBRATION_ROWS", "TRAIN_KINDS", "TRAIN_SECTIONS",
+           "PAIR_SECTIONS", "HEADINGS", "attr_name", "schema_markdown"]
 
 
 @dataclass(frozen=True)
@@ -53,9 +54,19 @@ def _c(default, choices, doc=""):
     return Spec("choice", default, "", None, None, False, False, tuple(choices), doc)
 
 
+#: Where a mesh's stiffness and transmission error come from (issue 38).
+MESH_SOURCES = ("fourier", "ltca", "table")
+
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
               "order_maps", "erp", "accelerometers")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
+#: Machine kinds described by ``[[shafts]]``, ``[[gears]]``, ``[[meshes]]``, ``[drive]`` and
+#: ``[[loads]]`` (issue 36): the lumped torsional train and the FE gearbox.
+TRAIN_KINDS = ("train", "gearbox")
+#: The sections of a train scene (``drive`` is the FE pump's free table otherwise).
+TRAIN_SECTIONS = ("shafts", "gears", "meshes", "loads")
+#: The one-pair sections a train scene replaces by its per-mesh ones.
+PAIR_SECTIONS = ("gear", "mesh_stiffness", "transmission_error", "load", "lumped")
 
 #: The findings of the paper that ``paper.md`` compares, by the key of
 #: :data:`study.studies.paper.findings.PAPER` (a test checks the two agree): the keys of a scene's
@@ -78,13 +89,58 @@ CALIBRATION_ROWS = {
     "dte_modulation": "slow DTE modulation at 2970 rpm (Fig. 15d)",
 }
 
+def mesh_source_schema() -> dict[str, dict[str, Spec]]:
+    """The sections of the ``ltca`` source of a mesh (issue 38): ``[micro_geometry]`` (its
+    ``gear1``, ``gear2`` and ``both`` subtables share one spec) and ``[ltca]``; the same
+    tables serve the one mesh of a pair scene and each ``[[meshes]]`` of a train."""
+    flank = {
+        "tip_relief_um": _f(0.0, "um", 0, 1e4, doc="tip relief C_a removed at the tip "
+                            "diameter (0: none)"),
+        "tip_relief_start_diameter_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                                           doc="d_Ca where the tip relief starts (between "
+                                           "the reference and the tip diameter)"),
+        "tip_relief_shape": _c("linear", ("linear", "parabolic"), "growth of the tip relief"),
+        "root_relief_um": _f(0.0, "um", 0, 1e4, doc="root relief C_f removed at the form "
+                             "diameter (0: none)"),
+        "root_relief_start_diameter_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                                            doc="d_Cf where the root relief starts (between "
+                                            "the form and the reference diameter)"),
+        "root_relief_shape": _c("linear", ("linear", "parabolic"), "growth of the root relief"),
+        "crowning_um": _f(0.0, "um", 0, 1000, doc="lead crowning C_β at each face end"),
+        "profile_slope_um": _f(0.0, "um", -1000, 1000, doc="profile slope deviation f_Hα"),
+        "profile_form_um": _f(0.0, "um", -1000, 1000, doc="profile form deviation f_fα "
+                              "(+: barrelled)"),
+        "lead_slope_um": _f(0.0, "um", -1000, 1000, doc="helix slope deviation f_Hβ"),
+        "pitch_deviations_um": _f([], "um", -1000, 1000, kind="floats",
+                                  doc="single pitch deviations f_pt of teeth 0 … z − 1 "
+                                  "(sum 0; shaft orders over the hunting period)"),
+    }
+    ltca = {
+        "n_positions": _f(64, "", 8, 100_000, kind="int",
+                          doc="roll positions per mesh period (> 2 × the mesh harmonics kept)"),
+        "n_slices": _f(200, "", 1, 10_000, kind="int",
+                       doc="thin slices across the face (helix, crowning, lead slope)"),
+        "bore_diameter_mm": _f([], "mm", 0, 1e5, lo_open=True, kind="floats",
+                               doc="[gear 1, gear 2] diameter where each body is held "
+                               "(default: the root radius r_f, i.e. r_int = r_f/2)"),
+        "youngs_modulus_GPa": _f(210.0, "GPa", 0, 1e4, lo_open=True, doc="E of both gears"),
+        "poisson_ratio": _f(0.3, "", 0, 0.5, hi_open=True, doc="ν of both gears"),
+        "harris_torque_Nm": _f(None, "Nm", 0, 1e7, lo_open=True, kind="pair",
+                               doc="[lowest, highest] torque of the Harris map (default: "
+                               "0.2 and 2 × load.torque_Nm)"),
+        "harris_points": _f(20, "", 2, 1000, kind="int", doc="torques of the Harris map"),
+    }
+    return {"micro_geometry.gear": flank, "ltca": ltca}
+
+
 #: The whole schema: section -> key (as written in the file) -> Spec. Array-of-tables
 #: sections (``external.aero``, ``external.unbalance``) have their own entries.
 SCHEMA: dict[str, dict[str, Spec]] = {
     "scene": {
         "name": Spec("str", None, doc="scene name (default: the file stem)"),
-        "kind": _c("lumped", ("lumped", "fe"), "`lumped`: single-DOF gear pair, no FE; "
-                   "`fe`: geometry → FE → ROM"),
+        "kind": _c("lumped", ("lumped", "fe", "train"), "`lumped`: single-DOF gear pair, "
+                   "no FE; `fe`: geometry → FE → ROM; `train`: lumped torsional gear train "
+                   "of `[[shafts]]`, `[[gears]]`, `[[meshes]]` (no FE)"),
         "description": Spec("str", "", doc="free text"),
     },
     "gear": {
@@ -102,6 +158,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "backlash_um": _f(40.0, "um", 0, 1e5, lo_open=True, doc="half backlash b"),
     },
     "mesh_stiffness": {
+        "source": _c("fourier", MESH_SOURCES, "`fourier`: the harmonics below (or the estimate); "
+                     "`ltca`: loaded tooth contact analysis of [gear] with [micro_geometry] at "
+                     "the scene's torque ([ltca] settings); `table`: the CSV `file` "
+                     "(docs/gears.md)"),
+        "file": Spec("str", "", doc="`source = \"table\"`: CSV of the stiffness against the mesh "
+                     "position, roll angle or roll distance, relative to the scene file"),
         "estimate": Spec("bool", False, doc="estimate from geometry and load (ISO 6336-1)"),
         "mean_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, doc="mean mesh stiffness k̄_m"),
         "amplitudes_N_per_um": _f([], "N_per_um", 0, 1e7, kind="floats",
@@ -111,6 +173,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "cm": _f(0.8, "", 0.1, 1.0, doc="ISO 6336 correction C_M of the estimate"),
     },
     "transmission_error": {
+        "source": _c("fourier", MESH_SOURCES, "`fourier`: the harmonics below (or the estimate); "
+                     "`ltca`: the loaded STE of the tooth contact analysis (kind = 'loaded'); "
+                     "`table`: the CSV `file`"),
+        "file": Spec("str", "", doc="`source = \"table\"`: CSV of the TE against the mesh "
+                     "position, roll angle or roll distance, relative to the scene file"),
         "kind": _c("loaded", ("loaded", "unloaded"),
                    "`loaded`: static TE q_s under F_s (paper's STE); `unloaded`: geometric e(t)"),
         "estimate": Spec("bool", False, doc="loaded STE of perfect teeth, q_s = F_s/k_m(t)"),
@@ -182,6 +249,92 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                             "400 real unknowns on; docs/hbm.md)"),
         "stability": Spec("bool", True, doc="stability of every point (variational "
                           "equation, every mode; docs/theory.md §11)"),
+        "basis": _c("auto", ("auto", "periodic", "torus"),
+                    "train scenes: `periodic`: one fundamental, the hunting fundamental of the "
+                    "train; `torus`: every mesh frequency a base of its own (multi-dimensional "
+                    "AFT, docs/hbm.md); `auto`: periodic when its AFT grid stays within "
+                    "max_aft_samples, else the torus"),
+        "max_aft_samples": _f(1 << 16, "", 64, 1 << 26, kind="int",
+                              doc="train scenes: largest AFT grid (samples per period) of a "
+                              "periodic basis; `basis = 'periodic'` above it is refused"),
+    },
+    "shafts": {
+        "name": Spec("str", None, doc="shaft name (unique)", required=True),
+        "length_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                        doc="gearbox: the shaft's length (FE); train: unused"),
+        "diameter_mm": _f(None, "mm", 0, 1e4, lo_open=True,
+                          doc="gearbox: journal/body diameter; train: the torsional default "
+                          "stiffness G J / spacing of its gears"),
+        "inertia_kgm2": _f(0.0, "kgm2", 0, 1e6, doc="extra rotor inertia on the shaft"),
+        "torsional_stiffness_Nm_per_rad": _f(
+            None, "Nm_per_rad", 0, 1e12, lo_open=True,
+            doc="train: stiffness between consecutive gears of the shaft (default: G J / "
+            "their spacing, G = 80 GPa, from diameter_mm)"),
+    },
+    "shafts.bearings": {
+        "position_mm": _f(None, "mm", -1e5, 1e5, required=True,
+                          doc="axial position from the shaft's start (gearbox; train: ignored)"),
+        "radial_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, required=True,
+                              doc="radial stiffness"),
+        "axial_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, required=True,
+                             doc="axial stiffness"),
+    },
+    "gears": {
+        "name": Spec("str", None, doc="gear (body) name, unique", required=True),
+        "shaft": Spec("str", None, doc="the shaft it sits on", required=True),
+        "position_mm": _f(None, "mm", -1e5, 1e5, required=True,
+                          doc="axial position of its mid-face on the shaft"),
+        "teeth": _f(None, "", 5, 1000, kind="int", required=True, doc="number of teeth Z"),
+        "module_mm": _f(None, "mm", 0, 1000, lo_open=True, required=True, doc="normal module"),
+        "pressure_angle_deg": _f(20.0, "deg", 5, 45, doc="normal pressure angle"),
+        "helix_angle_deg": _f(0.0, "deg", -45, 45, lo_open=True, hi_open=True,
+                              doc="signed helix angle: + right hand, − left hand (a helical "
+                              "pair has opposite signs)"),
+        "face_width_mm": _f(None, "mm", 0, 10_000, lo_open=True, required=True,
+                            doc="face width"),
+        "profile_shift": _f(0.0, "", -1.0, 1.0, doc="profile shift coefficient x"),
+        "addendum_coef": _f(1.0, "", 0.5, 1.5, doc="addendum coefficient h_a"),
+        "dedendum_coef": _f(1.25, "", 0.5, 2.0, doc="dedendum coefficient h_f (> h_a)"),
+        "inertia_kgm2": _f(None, "kgm2", 0, 1e6, lo_open=True,
+                           doc="polar inertia; default: steel disk of the pitch diameter"),
+        "mass_kg": _f(None, "kg", 0, 1e6, lo_open=True,
+                      doc="mass; default: steel disk of the pitch diameter"),
+    },
+    "meshes": {
+        "name": Spec("str", None, doc="mesh name, unique", required=True),
+        "gears": Spec("strs", None, doc="[gear 1, gear 2]: gear 1 drives gear 2 (eq. 11 order)",
+                      required=True),
+        "angle_deg": _f(0.0, "deg", -360, 360,
+                        doc="direction of the line of centres from gear 1's shaft to gear 2's "
+                        "(x axis = 0, counter-clockwise seen from +z); places the shafts"),
+        "centre_distance_mm": _f(None, "mm", 0, 1e5, lo_open=True,
+                                 doc="if given, must match the gears' working centre distance "
+                                 "(0.001 mm)"),
+        "backlash_um": _f(40.0, "um", 0, 1e5, lo_open=True, doc="half backlash b of this mesh"),
+        "phase": _c("geometry", ("geometry",),
+                    "`geometry`: mesh phase at t = 0 from the tooth positions "
+                    "(docs/theory.md §14.5); give phase_deg instead for a stated phase"),
+        "phase_deg": _f(None, "deg", -360, 360, doc="stated mesh phase at t = 0 (instead of "
+                        "phase = 'geometry')"),
+    },
+    "train.drive": {
+        "shaft": Spec("str", None, doc="shaft where the torque enters (its speed is "
+                      "continuation.speed_rpm)", required=True),
+        "torque_Nm": _f(None, "Nm", 0, 1e7, lo_open=True, required=True, doc="input torque"),
+        "motor_inertia_kgm2": _f(0.01, "kgm2", 0, 1e6, lo_open=True,
+                                 doc="motor rotor inertia"),
+        "motor_torsional_stiffness_Nm_per_rad": _f(
+            2.0e4, "Nm_per_rad", 0, 1e12, lo_open=True,
+            doc="coupling stiffness between the motor and the drive shaft"),
+    },
+    "loads": {
+        "shaft": Spec("str", None, doc="shaft where torque leaves", required=True),
+        "share": _f(1.0, "", 0, 1, lo_open=True, doc="share of the input power (the shares "
+                    "sum to 1)"),
+        "inertia_kgm2": _f(0.5, "kgm2", 0, 1e6, lo_open=True, doc="load (brake) inertia"),
+        "torsional_stiffness_Nm_per_rad": _f(
+            5.0e4, "Nm_per_rad", 0, 1e12, lo_open=True,
+            doc="coupling stiffness between the shaft and the load"),
     },
     "continuation": {
         "speed_rpm": _f([500.0, 8000.0], "rpm", 0, 1e6, lo_open=True, kind="pair",
@@ -240,13 +393,21 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         doc="measuring axis (x, y, z); [0, 0, 0]: the outer surface normal"),
     },
 }
+SCHEMA.update(mesh_source_schema())
 for _s in FE_SECTIONS:
     SCHEMA[_s] = {}  # free tables, validated against the FE packages' dataclasses
 
-#: Top-level sections of a scene file, in the order they are checked.
-TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "load", "external",
+#: Top-level sections of a scene file, in the order they are checked (the train sections
+#: and ``[drive]`` of a train are checked by the loader, :mod:`study.scene.load`).
+TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "micro_geometry",
+             "ltca", "load", "external",
              "damping", "lumped", "rom", "hbm", "continuation", "acoustics", "outputs",
-             "calibration", *FE_SECTIONS)
+             "calibration", *FE_SECTIONS, *TRAIN_SECTIONS)
+
+#: How :func:`schema_markdown` heads a section (default ``[sec]``, ``[[sec]]`` if dotted).
+HEADINGS = {"shafts": "[[shafts]]", "gears": "[[gears]]", "meshes": "[[meshes]]",
+            "loads": "[[loads]]", "shafts.bearings": "[[shafts.bearings]]",
+            "train.drive": "[drive] (scene.kind = \"train\" or \"gearbox\")"}
 
 
 def attr_name(key: str) -> str:
@@ -263,7 +424,9 @@ def schema_markdown() -> str:
     for sec, specs in SCHEMA.items():
         if not specs:
             continue
-        head = f"[[{sec}]]" if "." in sec else f"[{sec}]"
+        head = HEADINGS.get(sec, f"[[{sec}]]" if "." in sec else f"[{sec}]")
+        if sec == "micro_geometry.gear":
+            head = "[micro_geometry.gear1]`, `[micro_geometry.gear2]`, `[micro_geometry.both]"
         lines += [f"### `{head}`", "", "| key | type | default | allowed | meaning |",
                   "|---|---|---|---|---|"]
         for key, sp in specs.items():

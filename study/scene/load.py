@@ -55,6 +55,7 @@ from study.scene.excitation import (
     uses_other_source,
 )
 from study.scene.overrides import apply_overrides
+from study.scene.plausibility import check_plausibility, check_required_sections
 from study.scene.schema import (
     FE_SECTIONS,
     GEARBOX_SECTIONS,
@@ -575,6 +576,7 @@ def _mesh_excitation(sec: dict, raw: dict, gear: GearData, external: ExternalDat
 def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) -> Scene:
     sec, accel_raw = _check_sections(raw)
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
+    check_required_sections(raw, info.kind)
     shafts, gears, meshes, drive, loads, subtables = _train_tables(raw, info.kind)
     train = info.kind in TRAIN_KINDS
     gear = _build_gear(sec["gear"])
@@ -614,7 +616,7 @@ def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) 
                   source, shafts, gears, meshes, drive, loads)
     if train:
         scene = _with_train_meshes(scene, subtables)
-    return _check_machine(scene)
+    return check_plausibility(_check_machine(scene))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

@@ -22,6 +22,7 @@ from core.units import FE_SUFFIXES
 from study.scene.data import Scene
 from study.scene.schema import (
     FE_SECTIONS,
+    GEARBOX_SECTIONS,
     PAIR_SECTIONS,
     SCHEMA,
     TOP_LEVEL,
@@ -107,10 +108,15 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
         if train and sec == "drive":
             out[sec] = _filled(raw.get(sec, {}), SCHEMA["train.drive"])
             continue
+        if sec in GEARBOX_SECTIONS and (scene.scene.kind != "fe" or sec not in FE_SECTIONS):
+            if sec in raw:                        # the gearbox's free tables, as given
+                out[sec] = _plain(copy.deepcopy(raw[sec]))
+            continue
         if sec in FE_SECTIONS:
-            if sec in raw or (fe_params is not None and sec in _FE_PARAMS):
-                obj = getattr(fe_params, _FE_PARAMS[sec], None) if fe_params is not None \
-                    else None
+            pump = scene.scene.kind == "fe"       # the pump's FEParams fill its defaults
+            if sec in raw or (pump and fe_params is not None and sec in _FE_PARAMS):
+                obj = getattr(fe_params, _FE_PARAMS[sec], None) \
+                    if pump and fe_params is not None else None
                 out[sec] = _fe_defaults(sec, raw.get(sec, {}), obj)
                 if sec == "mesh":
                     out[sec].setdefault("preset", "coarse")      # machines.pump.params

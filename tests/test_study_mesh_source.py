@@ -227,3 +227,35 @@ def test_one_mesh_of_a_train_uses_the_same_function():
                                          "tip_relief_start_diameter_mm"):
         mesh_source(ms, te, raw_ms, raw_te, bad, lt, pair=pair, torque=50.0, harmonics=4,
                     names=names)
+
+
+def test_pitch_deviations_reach_the_dynamics_over_the_hunting_period():
+    """The helical scene (eccentricity on gear 1): k_m and the STE are the LTCA's over the
+    hunting period (40 mesh periods), its harmonics q = 1 … 40 H; those at q = 40 m are
+    the mesh-period series' m-th (the synchronous average keeps exactly them, to 1e-12);
+    the HBM set holds every shaft order up to the top mesh harmonic and the element
+    repeats every 40 mesh periods. ``[ltca] hunting = false`` gives back the mesh-period
+    series and set."""
+    from study.pipeline.model import scene_problem
+
+    path = ROOT / "scenes" / "gear-pair-helical.toml"
+    s = load_scene(path)
+    res = gears.solve_ltca(s.mesh_source.case)
+    c, h = res.periods, s.mesh_source.harmonics
+    assert c == 40 and s.mesh_source.cycles == c
+    ms, te = s.mesh_stiffness, s.transmission_error
+    assert ms.cycles == te.cycles == c and len(ms.amplitudes) == c * h
+    (k0, ka, kp), (q0, qa, qp) = gears.mesh_series(res, h)
+    for series, (mean, amps, phases) in ((ms, (k0, ka, kp)), (te, (q0, qa, qp))):
+        assert series.mean == pytest.approx(mean, rel=1e-12)
+        hunt = np.array(series.amplitudes) * np.exp(1j * np.array(series.phases))
+        mesh = np.array(amps) * np.exp(1j * np.array(phases))
+        assert np.max(np.abs(hunt[c - 1::c] - mesh)) < 1e-12 * np.max(np.abs(mesh))
+    # the sidebands carry the eccentricity: order 1 of the STE is of its 4 µm amplitude
+    assert 1e-6 < te.amplitudes[0] < 8e-6
+    pb, _ = scene_problem(s)
+    assert pb.elements[0].cycles == c and pb.elements[0].base_ratio == 1
+    assert list(pb.harmonics.indices) == list(range(h * 40 + 1))
+    flat = load_scene(path, {"ltca.hunting": False})
+    assert flat.mesh_stiffness.cycles == 1 and len(flat.mesh_stiffness.amplitudes) == h
+    assert scene_problem(flat)[0].elements[0].cycles == 1

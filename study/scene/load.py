@@ -564,12 +564,14 @@ def _mesh_excitation(sec: dict, raw: dict, gear: GearData, external: ExternalDat
     if src.stiffness == "fourier":
         ms = _mesh_stiffness(ms_d, gear, static_load)
     else:
-        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True)
+        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True,
+                           cycles=src.cycles if src.stiffness == "ltca" else 1)
     if src.te == "fourier":
         te = _transmission_error(te_d, ms, static_load)
     else:
         kind = "loaded" if src.te == "ltca" else te_d["kind"]
-        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind)
+        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind,
+                               cycles=src.cycles if src.te == "ltca" else 1)
     return ms, te, src
 
 

@@ -259,3 +259,45 @@ def test_pitch_deviations_reach_the_dynamics_over_the_hunting_period():
     flat = load_scene(path, {"ltca.hunting": False})
     assert flat.mesh_stiffness.cycles == 1 and len(flat.mesh_stiffness.amplitudes) == h
     assert scene_problem(flat)[0].elements[0].cycles == 1
+
+
+def test_a_train_mesh_takes_its_ltca_with_its_own_micro_geometry():
+    """[[meshes]] of the lumped two-stage train: stage 2 from the LTCA of its own pair
+    (19:67) at its own torque F_s r_b1 (from the torque path), with tip relief on the
+    wheel in [meshes.micro_geometry.gear2]; stage 1 keeps the ISO estimate. The series are those of
+    gears.mesh_series on that case (bitwise) and the problem builds one element per mesh
+    with them; bad micro-geometry is named by the mesh."""
+    from machines.train.layout import TrainLayout
+    from study.pipeline.model import scene_problem
+
+    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
+    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
+              '[meshes.transmission_error]\nestimate = true\n')
+    assert text.count(stage2) == 2
+    head, tail = text.rsplit(stage2, 1)
+    ltca = ('[meshes.mesh_stiffness]\nsource = "ltca"\n[meshes.transmission_error]\n'
+            'source = "ltca"\nkind = "loaded"\n[meshes.micro_geometry.gear2]\n'
+            'tip_relief_um = 8.0\ntip_relief_start_diameter_mm = {d}\n')
+    s = parse_scene(head + ltca.format(d=135.5) + tail)
+    m1, m2 = s.meshes
+    assert m1.source is None and m1.mesh_stiffness.estimated
+    src = m2.source
+    assert (src.stiffness, src.te) == ("ltca", "ltca") and src.cycles == 1
+    lm = TrainLayout.from_scene(s).meshes[1]
+    assert src.case.pair.teeth == (19, 67)
+    assert src.case.torque == pytest.approx(lm.static_load * lm.pair.base_radii[0], rel=1e-14)
+    (k0, ka, kp), (q0, qa, qp) = gears.mesh_series(gears.solve_ltca(src.case),
+                                                   s.hbm.mesh_harmonics)
+    assert (m2.mesh_stiffness.mean, m2.mesh_stiffness.amplitudes) == (k0, ka)
+    assert (m2.transmission_error.mean, m2.transmission_error.amplitudes) == (q0, qa)
+    assert m2.transmission_error.kind == "loaded"
+    pb, _ = scene_problem(s)
+    assert pb.elements[1].mean_stiffness == k0 and pb.elements[0].mean_stiffness == \
+        m1.mesh_stiffness.mean
+    assert src.case.flanks[1].tip_relief.amount == pytest.approx(8e-6)
+    with pytest.raises(SceneError, match=r"meshes\[1\].micro_geometry.gear2."
+                                         "tip_relief_start_diameter_mm"):
+        parse_scene(head + ltca.format(d=300.0) + tail)
+    with pytest.raises(SceneError, match=r"meshes\[1\].micro_geometry"):
+        parse_scene(head + stage2 + "[meshes.micro_geometry.both]\ntip_relief_um = 8.0\n"
+                    + tail)

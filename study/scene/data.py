@@ -361,7 +361,7 @@ class MeshData:
     (rad), centre distance (m, None if not given), half backlash (m), phase at t = 0
     (``phase_mode`` ``"geometry"``: from the layout; ``"given"``: ``phase`` in rad), and
     its mesh stiffness and transmission error (per mesh harmonic; ``estimated`` when the
-    ISO 6336 estimate filled them in)."""
+    ISO 6336 estimate, the LTCA or a table filled them in; ``source`` then says which)."""
 
     name: str
     gears: tuple[str, str]
@@ -372,6 +372,8 @@ class MeshData:
     phase: float
     mesh_stiffness: MeshStiffness | None = None
     transmission_error: TransmissionError | None = None
+    #: ``ltca``/``table`` sources of this mesh (None: both ``fourier``)
+    source: MeshSource | None = None
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ from .tooth import STEEL, Material, pair_compliance
 logger = logging.getLogger(__name__)
 
 __all__ = ["LtcaCase", "LtcaResult", "solve_ltca", "HarrisMap", "harris_map",
-           "ContactPattern", "contact_pattern", "mesh_series", "order_series",
+           "ContactPattern", "contact_pattern", "mesh_series", "hunting_series", "order_series",
            "scene_coefficients"]
 
 #: Chebyshev degree of the pair-compliance interpolant over the path (error < 1e-12).
@@ -415,6 +415,28 @@ def mesh_series(result: LtcaResult, n_harmonics: int) -> tuple[Series, Series]:
         mean, amps, phases = fourier_harmonics(result.mesh_cycle(values), n_harmonics)
         out.append((mean, tuple(float(a) for a in amps), tuple(float(p) for p in phases)))
     return out[0], out[1]
+
+
+def hunting_series(result: LtcaResult, n_harmonics: int) -> tuple[Series, Series, int]:
+    """(k_m, q_s, c) as Fourier series over the ``c = periods`` mesh periods solved (the
+    hunting period with pitch deviations), up to mesh harmonic ``n_harmonics``: the
+    harmonics q = 1 … n c of the base frequency (mesh frequency / c), i.e. the mesh
+    harmonics and their shaft-order sidebands (T.31 over the whole signal)::
+
+        x(t) = x̄ + Σ_q a_q cos(2π q t / c + φ_q),   t in mesh periods
+
+    With ``c = 1`` (no pitch deviation) the mesh-period series of :func:`mesh_series`.
+    """
+    _check_int("n_harmonics", n_harmonics, 1, 100000)
+    c = result.periods
+    if c == 1:
+        ms, ste = mesh_series(result, n_harmonics)
+        return ms, ste, 1
+    out = []
+    for values in (result.stiffness, result.ste):
+        mean, amps, phases = fourier_harmonics(values, n_harmonics * c)
+        out.append((mean, tuple(float(a) for a in amps), tuple(float(p) for p in phases)))
+    return out[0], out[1], c
 
 
 def order_series(result: LtcaResult, gear: int, n_orders: int, quantity: str = "ste"

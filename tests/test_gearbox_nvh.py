@@ -129,18 +129,21 @@ def test_erp_of_the_coupled_response_against_the_housing_rows(run) -> None:
     assert rows[1].split(",")[5] != ""                           # erp_dB_re_1pW filled
     report = (res.out / "report.md").read_text()
     assert "## Noise (equivalent radiated power of the housing)" in report
-    for png in ("erp", "order_map_erp", f"time_series_{pt.rpm:.0f}rpm", "rom_error"):
+    for png in ("erp", "order_map_erp", f"time_series_{RPM:.0f}rpm", "rom_error"):
         assert (res.out / f"{png}.png").stat().st_size > 10_000
 
 
 def test_housing_fields_written_and_readable(run) -> None:
     """housing_orders_<rpm>rpm: the stage-1 (order 23) and stage-2 (437/61) amplitudes are
-    the housing rows times q̃ of the point nearest the requested speed; the time series'
-    first frame is Σ_{k>0} Re(u_rows q̃_k); the surface file holds the ERP density."""
+    the housing rows times q̃ of the solution at the requested speed (solved from the
+    nearest point, :func:`study.outputs.points.point_at_speed`); the time series' first
+    frame is Σ_{k>0} Re(u_rows q̃_k); the surface file holds the ERP density."""
+    from study.outputs.points import point_at_speed
+
     res, _, _ = run
-    _, pt = nearest_point(res, RPM)
+    _, pt, _ = point_at_speed(res, RPM, "test")
     tag = f"{pt.rpm:.0f}rpm"
-    assert abs(pt.rpm - RPM) < 20.0
+    assert tag == "2000rpm"
     qk = res.problem.recover(pt)
     hs = res.problem.harmonics
     j23, j2 = list(hs.indices).index(61), list(hs.indices).index(19)   # 23 and 437/61

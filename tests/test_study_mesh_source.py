@@ -227,3 +227,77 @@ def test_one_mesh_of_a_train_uses_the_same_function():
                                          "tip_relief_start_diameter_mm"):
         mesh_source(ms, te, raw_ms, raw_te, bad, lt, pair=pair, torque=50.0, harmonics=4,
                     names=names)
+
+
+def test_pitch_deviations_reach_the_dynamics_over_the_hunting_period():
+    """The helical scene (eccentricity on gear 1): k_m and the STE are the LTCA's over the
+    hunting period (40 mesh periods), its harmonics q = 1 … 40 H; those at q = 40 m are
+    the mesh-period series' m-th (the synchronous average keeps exactly them, to 1e-12);
+    the HBM set holds every shaft order up to the top mesh harmonic and the element
+    repeats every 40 mesh periods. ``[ltca] hunting = false`` gives back the mesh-period
+    series and set."""
+    from study.pipeline.model import scene_problem
+
+    path = ROOT / "scenes" / "gear-pair-helical.toml"
+    s = load_scene(path)
+    res = gears.solve_ltca(s.mesh_source.case)
+    c, h = res.periods, s.mesh_source.harmonics
+    assert c == 40 and s.mesh_source.cycles == c
+    ms, te = s.mesh_stiffness, s.transmission_error
+    assert ms.cycles == te.cycles == c and len(ms.amplitudes) == c * h
+    (k0, ka, kp), (q0, qa, qp) = gears.mesh_series(res, h)
+    for series, (mean, amps, phases) in ((ms, (k0, ka, kp)), (te, (q0, qa, qp))):
+        assert series.mean == pytest.approx(mean, rel=1e-12)
+        hunt = np.array(series.amplitudes) * np.exp(1j * np.array(series.phases))
+        mesh = np.array(amps) * np.exp(1j * np.array(phases))
+        assert np.max(np.abs(hunt[c - 1::c] - mesh)) < 1e-12 * np.max(np.abs(mesh))
+    # the sidebands carry the eccentricity: order 1 of the STE is of its 4 µm amplitude
+    assert 1e-6 < te.amplitudes[0] < 8e-6
+    pb, _ = scene_problem(s)
+    assert pb.elements[0].cycles == c and pb.elements[0].base_ratio == 1
+    assert list(pb.harmonics.indices) == list(range(h * 40 + 1))
+    flat = load_scene(path, {"ltca.hunting": False})
+    assert flat.mesh_stiffness.cycles == 1 and len(flat.mesh_stiffness.amplitudes) == h
+    assert scene_problem(flat)[0].elements[0].cycles == 1
+
+
+def test_a_train_mesh_takes_its_ltca_with_its_own_micro_geometry():
+    """[[meshes]] of the lumped two-stage train: stage 2 from the LTCA of its own pair
+    (19:67) at its own torque F_s r_b1 (from the torque path), with tip relief on the
+    wheel in [meshes.micro_geometry.gear2]; stage 1 keeps the ISO estimate. The series are those of
+    gears.mesh_series on that case (bitwise) and the problem builds one element per mesh
+    with them; bad micro-geometry is named by the mesh."""
+    from machines.train.layout import TrainLayout
+    from study.pipeline.model import scene_problem
+
+    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
+    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
+              '[meshes.transmission_error]\nestimate = true\n')
+    assert text.count(stage2) == 2
+    head, tail = text.rsplit(stage2, 1)
+    ltca = ('[meshes.mesh_stiffness]\nsource = "ltca"\n[meshes.transmission_error]\n'
+            'source = "ltca"\nkind = "loaded"\n[meshes.micro_geometry.gear2]\n'
+            'tip_relief_um = 8.0\ntip_relief_start_diameter_mm = {d}\n')
+    s = parse_scene(head + ltca.format(d=135.5) + tail)
+    m1, m2 = s.meshes
+    assert m1.source is None and m1.mesh_stiffness.estimated
+    src = m2.source
+    assert (src.stiffness, src.te) == ("ltca", "ltca") and src.cycles == 1
+    lm = TrainLayout.from_scene(s).meshes[1]
+    assert src.case.pair.teeth == (19, 67)
+    assert src.case.torque == pytest.approx(lm.static_load * lm.pair.base_radii[0], rel=1e-14)
+    (k0, ka, kp), (q0, qa, qp) = gears.mesh_series(gears.solve_ltca(src.case),
+                                                   s.hbm.mesh_harmonics)
+    assert (m2.mesh_stiffness.mean, m2.mesh_stiffness.amplitudes) == (k0, ka)
+    assert (m2.transmission_error.mean, m2.transmission_error.amplitudes) == (q0, qa)
+    assert m2.transmission_error.kind == "loaded"
+    pb, _ = scene_problem(s)
+    assert pb.elements[1].mean_stiffness == k0 and pb.elements[0].mean_stiffness == \
+        m1.mesh_stiffness.mean
+    assert src.case.flanks[1].tip_relief.amount == pytest.approx(8e-6)
+    with pytest.raises(SceneError, match=r"meshes\[1\].micro_geometry.gear2."
+                                         "tip_relief_start_diameter_mm"):
+        parse_scene(head + ltca.format(d=300.0) + tail)
+    with pytest.raises(SceneError, match=r"meshes\[1\].micro_geometry"):
+        parse_scene(head + stage2 + "[meshes.micro_geometry.both]\ntip_relief_um = 8.0\n"
+                    + tail)

@@ -2,6 +2,8 @@
 selection (external orders keep low-mesh-energy modes), and the PNGs themselves."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -59,3 +61,75 @@ def test_order_map_labels_do_not_pile_up():
     assert np.min(np.diff(ticks)) >= 23
     sparse = np.array([0, 1, 2, 4, 74, 76, 78, 152, 228])
     assert _order_ticks(sparse, 76) == list(range(sparse.size))
+
+
+def _capture(monkeypatch, module):
+    """Keep the figures ``module`` saves open, in a list (save_figure closes them)."""
+    figs = []
+    monkeypatch.setattr(module, "save_figure", lambda fig, path: figs.append(fig) or path)
+    return figs
+
+
+def _span(patch, axis: int) -> tuple[float, float]:
+    """Data extent of an axvspan/axhspan along x (0) or y (1)."""
+    x, y = patch.get_xy()
+    return (x, x + patch.get_width()) if axis == 0 else (y, y + patch.get_height())
+
+
+def _shaded(ax) -> list[str]:
+    return [t.get_text() for t in (ax.get_legend().get_texts() if ax.get_legend() else [])
+            if "ROM" in t.get_text()]
+
+
+def test_order_map_stops_at_20_khz_and_shades_beyond_the_rom(tmp_path, monkeypatch):
+    """The pump's case: orders 1…924 to 7000 rpm (108 kHz) and a ROM valid to 3997 Hz."""
+    import study.plots.modes as modes
+    from study.plots.common import F_STOP
+
+    figs = _capture(monkeypatch, modes)
+    rpm = np.linspace(500.0, 7000.0, 40)
+    orders = np.arange(0, 925)
+    lv = np.random.default_rng(1).uniform(0, 60, (rpm.size, orders.size))
+    order_map_plot(rpm, orders, lv, 76, tmp_path / "m.png", "dB", rom_valid_hz=3997.0)
+    ax, bx = figs[0].axes[:2]
+    assert bx.get_ylim()[1] == F_STOP == 20_000.0
+    assert _shaded(bx) == ["ROM not validated above 3997 Hz"] == _shaded(ax)
+    # the band from 3997 Hz up on the frequency panel
+    band = [p for p in bx.patches if p.get_label().startswith("ROM")][0]
+    assert _span(band, 1) == pytest.approx((3997.0, F_STOP))
+    # every drawn segment of the left panel lies below 20 kHz: the highest order drawn at
+    # 7000 rpm is 171 (171 × 7000/60 = 19 950 Hz)
+    seg = ax.collections[0]
+    vals = np.asarray(seg.get_array())
+    pts = np.asarray(seg.get_segments())
+    drawn = pts[np.isfinite(vals)]
+    f = orders[1:][np.round(drawn[..., 1]).astype(int)] * drawn[..., 0] / 60.0
+    assert f.max() <= F_STOP
+
+
+def test_campbell_spectrum_and_erp_shade_beyond_the_rom(tmp_path, monkeypatch):
+    import study.plots.modes as modes
+    import study.plots.speed as speed
+
+    figs = _capture(monkeypatch, modes)
+    campbell_plot(np.array([300.0, 2500.0, 6000.0]), [0.004, 0.05, 0.94], (500.0, 7000.0), 76,
+                  12, tmp_path / "c.png", external_orders=(1, 2), rom_valid_hz=3997.0)
+    ax = figs[0].axes[0]
+    assert ax.get_ylim()[1] == 20_000.0                 # 12 Z at 7350 rpm would be 112 kHz
+    assert _shaded(ax) == ["ROM not validated above 3997 Hz"]
+    # ERP: the mesh order 76 passes 3997 Hz at 3155.5 rpm: shaded from there
+    figs = _capture(monkeypatch, speed)
+    br = SimpleNamespace(rpm=np.linspace(500.0, 7000.0, 30), rpm_start=500.0, rpm_end=7000.0)
+    monkeypatch.setattr(speed, "shade_impacts", lambda *a, **k: None)
+    orders = np.array([0, 1, 2, 76, 152])
+    db = np.full((30, 5), 40.0)
+    speed.erp_plot(br, np.full(30, 47.0), db, orders, 76, tmp_path / "e.png",
+                   rom_valid_hz=3997.0)
+    ax = figs[0].axes[0]
+    band = [p for p in ax.patches if "ROM" in p.get_label()][0]
+    assert _span(band, 0) == pytest.approx((60 * 3997.0 / 76, 7000.0))
+    valid_total = [ln for ln in ax.lines if ln.get_label().startswith("total of orders")][0]
+    y = valid_total.get_ydata()
+    # at 500 rpm the orders 1, 2, 76, 152 are inside (4 × 40 dB), at 7000 rpm only 1 and 2
+    assert y[0] == pytest.approx(40 + 10 * np.log10(4)) and y[-1] == pytest.approx(
+        40 + 10 * np.log10(2))

@@ -25,6 +25,8 @@ SDOF = ROOT / "scenes" / "gear-pair-sdof.toml"
 
 MINIMAL = {
     "scene": {"name": "t", "kind": "lumped"},
+    "gear": {"teeth": 76, "base_radius_mm": 46.984},
+    "load": {"torque_Nm": 2.5},
     "mesh_stiffness": {"mean_N_per_um": 200.0, "amplitudes_N_per_um": [40.0, 20.0, 10.0],
                        "phases_deg": [0.0, 90.0, 0.0]},
     "transmission_error": {"amplitudes_um": [1.0, 0.5, 0.2]},
@@ -226,7 +228,7 @@ def test_invalid_toml_and_missing_file(tmp_path):
 def test_overrides_and_set_values():
     raw = apply_overrides(MINIMAL, {"load.torque_Nm": 5.0})
     assert scene_from_dict(raw).load.torque == 5.0
-    assert MINIMAL.get("load") is None  # original untouched
+    assert MINIMAL["load"] == {"torque_Nm": 2.5}  # original untouched
     assert parse_set_values("1,2.5,3") == [1, 2.5, 3]
     assert parse_set_values("[500,4000],[600,5000]") == [[500, 4000], [600, 5000]]
     assert parse_set_values("loaded,unloaded") == ["loaded", "unloaded"]

@@ -10,6 +10,7 @@ from core.files import atomic_write
 from hbm.stability import KINDS
 from study.outputs.acoustics import velocity_level_db
 from study.outputs.attractors import attractor_line
+from study.outputs.checks import banner_lines, check_lines
 from study.outputs.curves import (
     UnstableSegment,
     contact_intervals,
@@ -277,7 +278,8 @@ def _train_model_lines(result) -> list[str]:
 def write_report(result) -> Path:
     """Write ``<out>/report.md`` atomically and return its path."""
     s, sc = summary(result), result.scene
-    lines = [f"# {sc.name}", "", sc.scene.description or "", "",
+    checks = list(getattr(result, "checks", []) or [])
+    lines = [f"# {sc.name}", "", *banner_lines(checks), sc.scene.description or "", "",
              "## Model", "",
              f"- kind: {sc.scene.kind}; {result.problem.system.n_dof} DOF, condensation "
              f"`{result.problem.condensation}`", *rom_line(result),
@@ -327,6 +329,7 @@ def write_report(result) -> Path:
             lines += [f"- accelerometer `{n}`: velocity level up to {lv[a].max():.1f} dB re "
                       f"1 nm/s (at {br.rpm[int(np.argmax(lv[a]))]:.1f} rpm)"
                       for a, n in enumerate(nvh.accel_names)]
+    lines += ["", *check_lines(checks)] if checks else []
     lines += ["", "## Stages", ""]
     lines += [f"- {k}: {v}" for k, v in result.stages.items()]
     lines += ["", "## Figures", ""]

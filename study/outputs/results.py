@@ -1,8 +1,9 @@
 """``results.h5``: atomic writing, continuation checkpoints and resume.
 
-Layout (documented in ``docs/results-format.md``): ``/scene`` (file text and
-SI values), ``/versions``, ``/gear_mesh`` (stiffness and transmission error
-coefficients, backlash, static load, teeth), ``/system`` (lumped M, C, K, G) or
+Layout (documented in ``docs/results-format.md``): ``/scene`` (file text and the
+scene as run), ``/versions``, ``/provenance`` (version, git revision, stage times),
+``/gear_mesh`` (stiffness and transmission error coefficients, backlash, static load,
+teeth), ``/system`` (lumped M, C, K, G) or
 ``/rom`` (written by :func:`reduction.save_rom` into the same file),
 ``/excitation`` (orders/harmonics and forces), ``/continuation`` (every point),
 ``/grazing`` and ``/folds``.
@@ -89,19 +90,25 @@ def _complex_pairs(d: dict[int, complex]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_static(f: h5py.File, scene, problem, extra: Callable[[h5py.File], None] | None = None,
-                 stage_keys: dict[str, str] | None = None) -> None:
-    """Write everything but the continuation: scene, versions, gear mesh, system, excitation."""
+                 stage_keys: dict[str, str] | None = None, stages: dict | None = None) -> None:
+    """Write everything but the continuation: scene (file text and the scene as run),
+    versions, provenance (``stages``: stage -> how it was served, with its wall time),
+    gear mesh, system, excitation."""
+    from study.outputs.provenance import write_provenance, write_scene_as_run
+
     f.attrs["format_version"] = FORMAT_VERSION
     f.attrs["producer"] = "geardyn"
     g = f.create_group("scene")
     g.attrs["name"] = scene.name
     g.attrs["kind"] = scene.scene.kind
     g.create_dataset("text", data=scene.text)
+    write_scene_as_run(g, scene)
     for k, v in (stage_keys or {}).items():
         g.attrs[f"stage_key_{k}"] = v
     v = f.create_group("versions")
     for k, s in versions().items():
         v.attrs[k] = s
+    write_provenance(f, stages)
 
     _write_elements(f, scene, problem)
 
@@ -211,10 +218,10 @@ def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
 
 def write_results(path: str | Path, scene, problem, branch, *, settings: dict | None = None,
                   extra: Callable[[h5py.File], None] | None = None,
-                  stage_keys: dict[str, str] | None = None) -> None:
+                  stage_keys: dict[str, str] | None = None, stages: dict | None = None) -> None:
     """Write a complete ``results.h5`` atomically."""
     with atomic_write(path) as tmp, h5py.File(tmp, "w") as f:
-        write_static(f, scene, problem, extra, stage_keys)
+        write_static(f, scene, problem, extra, stage_keys, stages)
         write_branch(f, branch, settings)
 
 

@@ -6,14 +6,15 @@ import logging
 from pathlib import Path
 
 from study.outputs import fields
+from study.outputs.checks import run_checks, write_checks_group
 from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
-from study.outputs.points import nearest_point
+from study.outputs.points import point_at_speed
 from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["write_partial", "export", "draw_figures", "write_housing", "write_rom_group",
-           "housing_fields", "write_report_files", "write_attractor_files"]
+           "housing_fields", "write_report_files", "write_attractor_files", "record_checks"]
 
 
 def _settings(result) -> dict:
@@ -50,7 +51,8 @@ def write_partial(result, branch) -> None:
     from study.outputs.results import write_results
 
     write_results(result.results, result.scene, result.problem, branch,
-                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys)
+                  settings=_settings(result), extra=_extra(result), stage_keys=result.keys,
+                  stages=result.status)
 
 
 def export(result, figures: bool = True, housing: bool = True) -> None:
@@ -68,7 +70,22 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     if housing:
         write_housing(result, figures)
     if figures:
-        comm.root_call(_figures, result)
+        comm.root_call(_figures, result)            # plots, checks, report.md
+    else:
+        result.checks = comm.root_call(run_checks, result)
+    comm.root_call(record_checks, result)
+
+
+def record_checks(result) -> None:
+    """Write ``/checks`` of the run (:mod:`study.outputs.checks`) into the finished
+    results.h5, in place (computed after the file, by the plots and fields that ask for
+    solutions at given speeds)."""
+    import h5py
+
+    with h5py.File(result.results, "r+") as f:
+        if "checks" in f:
+            del f["checks"]
+        write_checks_group(f, result.checks)
 
 
 def write_housing(result, figures: bool = True) -> None:
@@ -120,7 +137,7 @@ def _write_housing_fields(result) -> list[Path]:
     hd = result.rom.housing()
     paths = []
     for rpm in sc.outputs.housing_field:
-        _, pt = nearest_point(result, rpm)
+        _, pt, _ = point_at_speed(result, rpm, "housing field")
         qk = result.problem.recover(pt)                      # (n_r, nS) complex
         paths += fields.write_housing_fields(Path(result.out), pt.rpm, hd, result.rom.radiation,
                                              qk, result.problem.harmonics, pt.omega, sc)
@@ -152,6 +169,7 @@ def draw_figures(result) -> None:
 
 def _figures(result) -> None:
     draw_figures(result)
+    result.checks = run_checks(result)
     if result.scene.outputs.report:
         write_report_files(result)
     else:                       # time responses asked for are kept without report.md too
@@ -176,6 +194,8 @@ def write_report_files(result) -> Path:
     from study.outputs import report
 
     write_attractor_files(result)
+    if not result.checks:
+        result.checks = run_checks(result)
     p = report.write_report(result)
     logger.info("wrote %s", p)
     return p

@@ -47,12 +47,34 @@ def gear_meshes(scene: Scene, machine: Machine, G) -> list:
                          phase=layout.meshes[e].phase)
                 for e, (m, sm) in enumerate(zip(specs, scene.meshes, strict=True))]
     te = scene.transmission_error
+    cycles = mesh_cycles(scene)
+    extra = {} if cycles == 1 else {"cycles": cycles}
     return [GearMesh(direction=np.ascontiguousarray(G[:, e]), n_teeth=m.teeth,
-                     stiffness=scene.mesh_stiffness.coefficients(),
-                     te=te.coefficients(), backlash=scene.gear.backlash,
+                     stiffness=series_coefficients(scene.mesh_stiffness, cycles),
+                     te=series_coefficients(te, cycles), backlash=scene.gear.backlash,
                      static_load=loads[e], te_kind=te.kind, speed_ratio=m.speed_ratio,
-                     name=m.name)
+                     name=m.name, **extra)
             for e, m in enumerate(specs)]
+
+
+def mesh_cycles(scene: Scene) -> int:
+    """Mesh periods over which a pair scene's k_m and TE repeat: 1, or the hunting period
+    of an ``ltca`` source with pitch deviations (``[ltca] hunting``)."""
+    c = (scene.mesh_stiffness.cycles, scene.transmission_error.cycles)
+    return max(c)
+
+
+def series_coefficients(series, cycles: int) -> dict[int, complex]:
+    """The series' coefficients as harmonics of the mesh frequency / ``cycles``: a series
+    over ``cycles`` mesh periods as it is, a mesh-period series (``series.cycles = 1``)
+    with its harmonic m moved to ``m cycles``."""
+    coef = series.coefficients()
+    if series.cycles == cycles:
+        return coef
+    if series.cycles != 1:
+        raise ValueError(f"series over {series.cycles} mesh periods beside one over {cycles}: "
+                         "cannot combine")
+    return {m * cycles: c for m, c in coef.items()}
 
 
 @dataclass(frozen=True)
@@ -151,6 +173,9 @@ def harmonic_set(scene: Scene, machine: Machine | None = None):
     h = scene.hbm
     n_time = h.aft_samples or None
     ext = scene.external.orders
+    cycles = mesh_cycles(scene)
+    if cycles > 1 and h.harmonics is None:
+        return hunting_set(scene, cycles, n_time)
     if h.harmonics is not None:
         if ext:
             return HarmonicSet(h.harmonics, ratio=1, fundamental="shaft", n_time=n_time)
@@ -158,6 +183,27 @@ def harmonic_set(scene: Scene, machine: Machine | None = None):
                            n_time=n_time)
     return HarmonicSet.build(scene.gear.teeth, h.mesh_harmonics, ext, h.sideband_order,
                              n_time=n_time, kind=h.harmonic_set)
+
+
+def hunting_set(scene: Scene, cycles: int, n_time: int | None):
+    """The set of a pair whose k_m and TE repeat every ``cycles`` mesh periods (pitch
+    deviations): every harmonic of the hunting frequency ZΩ/cycles up to the top mesh
+    harmonic ``hbm.mesh_harmonics`` (the sidebands of each mesh harmonic are dense), and
+    the external orders with their sidebands as the contiguous set has them."""
+    from hbm import HarmonicSet
+
+    h, z = scene.hbm, scene.gear.teeth
+    ext = scene.external.orders
+    top = h.mesh_harmonics * z + (h.sideband_order * max(ext) if ext else 0)
+    ratio = Fraction(z, cycles)
+    per_order = 1 / ratio                            # harmonic indices per shaft order
+    if per_order.denominator != 1:
+        raise ValueError(f"hunting period of {cycles} mesh periods: its frequency Z/{cycles} "
+                         f"= {ratio} shaft orders is not a submultiple of the shaft speed")
+    idx = list(range(0, top * int(per_order) + 1))
+    logger.info("harmonic set over the hunting period (%d mesh periods): %d harmonics of "
+                "%s Omega", cycles, len(idx), ratio)
+    return HarmonicSet(idx, ratio=ratio, fundamental="hunting", n_time=n_time)
 
 
 def build_problem(scene: Scene, machine: Machine, linear: LinearModel):

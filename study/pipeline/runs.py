@@ -81,6 +81,14 @@ class RunResult:
         :class:`study.outputs.attractors.Attractor` per unstable segment (``[outputs]
         attractor_transient_turns`` > 0; computed by the export, with or without
         report.md).
+    status : dict
+        Stage name -> :class:`StageStatus` (how it was served, its wall time); the
+        pipeline's own dict, so it fills as the stages run (``/provenance`` of results.h5).
+    checks : list
+        :class:`study.outputs.checks.Check` of the result (computed by the export).
+    speed_uses : list
+        :class:`study.outputs.points.SpeedUse` of every point output asked at a speed
+        (time series, spectra, housing fields): the speed it was computed at.
     mesh_excitation
         :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
         source (None: both ``fourier``).
@@ -98,4 +106,7 @@ class RunResult:
     rom: Any = None
     nvh: Any = None
     attractors: list = field(default_factory=list)
+    status: dict = field(default_factory=dict)
+    checks: list = field(default_factory=list)
+    speed_uses: list = field(default_factory=list)
     mesh_excitation: Any = None

@@ -372,6 +372,7 @@ class Pipeline:
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
         """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
+        from study.outputs.provenance import record_stage
         from study.pipeline.export import export, write_partial
 
         t0 = time.perf_counter()
@@ -388,17 +389,19 @@ class Pipeline:
         elif until == "mesh":
             self.publish_mesh(self.run_mesh())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
-                             self.keys, seconds=time.perf_counter() - t0)
+                             self.keys, seconds=time.perf_counter() - t0,
+                             status=self.status)
         elif until == "rom":
             self.publish_rom(self.run_rom())
             return RunResult(self.out, self.out / "results.h5", None, None, s, self.stages,
-                             self.keys, seconds=time.perf_counter() - t0)
+                             self.keys, seconds=time.perf_counter() - t0,
+                             status=self.status)
         problem, rom = self.problem()
         from study.outputs.fields import check_outputs
         check_outputs(s, problem.harmonics, rom)
         self.keys.setdefault("hbm", self.hbm_key())
         result = RunResult(self.out, self.out / "results.h5", None, problem, s, self.stages,
-                           self.keys, rom=rom)
+                           self.keys, rom=rom, status=self.status)
         if s.mesh_source is not None:
             result.mesh_excitation = self.comm.root_call(self.run_mesh_excitation)
 
@@ -436,6 +439,7 @@ class Pipeline:
         self._log_stage("export", StageStatus("ran"), log=False)
         export(result, figures=(until == "export"))
         self._log_stage("export", StageStatus("ran", seconds=time.perf_counter() - t))
+        self.comm.root_call(record_stage, result.results, "export", self.status["export"])
         result.seconds = time.perf_counter() - t0
         ran = [k if v == "ran" else f"{k} (resumed)" for k, v in self.stages.items()
                if v in ("ran", "resumed")]

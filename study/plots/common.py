@@ -21,9 +21,37 @@ from study.outputs.curves import contact_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
-__all__ = ["CLASS_COLOURS", "save_figure", "shade_impacts", "grazing_values"]
+__all__ = ["CLASS_COLOURS", "F_STOP", "save_figure", "shade_impacts", "grazing_values",
+           "ROM_SHADE", "rom_label", "shade_beyond_rom"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
+
+#: Upper frequency of the order maps, spectra and Campbell diagram (Hz): the upper limit
+#: of hearing, which the levels and the ERP are for (docs/results-format.md, "Plots");
+#: they stop lower where the harmonic set (or the mesh orders drawn) stops lower.
+F_STOP = 20_000.0
+#: How a frequency range outside the ROM's validity is shaded.
+ROM_SHADE = {"facecolor": "0.6", "alpha": 0.3, "hatch": "///", "edgecolor": "0.35", "lw": 0}
+
+
+def rom_label(valid_hz: float) -> str:
+    """Legend text of the shading above the ROM's validity."""
+    return "ROM not checked" if valid_hz <= 0 else f"ROM not validated above {valid_hz:.0f} Hz"
+
+
+def shade_beyond_rom(ax, valid_hz: float | None, top_hz: float, vertical: bool = False,
+                     hz_per_unit: float = 1.0, zorder: float = 0.5) -> None:
+    """Shade the band from ``valid_hz`` to ``top_hz`` of a frequency axis (y, or x with
+    ``vertical``; the axis is in units of ``hz_per_unit`` Hz, e.g. shaft orders):
+    where the ROM was not checked against the full FE model
+    (:func:`study.outputs.checks.rom_limit_hz`); nothing when ``valid_hz`` is None or
+    above ``top_hz``. ``zorder`` 0.5 puts it under the data; above 2, over it (a plot
+    whose background is data)."""
+    if valid_hz is None or valid_hz >= top_hz:
+        return
+    span = ax.axvspan if vertical else ax.axhspan
+    span(valid_hz / hz_per_unit, top_hz / hz_per_unit, label=rom_label(valid_hz),
+         zorder=zorder, **ROM_SHADE)
 
 
 def save_figure(fig, path: Path) -> Path:

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from study.outputs.checks import rom_limit_hz
 from study.outputs.nvh import order_label
-from study.plots.common import plt, save_figure
+from study.plots.common import F_STOP, ROM_SHADE, plt, rom_label, save_figure, shade_beyond_rom
 
 __all__ = ["campbell_modes", "campbell_plot", "order_map_plot", "rom_error_plot", "rom_plots"]
 
@@ -32,7 +33,8 @@ def campbell_modes(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_rang
 
 def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range, n_teeth: int,
                   mesh_harmonics: int, path: Path, threshold: float = 0.03,
-                  external_orders=()) -> Path:
+                  external_orders=(), rom_valid_hz: float | None = None,
+                  f_stop: float = F_STOP) -> Path:
     """Campbell diagram (Fig. 8).
 
     Every mode is drawn as a horizontal line coloured by its mesh energy on a log
@@ -41,6 +43,8 @@ def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range
     and labelled. Mesh orders kZ are solid black lines, the external shaft orders
     dashed; their crossings with the highlighted modes inside the speed range are
     circled. The right panel zooms on the low frequencies the external orders reach.
+    The frequency axis stops at ``f_stop`` (:data:`F_STOP`); modes above ``rom_valid_hz``
+    (the ROM's checked validity) lie in a shaded band.
     """
     from matplotlib.colors import LogNorm
 
@@ -53,7 +57,7 @@ def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range
     cmap = plt.get_cmap("viridis")
     rpm = np.linspace(0, hi * 1.05, 2)
     mesh_orders = [k * n_teeth for k in range(1, mesh_harmonics + 1)]
-    fmax_mesh = mesh_orders[-1] * rpm[-1] / 60.0
+    fmax_mesh = min(mesh_orders[-1] * rpm[-1] / 60.0, f_stop)
     fmax_ext = 1.3 * max(ext) * rpm[-1] / 60.0 if ext else None
     panels = [(fmax_mesh, mesh_orders + ext)] + ([(fmax_ext, ext + mesh_orders)] if ext else [])
     fig, axes = plt.subplots(1, len(panels), figsize=(8 + 4 * (len(panels) - 1), 4.8),
@@ -89,6 +93,9 @@ def campbell_plot(frequencies_hz: np.ndarray, mesh_energy: np.ndarray, rpm_range
                 if lo <= r <= hi and f[j] <= fmax:
                     ax.plot(r, f[j], "o", ms=6, mfc="none", mec="crimson", mew=1.2, zorder=3)
         ax.axvspan(lo, hi, color="grey", alpha=0.08, lw=0)
+        shade_beyond_rom(ax, rom_valid_hz, fmax)
+        if pi == 0 and rom_valid_hz is not None and rom_valid_hz < fmax:
+            ax.legend(loc="upper left", fontsize=7)
         ax.set_xlim(0, hi * 1.05)
         ax.set_ylim(0, fmax)
         ax.set_xlabel("shaft speed Ω (rpm)")
@@ -143,7 +150,8 @@ def _order_ticks(orders, n_teeth: int, most: int = 40) -> list[int]:
 
 def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_teeth: int,
                    path: Path, quantity: str, title: str = "",
-                   modes_hz: np.ndarray | None = None, dynamic_range_db: float = 60.0) -> Path:
+                   modes_hz: np.ndarray | None = None, dynamic_range_db: float = 60.0,
+                   rom_valid_hz: float | None = None, f_stop: float = F_STOP) -> Path:
     """Order/speed colour maps of a level in dB (one column per harmonic order).
 
     Left: order map, one row per order of the harmonic set (labelled ``Z``, ``Z±e``,
@@ -151,18 +159,25 @@ def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_
     Right: the same levels at their frequency order·Ω/2π (Campbell/waterfall style),
     with the coupled mode frequencies as thin lines when given, so resonances show
     where an order crosses a mode. Colours span ``dynamic_range_db`` below the maximum.
+    Nothing above ``f_stop`` (Hz, :data:`F_STOP`) is drawn (rows whose frequency is above
+    it at the lowest speed are left out); levels at frequencies above ``rom_valid_hz``
+    (the ROM's checked validity) are shaded in both panels.
     """
     rpm = np.asarray(rpm, dtype=float)
     orders = np.asarray(orders)
     lv = np.asarray(level_db, dtype=float)
-    keep = orders > 0
+    lo_rpm = float(rpm.min()) if rpm.size else 0.0
+    keep = (orders > 0) & (orders * lo_rpm / 60.0 <= f_stop)
     orders, lv = orders[keep], lv[:, keep]
-    top = float(np.max(lv)) if lv.size else 0.0
+    freq = orders[None, :] * rpm[:, None] / 60.0
+    lv = np.where(freq <= f_stop, lv, np.nan)
+    top = float(np.nanmax(lv)) if lv.size else 0.0
     norm = plt.Normalize(top - dynamic_range_db, top)
-    cmap = plt.get_cmap("magma")
+    cmap = plt.get_cmap("magma").copy()
+    cmap.set_bad((0.0, 0.0, 0.0, 0.0))              # above f_stop: not drawn
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5),
                                  gridspec_kw={"width_ratios": [1, 1.2], "wspace": 0.25})
-    rows = np.argsort(np.max(lv, axis=0)) if lv.size else []          # loudest drawn last
+    rows = np.argsort(np.nanmax(lv, axis=0)) if lv.size else []       # loudest drawn last
     shown = np.maximum(lv, top - dynamic_range_db)
     _level_lines(ax, [(rpm, np.full(rpm.size, r), shown[:, r]) for r in rows], norm, cmap,
                  lw=max(1.0, min(8.0, 200.0 / max(len(orders), 1))))
@@ -178,19 +193,28 @@ def order_map_plot(rpm: np.ndarray, orders: np.ndarray, level_db: np.ndarray, n_
         a.set_xlim(lo, hi if hi > lo else lo + 1)
         a.set_xlabel("shaft speed Ω (rpm)")
     ax.set_ylabel("shaft order")
-    fmax = 1.05 * float(orders.max()) * hi / 60.0 if orders.size else 1.0
+    fmax = min(1.05 * float(orders.max()) * hi / 60.0, f_stop) if orders.size else 1.0
     if modes_hz is not None:
         for fm in np.asarray(modes_hz, dtype=float):
             if 0 < fm <= fmax:
                 bx.axhline(fm, color="tab:cyan", lw=0.5, alpha=0.6, zorder=0)
         bx.plot([], [], color="tab:cyan", lw=0.8, label="coupled modes")
+    if rom_valid_hz is not None and rom_valid_hz < fmax:
+        shade_beyond_rom(bx, rom_valid_hz, fmax, zorder=3)     # the lines fill the panel
+        # left panel: the rows whose frequency order·Ω/2π is above the validity
+        edge = np.array([np.sum(orders * r / 60.0 <= rom_valid_hz) for r in rpm]) - 0.5
+        ax.fill_between(rpm, edge, len(orders) - 0.3, label=rom_label(rom_valid_hz),
+                        zorder=3, **ROM_SHADE)
+        ax.legend(loc="lower right", fontsize=7)
+    if modes_hz is not None or rom_valid_hz is not None:
         bx.legend(loc="upper left", fontsize=7)
     bx.set_ylim(0, fmax)
     bx.set_ylabel("frequency (Hz)")
     bx.set_facecolor("0.93")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=norm)
     fig.colorbar(sm, ax=[ax, bx], label=f"{quantity} (dB)")
-    fig.suptitle(title or f"{quantity} per order against speed", fontsize=10)
+    fig.suptitle((title or f"{quantity} per order against speed")
+                 + f" (drawn up to {f_stop / 1e3:g} kHz)", fontsize=10)
     return save_figure(fig, path)
 
 
@@ -219,8 +243,9 @@ def rom_plots(result, want: set) -> list[Path]:
     paths = []
     if "campbell" in want:
         paths.append(campbell_plot(rd.frequencies_hz, rd.mesh_energy, sc.continuation.speed,
-                                  sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
-                                  out / "campbell.png", external_orders=sc.external.orders))
+                                   sc.gear.teeth, max(3, sc.hbm.mesh_harmonics),
+                                   out / "campbell.png", external_orders=sc.external.orders,
+                                   rom_valid_hz=rom_limit_hz(rd)))
     if "rom_error" in want and rd.validation is not None:
         paths.append(rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
                                     out / "rom_error.png", rd.validation.relative_error))

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from study.outputs.nvh import order_label
-from study.plots.common import plt, save_figure
+from study.plots.common import F_STOP, plt, save_figure, shade_beyond_rom
 
 __all__ = ["time_series_plot", "spectrum_lines", "spectrum_plot"]
 
@@ -80,20 +80,23 @@ def spectrum_lines(order: np.ndarray, amp: np.ndarray, max_order: float,
     return order[keep], amp[keep], floor
 
 
-def spectrum_plot(problem, point, path: Path, title: str = "", n_labels: int = 10) -> Path:
+def spectrum_plot(problem, point, path: Path, title: str = "", n_labels: int = 10,
+                  rom_valid_hz: float | None = None) -> Path:
     """Mesh-load spectrum (Fig. 15c) against the shaft order, with a frequency axis.
 
-    Only orders up to a little above the highest harmonic of the HBM set are drawn
-    (the AFT grid's upper orders hold no solved content), within 60 dB of the
-    largest line; the largest lines are labelled as mesh harmonics and sidebands
-    (``Z``, ``2Z``, ``Z±e``) or external orders.
+    Orders are drawn up to a little above the highest harmonic of the HBM set (the AFT
+    grid's upper orders hold no solved content) and at most to :data:`F_STOP` (20 kHz),
+    within 60 dB of the largest line; the largest lines are labelled as mesh harmonics
+    and sidebands (``Z``, ``2Z``, ``Z±e``) or external orders. Frequencies above
+    ``rom_valid_hz`` (the ROM's checked validity, FE scenes) are shaded.
     """
     from hbm import spectrum
 
     sp = spectrum(problem, point)
     hs = problem.harmonics
     z = problem.elements[0].n_teeth
-    max_order = 1.1 * hs.max_index * hs.integer_ratio + 1
+    f1 = point.rpm / 60.0
+    max_order = min(1.1 * hs.max_index * hs.integer_ratio + 1, F_STOP / f1)
     order, amp, floor = spectrum_lines(sp["shaft_order"], sp["amplitude"], max_order)
     fig, ax = plt.subplots(figsize=(9, 3.8))
     ax.vlines(order, floor, amp, color="tab:blue", lw=1.4)
@@ -113,7 +116,9 @@ def spectrum_plot(problem, point, path: Path, title: str = "", n_labels: int = 1
     ax.set_xlim(0, max_order)
     ax.set_xlabel("shaft order (harmonic of Ω)")
     ax.set_ylabel("mesh-load amplitude (N)")
-    f1 = point.rpm / 60.0
+    if rom_valid_hz is not None and rom_valid_hz < max_order * f1:
+        shade_beyond_rom(ax, rom_valid_hz, max_order * f1, vertical=True, hz_per_unit=f1)
+        ax.legend(loc="upper right", fontsize=7)
     sec = ax.secondary_xaxis("top", functions=(lambda o: o * f1, lambda f: f / f1))
     sec.set_xlabel("frequency (Hz)")
     ax.grid(alpha=0.3)

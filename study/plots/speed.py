@@ -11,7 +11,7 @@ import numpy as np
 from study.outputs.acoustics import V_REF, velocity_level_db
 from study.outputs.curves import contact_intervals
 from study.outputs.nvh import order_label
-from study.plots.common import grazing_values, plt, save_figure, shade_impacts
+from study.plots.common import ROM_SHADE, grazing_values, plt, save_figure, shade_impacts
 
 __all__ = ["forced_response", "forced_response_overlay", "erp_plot", "accelerometer_plot"]
 
@@ -85,20 +85,41 @@ def forced_response_overlay(branches: list, labels: list[str], path: Path,
 
 def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.ndarray,
              n_teeth: int, path: Path, title: str = "", n_orders: int = 6,
-             names: tuple = ()) -> Path:
+             rom_valid_hz: float | None = None, names: tuple = ()) -> Path:
     """Equivalent radiated power of the housing against speed: total (thick) and the
     ``n_orders`` orders with the highest peak level (named by ``names``, one per order, a
-    train's; else by :func:`order_label`); impact ranges shaded."""
+    train's; else by :func:`order_label`); impact ranges shaded.
+
+    With ``rom_valid_hz`` (the ROM's checked validity): each order's line is solid where
+    its frequency is below it and dotted above; the total of the orders below it is drawn
+    dashed beside the total; the speeds where the mesh frequency Z·Ω is above it are
+    shaded."""
     rpm = branch.rpm
     fig, ax = plt.subplots(figsize=(8, 4.2))
     shade_impacts(ax, branch, alpha=(0.15, 0.15))
     ax.plot(rpm, erp_total_db, "k", lw=1.8, label="total")
     orders = np.asarray(orders)
+    valid = None
+    if rom_valid_hz is not None:
+        valid = orders[None, :] * np.asarray(rpm)[:, None] / 60.0 <= rom_valid_hz
+        inside = np.where(valid & (orders > 0)[None, :], 10.0 ** (erp_db / 10.0), 0.0)
+        ax.plot(rpm, 10.0 * np.log10(np.maximum(inside.sum(axis=1), 1e-30)), "k--", lw=1.2,
+                label=f"total of orders below {rom_valid_hz:.0f} Hz")
+        r_mesh = 60.0 * rom_valid_hz / n_teeth
+        if r_mesh < branch.rpm_end:
+            ax.axvspan(max(r_mesh, branch.rpm_start), branch.rpm_end,
+                       label=f"Z·Ω above the ROM's validity ({rom_valid_hz:.0f} Hz)",
+                       zorder=0.5, **ROM_SHADE)
     cand = np.flatnonzero(orders > 0)
     best = cand[np.argsort(-np.max(erp_db[:, cand], axis=0))][:n_orders]
     for j in sorted(best, key=lambda j: orders[j]):
-        ax.plot(rpm, erp_db[:, j], lw=1.0,
-                label=f"order {names[j] if names else order_label(orders[j], n_teeth)}")
+        label = f"order {names[j] if names else order_label(orders[j], n_teeth)}"
+        if valid is None:
+            ax.plot(rpm, erp_db[:, j], lw=1.0, label=label)
+            continue
+        line, = ax.plot(rpm, np.where(valid[:, j], erp_db[:, j], np.nan), lw=1.0, label=label)
+        ax.plot(rpm, np.where(valid[:, j], np.nan, erp_db[:, j]), lw=0.8, ls=":",
+                color=line.get_color())
     top = float(np.max(erp_total_db))
     ax.set_ylim(max(float(np.min(erp_total_db)) - 30, top - 80), top + 5)
     ax.set_xlim(branch.rpm_start, branch.rpm_end)

@@ -218,10 +218,19 @@ def train_plots(result, want: set, speeds) -> list[Path]:
                                            f"{result.scene.name}: forced response per mesh",
                                            pb.harmonics.periodic))
     if "time_series" in want and pb.harmonics.periodic:
-        for rpm in speeds:
-            i, pt = nearest_point(result, rpm)
-            cls = ", ".join(f"{el.name} {_CLASS[int(br.element(e).contact[i])]}"
-                            for e, el in enumerate(pb.elements))
+        from hbm import point_stats
+        from study.outputs.points import point_at_speed
+
+        for rpm in speeds:    # at exactly the asked speed (as the pair's, study.plots.figures)
+            if result.scene.outputs.time_series:
+                i, pt, use = point_at_speed(result, rpm, "time series")
+                solved = use.how == "solved"
+            else:
+                (i, pt), solved = nearest_point(result, rpm), False
+            contact = ([int(s["contact"]) for s in point_stats(pb, pt)] if solved else
+                       [int(br.element(e).contact[i]) for e in range(len(pb.elements))])
+            cls = ", ".join(f"{el.name} {_CLASS[c]}"
+                            for el, c in zip(pb.elements, contact, strict=True))
             paths.append(train_time_series_plot(pb, pt, out / f"time_series_{pt.rpm:.0f}rpm.png",
                                                 f"{result.scene.name}: {pt.rpm:.1f} rpm "
                                                 f"({cls})"))
@@ -255,6 +264,7 @@ def train_plots(result, want: set, speeds) -> list[Path]:
 def _housing_plots(result, want: set, names: dict) -> list[Path]:
     """The housing's ERP order map (``order_maps``), ERP curves (``erp``) and virtual
     accelerometers (``accelerometers``) of a train, orders named by shaft and mesh."""
+    from study.outputs.checks import rom_limit_hz
     from study.plots.speed import accelerometer_plot, erp_plot
 
     out, br, nvh, pb = Path(result.out), result.branch, result.nvh, result.problem
@@ -268,7 +278,7 @@ def _housing_plots(result, want: set, names: dict) -> list[Path]:
     if "erp" in want:
         paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
                               out / "erp.png", f"{name}: equivalent radiated power",
-                              names=nvh.order_names))
+                              rom_valid_hz=rom_limit_hz(result.rom), names=nvh.order_names))
     if "accelerometers" in want and nvh.accel_velocity is not None:
         paths.append(accelerometer_plot(br, nvh.accel_names, nvh.accel_velocity, nvh.orders,
                                         z, out / "accelerometers.png",

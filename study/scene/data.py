@@ -95,6 +95,10 @@ class FourierSeries:
     amplitudes: tuple[float, ...]
     phases: tuple[float, ...]
     estimated: bool = False
+    #: mesh periods of one period of the series (1: θ is the mesh angle; c > 1: the
+    #: series is of θ / c, e.g. over the hunting period of a pair with pitch deviations,
+    #: :func:`gears.hunting_series`)
+    cycles: int = 1
 
     def coefficients(self) -> dict[int, complex]:
         """Complex one-sided coefficients per mesh harmonic, {0: x̄, k: a_k e^{iφ_k}}."""
@@ -143,6 +147,9 @@ class MeshSource:
         Torques (N·m) of the Harris map drawn beside the LTCA.
     tables : dict
         ``{"stiffness" | "te": gears.MeshTable}`` read for the ``table`` sources.
+    hunting : bool
+        ``[ltca] hunting``: with pitch deviations, the dynamics take the series over the
+        hunting period (:attr:`cycles`).
     """
 
     stiffness: str
@@ -151,10 +158,19 @@ class MeshSource:
     case: LtcaCase | None = None
     harris_torques: tuple[float, ...] = ()
     tables: dict[str, MeshTable] = field(default_factory=dict)
+    hunting: bool = True
 
     @property
     def uses_ltca(self) -> bool:
         return "ltca" in (self.stiffness, self.te)
+
+    @property
+    def cycles(self) -> int:
+        """Mesh periods of the ``ltca`` series the dynamics take: the hunting period of
+        the LTCA (pitch deviations) when ``hunting``, else 1."""
+        if not self.uses_ltca or self.case is None or not self.hunting:
+            return 1
+        return self.case.periods
 
 
 @dataclass(frozen=True)
@@ -345,7 +361,7 @@ class MeshData:
     (rad), centre distance (m, None if not given), half backlash (m), phase at t = 0
     (``phase_mode`` ``"geometry"``: from the layout; ``"given"``: ``phase`` in rad), and
     its mesh stiffness and transmission error (per mesh harmonic; ``estimated`` when the
-    ISO 6336 estimate filled them in)."""
+    ISO 6336 estimate, the LTCA or a table filled them in; ``source`` then says which)."""
 
     name: str
     gears: tuple[str, str]
@@ -356,6 +372,8 @@ class MeshData:
     phase: float
     mesh_stiffness: MeshStiffness | None = None
     transmission_error: TransmissionError | None = None
+    #: ``ltca``/``table`` sources of this mesh (None: both ``fourier``)
+    source: MeshSource | None = None
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ import numpy as np
 from core.errors import InputError, show
 from gears.excitation import Series
 from gears.flank import Flank, Relief
-from gears.ltca import LtcaCase, LtcaResult, mesh_series, solve_ltca
+from gears.ltca import LtcaCase, LtcaResult, hunting_series, mesh_series, solve_ltca
 from gears.pair import GearPair
 from gears.te_table import MeshTable, read_mesh_table, table_series
 from gears.tooth import Material
@@ -273,7 +273,8 @@ def mesh_source(ms: dict, te: dict, raw_ms: dict, raw_te: dict, micro_raw: Any, 
     for where, d, quantity in ((w_ms, ms, "stiffness"), (w_te, te, "te")):
         if d["source"] == "table":
             tables[quantity] = _table(where, d, quantity, pair, base, harmonics)
-    return MeshSource(ms["source"], te["source"], harmonics, case, torques, tables)
+    return MeshSource(ms["source"], te["source"], harmonics, case, torques, tables,
+                      hunting=bool(lt["hunting"]))
 
 
 @functools.lru_cache(maxsize=64)
@@ -285,11 +286,16 @@ def solve_cached(case: LtcaCase) -> LtcaResult:
 
 def source_series(src: MeshSource, quantity: str) -> Series:
     """The (mean, amplitudes, phases) series in SI of ``quantity`` (``"stiffness"`` or
-    ``"te"``) from its ``ltca`` or ``table`` source, ``src.harmonics`` harmonics."""
+    ``"te"``) from its ``ltca`` or ``table`` source, ``src.harmonics`` mesh harmonics: of
+    the mesh period, or with ``src.cycles = c > 1`` harmonics 1 … c·harmonics of the
+    hunting period (:func:`gears.hunting_series`)."""
     source = src.stiffness if quantity == "stiffness" else src.te
     if source == "table":
         return table_series(src.tables[quantity], quantity, src.harmonics)
     if source != "ltca" or src.case is None:
         raise ValueError(f"{quantity}: source {source!r} has no series here")
-    stiffness, ste = mesh_series(solve_cached(src.case), src.harmonics)
+    if src.cycles > 1:
+        stiffness, ste, _ = hunting_series(solve_cached(src.case), src.harmonics)
+    else:
+        stiffness, ste = mesh_series(solve_cached(src.case), src.harmonics)
     return stiffness if quantity == "stiffness" else ste

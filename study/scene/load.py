@@ -55,6 +55,7 @@ from study.scene.excitation import (
     uses_other_source,
 )
 from study.scene.overrides import apply_overrides
+from study.scene.plausibility import check_plausibility, check_required_sections
 from study.scene.schema import (
     FE_SECTIONS,
     GEARBOX_SECTIONS,
@@ -421,7 +422,8 @@ def _train_tables(raw: dict, kind: str) -> tuple:
     meshes, subtables = [], []
     for i, t in enumerate(_array(raw, "meshes")):
         t = dict(t)
-        sub = {k: t.pop(k) for k in ("mesh_stiffness", "transmission_error") if k in t}
+        sub = {k: t.pop(k) for k in ("mesh_stiffness", "transmission_error",
+                                     "micro_geometry", "ltca") if k in t}
         d = check_table(f"meshes[{i}]", t, SCHEMA["meshes"])
         if len(d["gears"]) != 2:
             raise SceneError(f"meshes[{i}].gears = {list(d['gears'])}: must be two gear names "
@@ -496,7 +498,38 @@ def _train_te(i: int, sub: dict, ms: MeshStiffness, static_load: float) -> Trans
     return TransmissionError(d["mean"], a, p, kind=d["kind"])
 
 
-def _with_train_meshes(scene: Scene, subtables: tuple) -> Scene:
+def _train_mesh_source(i: int, sub: dict, mesh: Any, harmonics: int, base: Path | None
+                       ) -> MeshSource | None:
+    """``[meshes.mesh_stiffness] source`` / ``[meshes.transmission_error] source``: the
+    ``ltca`` or ``table`` source of mesh ``i`` (:func:`study.scene.excitation.mesh_source`
+    on the mesh's own pair, at its torque on gear 1 ``F_s r_b1``, with its
+    ``[meshes.micro_geometry]`` and ``[meshes.ltca]``), or None when both are ``fourier``.
+    A train takes the mesh-period series (pitch deviations: their synchronous average;
+    ``ltca.hunting`` is for one-pair scenes)."""
+    names = tuple(f"meshes[{i}].{k}" for k in ("mesh_stiffness", "transmission_error",
+                                               "micro_geometry", "ltca"))
+    ms_raw = sub.get("mesh_stiffness", {})
+    te_raw = sub.get("transmission_error", {})
+    ms = _series_table(names[0], ms_raw, "mesh_stiffness")
+    te = _series_table(names[1], te_raw, "transmission_error")
+    if not uses_other_source(ms, te):
+        for key, where in (("micro_geometry", names[2]), ("ltca", names[3])):
+            if sub.get(key):
+                raise SceneError(f"[{where}]: used only with source = 'ltca' (in "
+                                 f"[{names[0]}] or [{names[1]}])")
+        return None
+    lt = _series_table(names[3], sub.get("ltca", {}), "ltca")
+    if lt["hunting"] and sub.get("ltca", {}).get("hunting") is True:
+        raise SceneError(f"{names[3]}.hunting = true: not for a train yet (its meshes take "
+                         "the mesh-period series; set it false or omit it)")
+    lt = {**lt, "hunting": False}
+    torque = mesh.static_load * mesh.pair.base_radii[0]
+    return mesh_source(ms, te, ms_raw, te_raw, sub.get("micro_geometry"), lt,
+                       pair=mesh.pair, torque=torque, harmonics=harmonics, base=base,
+                       names=names)
+
+
+def _with_train_meshes(scene: Scene, subtables: tuple, base: Path | None = None) -> Scene:
     """The train scene with each mesh's stiffness and TE (the ISO estimates need the static
     loads of the torque path: :class:`machines.train.layout.TrainLayout`, whose refusals
     become :class:`SceneError`); its one-pair fields ``gear``, ``mesh_stiffness``,
@@ -513,9 +546,18 @@ def _with_train_meshes(scene: Scene, subtables: tuple) -> Scene:
                          allowed=exc.allowed) from exc
     meshes = []
     for i, (m, lm) in enumerate(zip(scene.meshes, layout.meshes, strict=True)):
-        ms = _train_mesh_stiffness(i, subtables[i], lm)
-        te = _train_te(i, subtables[i], ms, lm.static_load)
-        meshes.append(dataclasses.replace(m, mesh_stiffness=ms, transmission_error=te))
+        src = _train_mesh_source(i, subtables[i], lm, scene.hbm.mesh_harmonics, base)
+        ms = _train_mesh_stiffness(i, subtables[i], lm) if src is None or \
+            src.stiffness == "fourier" else \
+            MeshStiffness(*source_series(src, "stiffness"), estimated=True)
+        if src is None or src.te == "fourier":
+            te = _train_te(i, subtables[i], ms, lm.static_load)
+        else:
+            kind = "loaded" if src.te == "ltca" else \
+                subtables[i].get("transmission_error", {}).get("kind", "loaded")
+            te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind)
+        meshes.append(dataclasses.replace(m, mesh_stiffness=ms, transmission_error=te,
+                                          source=src))
     first = layout.meshes[0]
     g1 = layout.gear(first.gears[0])
     gear = GearData(teeth=g1.teeth, base_radius=g1.base_radius, module=g1.module,
@@ -576,18 +618,21 @@ def _mesh_excitation(sec: dict, raw: dict, gear: GearData, external: ExternalDat
     if src.stiffness == "fourier":
         ms = _mesh_stiffness(ms_d, gear, static_load)
     else:
-        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True)
+        ms = MeshStiffness(*source_series(src, "stiffness"), estimated=True,
+                           cycles=src.cycles if src.stiffness == "ltca" else 1)
     if src.te == "fourier":
         te = _transmission_error(te_d, ms, static_load)
     else:
         kind = "loaded" if src.te == "ltca" else te_d["kind"]
-        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind)
+        te = TransmissionError(*source_series(src, "te"), estimated=True, kind=kind,
+                               cycles=src.cycles if src.te == "ltca" else 1)
     return ms, te, src
 
 
 def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) -> Scene:
     sec, accel_raw = _check_sections(raw)
     info = SceneInfo(**{**sec["scene"], "name": sec["scene"]["name"] or name})
+    check_required_sections(raw, info.kind)
     shafts, gears, meshes, drive, loads, subtables = _train_tables(raw, info.kind)
     train = info.kind in TRAIN_KINDS
     gear = _build_gear(sec["gear"])
@@ -626,8 +671,8 @@ def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) 
                   {k: v.strip() for k, v in sec["calibration"].items() if v.strip()},
                   source, shafts, gears, meshes, drive, loads)
     if train:
-        scene = _with_train_meshes(scene, subtables)
-    return _check_machine(scene)
+        scene = _with_train_meshes(scene, subtables, base)
+    return check_plausibility(_check_machine(scene))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

@@ -131,6 +131,10 @@ def mesh_source_schema() -> dict[str, dict[str, Spec]]:
                                doc="[lowest, highest] torque of the Harris map (default: "
                                "0.2 and 2 × load.torque_Nm)"),
         "harris_points": _f(20, "", 2, 1000, kind="int", doc="torques of the Harris map"),
+        "hunting": Spec("bool", True, doc="with pitch deviations, the dynamics take k_m and "
+                        "the STE over the hunting period (mesh harmonics and their "
+                        "shaft-order sidebands; the harmonic set becomes every shaft order "
+                        "up to the top mesh harmonic); false: their mesh-period averages"),
     }
     return {"micro_geometry.gear": flank, "ltca": ltca}
 

@@ -222,10 +222,10 @@ def test_housing_fields_read_back(pump_runs):
     import meshio
 
     from reduction import load_basis
-    from study.outputs.points import nearest_point
+    from study.outputs.points import point_at_speed
 
     _, _, r1 = pump_runs
-    i, pt = nearest_point(r1, 620.0)
+    i, pt, _ = point_at_speed(r1, 620.0, "test")        # the export's point (solved there)
     tag = f"{pt.rpm:.0f}rpm"
     model = _fe_model(pump_runs)
     T = load_basis(r1.rom.folder / "rom.h5", row_range=model.K.getOwnershipRange())
@@ -331,10 +331,10 @@ def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):
     from fem import post
     from fem.post import fields as post_fields
     from study.outputs import fields
-    from study.outputs.points import nearest_point
+    from study.outputs.points import point_at_speed
 
     _, _, r1 = pump_runs
-    _, pt = nearest_point(r1, 620.0)
+    _, pt, _ = point_at_speed(r1, 620.0, "test")        # the export's point (solved there)
     hd = post.read_housing(r1.rom.folder / post.HOUSING_FILE)
     monkeypatch.setattr(post_fields, "BLOCK_BYTES", 1 << 20)
     paths = fields.write_housing_fields(tmp_path, pt.rpm, hd, r1.rom.radiation,

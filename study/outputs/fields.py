@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import math
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -37,47 +38,82 @@ from study.scene.errors import SceneError
 logger = logging.getLogger(__name__)
 
 __all__ = ["field_orders", "frames_per_mesh_period", "check_outputs", "write_housing_fields",
-           "accelerometer_rows", "SNAP_DISTANCE"]
+           "accelerometer_rows", "harmonic_orders", "order_tag", "SNAP_DISTANCE"]
 
 #: Largest distance from an accelerometer position to its outer facet centre [m].
 SNAP_DISTANCE = 0.010
 
 
-def field_orders(scene, harmonics) -> list[int]:
-    """Shaft orders of the per-order fields: the scene's ``field_orders``, else the
-    mesh orders kZ and the external orders present in the harmonic set."""
-    have = [int(i) * harmonics.integer_ratio for i in harmonics.indices if i > 0]
+def _mesh_ratios(scene) -> list[Fraction]:
+    """Mesh frequencies over the reference speed, ``Z_1 ρ_1`` of every mesh of the scene's
+    machine (the pump: ``[Z]``)."""
+    from machines import machine_for
+
+    return [m.frequency_ratio for m in machine_for(scene).gear_meshes]
+
+
+def harmonic_orders(harmonics) -> list[Fraction]:
+    """Shaft order (of the reference shaft, exact) of every harmonic of the set: its
+    frequency index times the set's ratio (negative or zero for some torus harmonics)."""
+    return [Fraction(int(k)) * harmonics.ratio for k in harmonics.frequency_index]
+
+
+def _plain(o: Fraction) -> int | Fraction:
+    """A whole order as an int (the pump's orders and field names stay integers)."""
+    return int(o) if o.denominator == 1 else o
+
+
+def order_tag(order) -> str:
+    """The order in field names: ``76``, and ``437_61`` for the order 437/61 of a train."""
+    o = Fraction(order)
+    return str(o.numerator) if o.denominator == 1 else f"{o.numerator}_{o.denominator}"
+
+
+def field_orders(scene, harmonics) -> list:
+    """Shaft orders of the per-order fields: the scene's ``field_orders``, else every
+    mesh's harmonics ``k Z_e ρ_e`` and the external orders present in the harmonic set
+    (ints for whole orders, Fractions for a train's others)."""
     if scene.outputs.field_orders:
         return list(scene.outputs.field_orders)
-    z = scene.gear.teeth
+    have = [o for o in harmonic_orders(harmonics) if o > 0]
+    meshes = _mesh_ratios(scene)
     ext = set(scene.external.orders)
-    return [o for o in have if o % z == 0 or o in ext]
+    return [_plain(o) for o in have
+            if any((o / f).denominator == 1 for f in meshes) or o in ext]
+
+
+def _max_order(harmonics) -> Fraction:
+    """The highest shaft order of the set (its largest frequency index)."""
+    return max(abs(Fraction(int(k))) for k in harmonics.frequency_index) * harmonics.ratio
 
 
 def frames_per_mesh_period(scene, harmonics) -> int:
-    """Frames per mesh period of the housing time series (scene value, else 4 samples
-    per period of the highest harmonic kept)."""
+    """Frames per mesh period (of the first mesh) of the housing time series (scene value,
+    else 4 samples per period of the highest harmonic kept)."""
     n = scene.outputs.housing_frames_per_mesh_period
     if n:
         return int(n)
-    max_order = harmonics.max_index * harmonics.integer_ratio
-    return max(4, math.ceil(4 * max_order / scene.gear.teeth))
+    return max(4, math.ceil(4 * _max_order(harmonics) / _mesh_ratios(scene)[0]))
 
 
 def check_outputs(scene, harmonics, rom=None) -> None:
     """Refuse field orders outside the harmonic set, aliasing frame rates and
-    accelerometers away from the housing's outer surface (SceneError)."""
+    accelerometers away from the housing's outer surface (SceneError); nothing to check
+    for a machine without a radiating part (the scene loader refused those outputs)."""
+    from machines import machine_for
 
-    if scene.scene.kind != "fe":
+    if machine_for(scene).radiating_part is None:
         return
-    have = sorted(int(i) * harmonics.integer_ratio for i in harmonics.indices if i > 0)
+    have = sorted({_plain(o) for o in harmonic_orders(harmonics) if o > 0})
     bad = [o for o in scene.outputs.field_orders if o not in have]
     if bad:
+        shown = [str(o) for o in have]
         raise SceneError(f"outputs.field_orders = {list(scene.outputs.field_orders)}: orders "
-                         f"{bad} are not in the harmonic set (allowed: {have})")
+                         f"{bad} are not in the harmonic set (allowed: "
+                         f"[{', '.join(shown)}])")
     n = scene.outputs.housing_frames_per_mesh_period
-    max_order = harmonics.max_index * harmonics.integer_ratio
-    need = math.ceil((2 * max_order + 1) / scene.gear.teeth)
+    max_order = _plain(_max_order(harmonics))
+    need = math.ceil((2 * max_order + 1) / _mesh_ratios(scene)[0])
     if n and n < need:
         raise SceneError(f"outputs.housing_frames_per_mesh_period = {n}: aliases the highest "
                          f"harmonic kept (shaft order {max_order}); must be >= {need} "
@@ -154,16 +190,16 @@ def write_housing_fields(out: Path, rpm: float, hd, rad: dict | None, qk: np.nda
         Shaft speed Ω [rad/s].
     """
     out = Path(out)
-    idx = np.asarray(harmonics.indices)
+    idx = np.asarray(harmonics.frequency_index)         # the indices of a periodic set
     w0 = harmonics.fundamental_rad_s(omega)
     tag = f"{rpm:.0f}rpm"
     nf = frames_per_mesh_period(scene, harmonics)
     n_frames = nf * scene.outputs.housing_mesh_periods
-    t_mesh = 2 * np.pi / (scene.gear.teeth * omega)
+    t_mesh = 2 * np.pi / (float(_mesh_ratios(scene)[0]) * omega)
     times = [j * t_mesh / nf for j in range(n_frames)]
-    dyn = idx > 0                                        # the mean is removed
+    dyn = idx != 0                                       # the mean is removed
     q_t = (qk[:, dyn] @ np.exp(1j * np.outer(idx[dyn] * w0, times))).real  # (n_r, n_frames)
-    pos = {int(k) * harmonics.integer_ratio: j for j, k in enumerate(idx)}
+    pos = {_plain(o): j for j, o in enumerate(harmonic_orders(harmonics)) if o > 0}
     sel = [(o, pos[o]) for o in field_orders(scene, harmonics) if o in pos]
     paths = _write_volume_fields(out, tag, hd, times, q_t,
                                  {o: qk[:, j] for o, j in sel})
@@ -200,8 +236,8 @@ def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.nd
             xdmf_writer(paths[1], hd.points, "tetra10", hd.cells) as od:
         ts.add("part_id", part_id, "Cell")
         disp = [ts.create("displacement", frame=j) for j in range(len(times))]
-        amp = {f"u_o{o}_{p}": od.create(f"u_o{o}_{p}") for o in q_orders
-               for p in _COMPLEX_PARTS}
+        amp = {f"u_o{order_tag(o)}_{p}": od.create(f"u_o{order_tag(o)}_{p}")
+               for o in q_orders for p in _COMPLEX_PARTS}
         od.add("part_id", part_id, "Cell")
         for a, b, rows in hd.row_blocks(max(1, nodes)):
             u = rows.reshape(-1, hd.n_r) @ q_all                   # (3 (b - a), n_t + 2 n_o)
@@ -210,7 +246,7 @@ def _write_volume_fields(out: Path, tag: str, hd, times: list[float], q_t: np.nd
                 ds[a:b] = u_t[j].reshape(-1, 3)
             for i, o in enumerate(q_orders):
                 z = u[:, n_t + i] + 1j * u[:, n_t + n_o + i]
-                for name, v in _complex_fields(f"u_o{o}", z.reshape(-1, 3)).items():
+                for name, v in _complex_fields(f"u_o{order_tag(o)}", z.reshape(-1, 3)).items():
                     amp[name][a:b] = v
     return paths
 
@@ -225,6 +261,6 @@ def _write_surface_fields(path: Path, rad: dict, part_tag: int, vn: dict[int, np
         "part_id": np.full(rad["facet_nodes"].shape[0], part_tag, np.int64),
         "area": rad["facet_area"]}
     for o, v in vn.items():
-        cdata.update(_complex_fields(f"vn_o{o}", v))
-        cdata[f"erp_density_o{o}"] = 0.5 * rho * c * np.abs(v) ** 2
+        cdata.update(_complex_fields(f"vn_o{order_tag(o)}", v))
+        cdata[f"erp_density_o{order_tag(o)}"] = 0.5 * rho * c * np.abs(v) ** 2
     return write_xdmf(path, rad["points"], "triangle6", rad["facet_nodes"], cell_data=cdata)

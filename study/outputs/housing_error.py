@@ -54,9 +54,10 @@ def housing_field(result, rpm: float) -> HousingField:
         logger.warning("housing: no HBM point exactly at %g rpm (%s); using the branch "
                        "point at %.6g rpm", rpm, exc, pt.rpm)
     q = prob.recover(pt)                                      # (n_r, nS)
-    idx = [int(k) for k in prob.harmonics.indices]
-    U, u_max = _field_by_blocks(result.rom.folder, q, idx)
-    return HousingField(float(pt.rpm), U.shape[0], {k: U[:, i] for i, k in enumerate(idx)},
+    hs = prob.harmonics      # keys: the indices (vectors on a torus); waves: frequencies
+    keys = [int(k) if hs.periodic else tuple(int(x) for x in k) for k in hs.indices]
+    U, u_max = _field_by_blocks(result.rom.folder, q, [int(k) for k in hs.frequency_index])
+    return HousingField(float(pt.rpm), U.shape[0], {k: U[:, i] for i, k in enumerate(keys)},
                         u_max)
 
 
@@ -91,7 +92,7 @@ def field_error(ref: HousingField, f: HousingField) -> tuple[float, str]:
         return abs(f.max_amplitude - ref.max_amplitude) / ref.max_amplitude, "max amplitude"
     num = den = 0.0
     for k in set(ref.amplitudes) | set(f.amplitudes):
-        w = 1.0 if k == 0 else 0.5
+        w = 1.0 if not np.any(k) else 0.5
         a = ref.amplitudes.get(k)
         b = f.amplitudes.get(k)
         a = np.zeros(ref.n_fe) if a is None else a

@@ -14,6 +14,7 @@ import csv
 import io
 import logging
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +89,15 @@ class NVH:
     mesh_names: tuple = ()
     amplitude_per_mesh: np.ndarray | None = None
     ptp_per_mesh: np.ndarray | None = None
+    #: a train: the name of every harmonic's order (its shaft or mesh combination,
+    #: :func:`study.outputs.train.order_names`), in the order of ``harmonics``
+    order_names: tuple = ()
+
+    def order_name(self, j: int, n_teeth: int) -> str:
+        """The name of harmonic ``j``'s order: a train's (``stage1``, ``2 stage2``), else
+        :func:`order_label` (``Z``, ``2Z−1``)."""
+        return self.order_names[j] if self.order_names else order_label(self.orders[j],
+                                                                         n_teeth)
 
     @property
     def erp_db(self) -> np.ndarray | None:
@@ -134,31 +144,95 @@ def _train_nvh(result) -> NVH:
             else:
                 f = line_series(pb, pt, element=e).load
             ptp[i, e] = float(np.ptp(f))
-    return NVH(idx, _orders(hs), amp[:, 0], ptp[:, 0], None, None,
-               result.scene.acoustics.air_density, result.scene.acoustics.sound_speed,
-               mesh_names=tuple(el.name for el in pb.elements), amplitude_per_mesh=amp,
-               ptp_per_mesh=ptp)
+    out = NVH(idx, _orders(hs), amp[:, 0], ptp[:, 0], None, None,
+              result.scene.acoustics.air_density, result.scene.acoustics.sound_speed,
+              mesh_names=tuple(el.name for el in pb.elements), amplitude_per_mesh=amp,
+              ptp_per_mesh=ptp)
+    if result.scene.is_train:
+        from study.outputs.train import order_name, order_names, train_frequencies
+
+        meshes, shafts = train_frequencies(result)
+        names = order_names(meshes, shafts, max_harmonic=max(result.scene.hbm.mesh_harmonics, 1))
+        out.order_names = tuple(order_name(Fraction(int(k)) * hs.ratio, names)
+                                for k in hs.frequency_index)
+    return out
+
+
+def _torus_total(W: np.ndarray, qk: np.ndarray, freq: np.ndarray, rho: float,
+                 c: float) -> float:
+    """Total ERP of a response on a torus, whose harmonic vectors may share a frequency
+    (``k·r`` equal, or opposite: the conjugate): their amplitudes at each distinct
+    frequency ``|k·r| ω_0`` are added before the power is taken (powers of distinct
+    frequencies add)."""
+    groups: dict[float, np.ndarray] = {}
+    for j, w in enumerate(freq):
+        if w == 0:
+            continue
+        q = qk[:, j] if w > 0 else qk[:, j].conj()
+        key = float(abs(w))
+        groups[key] = groups[key] + q if key in groups else q.copy()
+    if not groups:
+        return 0.0
+    keys = sorted(groups)
+    return float(np.sum(erp_harmonics(W, np.column_stack([groups[k] for k in keys]),
+                                      np.asarray(keys), rho, c)))
+
+
+def _housing_nvh(result, out: NVH) -> NVH:
+    """The housing's ERP per harmonic (and in all) and the accelerometers' velocities at
+    every point, from the ROM coordinates ``q̃_k = HBMProblem.recover(point)`` of the
+    coupled response (every mesh at once) and the cached radiation data of the machine's
+    radiating part (``result.rom.radiation``); ``out`` unchanged without it."""
+    pb, br = result.problem, result.branch
+    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
+    if rad is None:
+        return out
+    hs = pb.harmonics
+    idx = np.asarray(hs.frequency_index, dtype=int)       # the indices of a periodic set
+    n = len(br)
+    ac = result.scene.acoustics
+    erp = np.zeros((n, idx.size))
+    total = None if hs.periodic else np.zeros(n)
+    accels = result.scene.outputs.accelerometers
+    if accels:
+        arows, apos, adir = accelerometer_rows(accels, rad)
+        avel = np.zeros((len(accels), n, idx.size), dtype=complex)
+    for i in range(n):
+        pt = point_at(result, i)
+        qk = pb.recover(pt)
+        w0 = hs.fundamental_rad_s(pt.omega)
+        erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+        if total is not None:
+            total[i] = _torus_total(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+        if accels:
+            avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
+    if total is None:             # distinct frequencies: the powers add (acoustics module)
+        total = erp.sum(axis=1)
+    if n:
+        logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
+                    float(power_db(total).min()), float(power_db(total).max()))
+    out.erp, out.erp_total = erp, total
+    if accels:
+        out.accel_names = tuple(a.name for a in accels)
+        out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
+    return out
 
 
 def compute_nvh(result) -> NVH:
-    """NVH quantities at every point of ``result.branch``."""
+    """NVH quantities at every point of ``result.branch``: the mesh loads per order (every
+    mesh of a train) and, for a machine with a radiating part, the housing's ERP and the
+    accelerometers (:func:`_housing_nvh`)."""
     from hbm import time_series
 
     pb, br = result.problem, result.branch
     if len(pb.elements) > 1 or not pb.harmonics.periodic:
-        return _train_nvh(result)
+        return _housing_nvh(result, _train_nvh(result))
     hs = pb.harmonics
     idx = np.asarray(hs.indices, dtype=int)
     n = len(br)
     amp = np.zeros((n, idx.size))
     ptp = np.zeros(n)
-    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
     ac = result.scene.acoustics
-    erp = np.zeros((n, idx.size)) if rad is not None else None
-    accels = result.scene.outputs.accelerometers if rad is not None else ()
-    if accels:
-        arows, apos, adir = accelerometer_rows(accels, rad)
-        avel = np.zeros((len(accels), n, idx.size), dtype=complex)
     for i in range(n):
         pt = point_at(result, i)
         ts = time_series(pb, pt)
@@ -167,21 +241,8 @@ def compute_nvh(result) -> NVH:
         c[1:] *= 2.0
         amp[i] = np.abs(c[idx])
         ptp[i] = float(np.ptp(f))
-        if erp is not None:
-            qk = pb.recover(pt)
-            w0 = hs.fundamental_rad_s(pt.omega)
-            erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
-            if accels:
-                avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
-    total = None if erp is None else erp.sum(axis=1)
-    if erp is not None and n:
-        logger.info("ERP of the housing: %.1f to %.1f dB re 1 pW over the branch",
-                    float(power_db(total).min()), float(power_db(total).max()))
-    out = NVH(idx, _orders(hs), amp, ptp, erp, total, ac.air_density, ac.sound_speed)
-    if accels:
-        out.accel_names = tuple(a.name for a in accels)
-        out.accel_velocity, out.accel_position, out.accel_direction = avel, apos, adir
-    return out
+    out = NVH(idx, _orders(hs), amp, ptp, None, None, ac.air_density, ac.sound_speed)
+    return _housing_nvh(result, out)
 
 
 def write_nvh_group(f, nvh: NVH, radiation: dict | None = None) -> None:

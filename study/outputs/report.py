@@ -18,7 +18,6 @@ from study.outputs.curves import (
     kind_name,
     unstable_segments,
 )
-from study.outputs.nvh import order_label
 
 __all__ = ["summary", "write_report"]
 
@@ -323,7 +322,7 @@ def write_report(result) -> Path:
                   f"- ERP from {tot.min():.1f} to {tot.max():.1f} dB re 1 pW (ρ = "
                   f"{nvh.rho:g} kg/m³, c = {nvh.c:g} m/s, radiation efficiency 1); loudest at "
                   f"{br.rpm[i]:.1f} rpm, dominated by order "
-                  f"{order_label(nvh.orders[j], sc.gear.teeth)} ({nvh.erp_db[i, j]:.1f} dB)",
+                  f"{nvh.order_name(j, sc.gear.teeth)} ({nvh.erp_db[i, j]:.1f} dB)",
                   "- curves per point: `curves.csv`; per order: `/nvh` in results.h5"]
         if nvh.accel_velocity is not None:
             lv = velocity_level_db(nvh.accel_velocity)

@@ -48,7 +48,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
         draw_figures(res)
         write_report_files(res)
-    if scene.scene.kind == "fe" and scene.outputs.housing_field:
+    if scene.outputs.housing_field:  # only for a machine with a radiating part (load_scene)
         write_housing(res)                          # from the cached ROM, rank 0 writes
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

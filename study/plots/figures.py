@@ -41,7 +41,7 @@ def draw_all(result) -> list[Path]:
             c = int(br.element(0).contact[i])
         tag = f"{pt.rpm:.0f}rpm"
         cls = ("permanent contact", "single-sided impacts", "double-sided impacts")[c]
-        if "time_series" in want and pb.harmonics.periodic:
+        if "time_series" in want and pb.harmonics.periodic and not result.scene.is_train:
             paths.append(time_series_plot(pb, pt, out / f"time_series_{tag}.png",
                                           f"{name}: {pt.rpm:.1f} rpm, {cls}"))
         if "spectrum" in want and not result.scene.is_train:

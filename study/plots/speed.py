@@ -85,9 +85,10 @@ def forced_response_overlay(branches: list, labels: list[str], path: Path,
 
 def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.ndarray,
              n_teeth: int, path: Path, title: str = "", n_orders: int = 6,
-             rom_valid_hz: float | None = None) -> Path:
+             rom_valid_hz: float | None = None, names: tuple = ()) -> Path:
     """Equivalent radiated power of the housing against speed: total (thick) and the
-    ``n_orders`` orders with the highest peak level; impact ranges shaded.
+    ``n_orders`` orders with the highest peak level (named by ``names``, one per order, a
+    train's; else by :func:`order_label`); impact ranges shaded.
 
     With ``rom_valid_hz`` (the ROM's checked validity): each order's line is solid where
     its frequency is below it and dotted above; the total of the orders below it is drawn
@@ -112,7 +113,7 @@ def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.nd
     cand = np.flatnonzero(orders > 0)
     best = cand[np.argsort(-np.max(erp_db[:, cand], axis=0))][:n_orders]
     for j in sorted(best, key=lambda j: orders[j]):
-        label = f"order {order_label(orders[j], n_teeth)}"
+        label = f"order {names[j] if names else order_label(orders[j], n_teeth)}"
         if valid is None:
             ax.plot(rpm, erp_db[:, j], lw=1.0, label=label)
             continue
@@ -132,9 +133,10 @@ def erp_plot(branch, erp_total_db: np.ndarray, erp_db: np.ndarray, orders: np.nd
 
 
 def accelerometer_plot(branch, names, velocity: np.ndarray, orders: np.ndarray, n_teeth: int,
-                       path: Path, title: str = "") -> Path:
+                       path: Path, title: str = "", order_names: tuple = ()) -> Path:
     """Virtual accelerometers: velocity level (dB re 1 nm/s, rms over all orders) against
-    speed, and the velocity spectrum per order at each accelerometer's loudest point."""
+    speed, and the velocity spectrum per order at each accelerometer's loudest point
+    (orders named by ``order_names`` when given, a train's)."""
 
     lv = velocity_level_db(velocity)                               # (n_acc, n)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw={"width_ratios": [1.2, 1]})
@@ -149,7 +151,8 @@ def accelerometer_plot(branch, names, velocity: np.ndarray, orders: np.ndarray, 
                 label=f"{name} at {branch.rpm[i]:.0f} rpm")
         bx.vlines(orders[sel], -20, db[sel], color=line.get_color(), lw=0.8, alpha=0.6)
         for j in np.argsort(-db * sel)[:4]:
-            bx.annotate(order_label(orders[j], n_teeth), (orders[j], db[j]), xytext=(0, 3),
+            bx.annotate(order_names[j] if order_names else order_label(orders[j], n_teeth),
+                        (orders[j], db[j]), xytext=(0, 3),
                         textcoords="offset points", ha="center", fontsize=7)
     ax.set_xlabel("shaft speed Ω (rpm)")
     ax.set_ylabel("velocity level (dB re 1 nm/s)")

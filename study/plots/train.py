@@ -13,8 +13,10 @@ import numpy as np
 from study.outputs.train import order_name, order_names, train_frequencies
 from study.plots.common import plt, save_figure
 
+_CLASS = ("permanent contact", "single-sided impacts", "double-sided impacts")
+
 __all__ = ["train_forced_response", "train_spectrum_plot", "train_order_map",
-           "train_campbell", "train_plots"]
+           "train_campbell", "train_time_series_plot", "train_plots"]
 
 
 def train_forced_response(branch, path: Path, title: str, periodic: bool = True) -> Path:
@@ -85,12 +87,16 @@ def train_spectrum_plot(problem, point, e: int, names: dict, path: Path,
 
 
 def train_order_map(rpm, orders, amplitude, names: dict, path: Path, title: str,
-                    dynamic_range_db: float = 60.0, max_rows: int = 24) -> Path:
-    """Order map of one mesh's load: a row per order of the set (the loudest
-    ``max_rows``), named by :func:`order_name`, level in dB re 1 N along the branch; right,
-    the same at its frequency (Campbell style)."""
+                    dynamic_range_db: float = 60.0, max_rows: int = 24,
+                    levels_db: np.ndarray | None = None,
+                    label: str = "mesh-load amplitude (dB re 1 N)") -> Path:
+    """Order map of one mesh's load (or of any level per order, ``levels_db`` with its
+    colour-bar ``label``, e.g. the housing's ERP): a row per order of the set (the loudest
+    ``max_rows``), named by :func:`order_name`, level in dB along the branch (the
+    amplitude's in dB re 1 N); right, the same at its frequency (Campbell style)."""
     rpm = np.asarray(rpm, dtype=float)
-    lv = 20 * np.log10(np.maximum(np.asarray(amplitude, dtype=float), 1e-30))
+    lv = (np.asarray(levels_db, dtype=float) if levels_db is not None else
+          20 * np.log10(np.maximum(np.asarray(amplitude, dtype=float), 1e-30)))
     orders = [o for o in orders]
     keep = [j for j, o in enumerate(orders) if o > 0]
     keep = sorted(keep, key=lambda j: -np.max(lv[:, j]))[:max_rows]
@@ -113,8 +119,7 @@ def train_order_map(rpm, orders, amplitude, names: dict, path: Path, title: str,
         a.set_xlabel("drive speed Ω (rpm)")
     ax.set_ylabel("order of the drive shaft")
     bx.set_ylabel("frequency (Hz)")
-    fig.colorbar(plt.cm.ScalarMappable(cmap=cmap, norm=norm), ax=[ax, bx],
-                 label="mesh-load amplitude (dB re 1 N)")
+    fig.colorbar(plt.cm.ScalarMappable(cmap=cmap, norm=norm), ax=[ax, bx], label=label)
     fig.suptitle(title, fontsize=10)
     return save_figure(fig, path)
 
@@ -164,9 +169,42 @@ def train_campbell(result, path: Path, mesh_harmonics: int = 3) -> Path:
     return save_figure(fig, path)
 
 
+def train_time_series_plot(problem, point, path: Path, title: str = "") -> Path:
+    """One panel per mesh over one period of the response (the hunting period): its
+    dynamic transmission error Δ with the gap limits e ± b (left, µm) and its mesh load
+    (right, N), against time in periods of the first mesh."""
+    from hbm import time_series
+
+    n_el = len(problem.elements)
+    e0 = problem.elements[0]
+    mesh_period = 2 * np.pi / (float(e0.n_teeth * e0.speed_ratio) * point.omega)
+    fig, axes = plt.subplots(n_el, 1, figsize=(9, 2.6 * n_el), sharex=True, squeeze=False)
+    for e, (ax, el) in enumerate(zip(axes[:, 0], problem.elements, strict=True)):
+        ts = time_series(problem, point, element=e)
+        t = ts.t / mesh_period
+        d = ts.delta * 1e6
+        ga, gr = ts.signals["gap_active"] * 1e6, ts.signals["gap_reverse"] * 1e6
+        ax.plot(t, d, "b", lw=0.9, label="DTE Δ")
+        ax.plot(t, ga, "k--", lw=0.7, label="gap limit e + b")
+        if np.any(d < gr + 0.25 * (ga - gr).mean()):      # near the back flank
+            ax.plot(t, gr, "k:", lw=0.7, label="e − b")
+        ax.set_ylabel(f"{el.name}: Δ (µm)", color="b")
+        bx = ax.twinx()
+        bx.plot(t, ts.load, "r", lw=0.8)
+        bx.set_ylabel("mesh load (N)", color="r")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel(f"time (periods of {e0.name})")
+    axes[0, 0].set_title(title or f"{point.rpm:.0f} rpm", fontsize=10)
+    return save_figure(fig, path)
+
+
 def train_plots(result, want: set, speeds) -> list[Path]:
-    """The train's plots the scene asks for: ``spectrum`` per mesh at the time-series
-    speeds (periodic basis), ``order_maps`` per mesh, ``campbell``."""
+    """The train's plots the scene asks for: ``time_series`` (one panel per mesh) and
+    ``spectrum`` per mesh at the time-series speeds (periodic basis), ``order_maps`` per
+    mesh (and of the housing's ERP), ``campbell``, ``rom_error`` (an FE train's Fig. 9
+    check), and for a machine with a radiating housing ``erp`` and ``accelerometers``
+    with the train's order names."""
     from study.outputs.points import nearest_point
 
     out = Path(result.out)
@@ -179,6 +217,23 @@ def train_plots(result, want: set, speeds) -> list[Path]:
         paths.append(train_forced_response(br, out / "forced_response.png",
                                            f"{result.scene.name}: forced response per mesh",
                                            pb.harmonics.periodic))
+    if "time_series" in want and pb.harmonics.periodic:
+        from hbm import point_stats
+        from study.outputs.points import point_at_speed
+
+        for rpm in speeds:    # at exactly the asked speed (as the pair's, study.plots.figures)
+            if result.scene.outputs.time_series:
+                i, pt, use = point_at_speed(result, rpm, "time series")
+                solved = use.how == "solved"
+            else:
+                (i, pt), solved = nearest_point(result, rpm), False
+            contact = ([int(s["contact"]) for s in point_stats(pb, pt)] if solved else
+                       [int(br.element(e).contact[i]) for e in range(len(pb.elements))])
+            cls = ", ".join(f"{el.name} {_CLASS[c]}"
+                            for el, c in zip(pb.elements, contact, strict=True))
+            paths.append(train_time_series_plot(pb, pt, out / f"time_series_{pt.rpm:.0f}rpm.png",
+                                                f"{result.scene.name}: {pt.rpm:.1f} rpm "
+                                                f"({cls})"))
     if "spectrum" in want and pb.harmonics.periodic:
         for rpm in speeds:
             _, pt = nearest_point(result, rpm)
@@ -193,6 +248,40 @@ def train_plots(result, want: set, speeds) -> list[Path]:
             paths.append(train_order_map(br.rpm, orders, nvh.amplitude_per_mesh[:, e], names,
                                          out / f"order_map_{el.name}.png",
                                          f"{result.scene.name}: {el.name} mesh load per order"))
+    if nvh is not None and nvh.erp is not None and len(br):
+        paths += _housing_plots(result, want, names)
     if "campbell" in want:
         paths.append(train_campbell(result, out / "campbell.png"))
+    rd = result.rom
+    if "rom_error" in want and rd is not None and rd.validation is not None:
+        from study.plots.modes import rom_error_plot
+
+        paths.append(rom_error_plot(rd.validation.full_hz, rd.validation.rom_hz,
+                                    out / "rom_error.png", rd.validation.relative_error))
+    return paths
+
+
+def _housing_plots(result, want: set, names: dict) -> list[Path]:
+    """The housing's ERP order map (``order_maps``), ERP curves (``erp``) and virtual
+    accelerometers (``accelerometers``) of a train, orders named by shaft and mesh."""
+    from study.outputs.checks import rom_limit_hz
+    from study.plots.speed import accelerometer_plot, erp_plot
+
+    out, br, nvh, pb = Path(result.out), result.branch, result.nvh, result.problem
+    name, z = result.scene.name, result.scene.gear.teeth
+    paths: list[Path] = []
+    if "order_maps" in want and pb.harmonics.periodic:
+        orders = [Fraction(int(i)) * pb.harmonics.ratio for i in pb.harmonics.indices]
+        paths.append(train_order_map(br.rpm, orders, None, names, out / "order_map_erp.png",
+                                     f"{name}: housing ERP per order (all meshes)",
+                                     levels_db=nvh.erp_db, label="ERP (dB re 1 pW)"))
+    if "erp" in want:
+        paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
+                              out / "erp.png", f"{name}: equivalent radiated power",
+                              rom_valid_hz=rom_limit_hz(result.rom), names=nvh.order_names))
+    if "accelerometers" in want and nvh.accel_velocity is not None:
+        paths.append(accelerometer_plot(br, nvh.accel_names, nvh.accel_velocity, nvh.orders,
+                                        z, out / "accelerometers.png",
+                                        f"{name}: virtual accelerometers",
+                                        order_names=nvh.order_names))
     return paths

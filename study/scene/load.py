@@ -112,7 +112,7 @@ def _build_gear(d: dict) -> GearData:
     return g
 
 
-def _build_accelerometers(items: Any, kind: str) -> tuple[Accelerometer, ...]:
+def _build_accelerometers(items: Any) -> tuple[Accelerometer, ...]:
     if not isinstance(items, list):
         raise SceneError(f"outputs.accelerometer = {show(items)}: must be an array of tables "
                          "([[outputs.accelerometer]])")
@@ -120,8 +120,6 @@ def _build_accelerometers(items: Any, kind: str) -> tuple[Accelerometer, ...]:
     for i, item in enumerate(items):
         where = f"outputs.accelerometer[{i}]"
         d = check_table(where, item, SCHEMA["outputs.accelerometer"])
-        if kind != "fe":
-            raise SceneError(f"{where}: accelerometers need the housing (scene.kind = 'fe')")
         if any(a.name == d["name"] for a in out):
             raise SceneError(f"{where}.name = {d['name']!r}: used twice (names must be unique)")
         if not d["name"].strip():
@@ -280,8 +278,9 @@ def _continuation(c: dict) -> ContinuationData:
                             c["max_points"], c["checkpoint_every"])
 
 
-def _outputs(o: dict, accel_raw: Any, kind: str, speed: tuple[float, float]) -> OutputsData:
-    """``[outputs]``: known plots, speeds inside the range, FE-only outputs on FE scenes."""
+def _outputs(o: dict, accel_raw: Any, speed: tuple[float, float]) -> OutputsData:
+    """``[outputs]``: known plots, speeds inside the range (the housing's outputs are
+    checked against the machine: :func:`_check_housing_outputs`)."""
     lo, hi = speed
     for p in o["plots"]:
         if p not in PLOT_NAMES:
@@ -292,13 +291,7 @@ def _outputs(o: dict, accel_raw: Any, kind: str, speed: tuple[float, float]) -> 
             if not lo <= v <= hi:
                 raise SceneError(f"outputs.{key}_rpm = {list(o[key])}: {v:g} is outside "
                                  f"continuation.speed_rpm = [{lo:g}, {hi:g}]")
-    if o["field_orders"] and kind != "fe":
-        raise SceneError(f"outputs.field_orders = {list(o['field_orders'])}: only for "
-                         "scene.kind = 'fe'")
-    if o["housing_field"] and kind != "fe":
-        raise SceneError(f"outputs.housing_field_rpm = {list(o['housing_field'])}: only for "
-                         "scene.kind = 'fe'")
-    return OutputsData(**o, accelerometers=_build_accelerometers(accel_raw, kind))
+    return OutputsData(**o, accelerometers=_build_accelerometers(accel_raw))
 
 
 def _fe_sections(raw: dict, kind: str) -> dict[str, dict]:
@@ -321,6 +314,24 @@ def _fe_sections(raw: dict, kind: str) -> dict[str, dict]:
     return fe
 
 
+def _check_housing_outputs(scene: Scene, machine: Any) -> None:
+    """Housing fields, field orders and accelerometers need a machine with a radiating part
+    (:attr:`machines.base.Machine.radiating_part`: the pump's or the gearbox's housing)."""
+    if machine.radiating_part is not None:
+        return
+    o = scene.outputs
+    why = (f"the machine of scene.kind = {scene.scene.kind!r} has no radiating housing "
+           "(an FE machine with one: scene.kind = 'fe' or 'gearbox')")
+    if o.field_orders:
+        raise SceneError(f"outputs.field_orders = {list(o.field_orders)}: only for a "
+                         f"housing; {why}")
+    if o.housing_field:
+        raise SceneError(f"outputs.housing_field_rpm = {list(o.housing_field)}: only for "
+                         f"a housing; {why}")
+    if o.accelerometers:
+        raise SceneError(f"outputs.accelerometer[0]: accelerometers need the housing; {why}")
+
+
 def _check_machine(scene: Scene) -> Scene:
     """The scene's machine (:func:`machines.machine_for`) checks what the schema cannot
     see (the pump: its free FE sections, importing geometry and fem); its refusals are
@@ -328,7 +339,9 @@ def _check_machine(scene: Scene) -> Scene:
     from machines import machine_for
 
     try:
-        machine_for(scene).check()
+        machine = machine_for(scene)
+        _check_housing_outputs(scene, machine)
+        machine.check()
     except ImportError as exc:
         raise StageUnavailable(f"scene.kind = {scene.scene.kind!r} needs geometry/fem (gmsh, "
                                f"DOLFINx): {exc}") from exc
@@ -650,7 +663,7 @@ def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) 
     rom = RomData(**sec["rom"])
     hbm = _hbm(sec["hbm"], ms, te, gear, external, info.kind)
     cont = _continuation(sec["continuation"])
-    outputs = _outputs(sec["outputs"], accel_raw, info.kind, sec["continuation"]["speed"])
+    outputs = _outputs(sec["outputs"], accel_raw, sec["continuation"]["speed"])
     fe = _fe_sections(raw, info.kind)
     scene = Scene(info, gear, ms, te, LoadData(**sec["load"]), external,
                   DampingData(**sec["damping"]), lumped, rom, hbm, cont, outputs,

@@ -77,7 +77,10 @@ class Knob:
 # --------------------------------------------------------------------------- conditions
 
 def _fe_only(scene: Scene) -> str | None:
-    return None if scene.scene.kind == "fe" else "FE scenes only"
+    """The mesh and n_cm knobs need an FE machine (meshed, reduced): the pump, the gearbox."""
+    from machines import FEMachine, machine_for
+
+    return None if isinstance(machine_for(scene), FEMachine) else "FE scenes only"
 
 
 def _no_cutoff(scene: Scene) -> str | None:

@@ -235,7 +235,10 @@ def validity_hz(scene: Scene, rom) -> float:
     if v is not None and float(v.validity_hz) > 0:
         return float(v.validity_hz)
     # no validation stored: the highest mesh harmonic at the top speed
-    return scene.hbm.mesh_harmonics * scene.gear.teeth * scene.continuation.speed[1] / 60.0
+    from machines import machine_for
+
+    top = max(m.frequency_ratio for m in machine_for(scene).gear_meshes)
+    return scene.hbm.mesh_harmonics * top * scene.continuation.speed[1] / 60.0
 
 
 def recommend(rows: list[Row], tol: float) -> Row | None:

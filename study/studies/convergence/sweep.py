@@ -166,8 +166,9 @@ def _compare(rows: list[Row], scene: Scene, slack: float) -> None:
         return
     ref.reference = True
     rb = ref.result.branch
-    fe = scene.scene.kind == "fe"
+    fe = ref.result.rom is not None             # an FE machine's run: a ROM to compare
     f_max = validity_hz(scene, ref.result.rom) if fe else 0.0
+    # housing speeds are refused at load for a machine without a radiating part
     house_rpm = scene.outputs.housing_field[0] if fe and scene.outputs.housing_field else None
     if house_rpm is not None:
         ref.housing = housing_field(ref.result, house_rpm)

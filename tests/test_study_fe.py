@@ -298,7 +298,10 @@ def _h5_datasets(path: Path) -> dict[str, np.ndarray]:
 def test_export_needs_no_mesh_file(pump_runs, caplog):
     """The housing fields come from the cached ROM alone (housing.h5, radiation.h5): with
     the mesh stage's folder deleted from the cache, a run served from the cache writes the
-    same housing files and neither meshes nor builds the FE model."""
+    same housing files and neither meshes nor builds the FE model. The fields are solved
+    at the exact requested speed by Newton from the nearest branch point (the in-memory
+    branch in one run, the cached one in the other): the same solution to the Newton
+    tolerance, so the values agree to 1e-8 relative, not bitwise."""
     import shutil
 
     import study
@@ -322,7 +325,12 @@ def test_export_needs_no_mesh_file(pump_runs, caplog):
         a, b = _h5_datasets(r1.out / name), _h5_datasets(r.out / name)
         assert set(a) == set(b), name
         for k in a:
-            np.testing.assert_array_equal(a[k], b[k], err_msg=f"{name}:{k}")
+            if np.issubdtype(np.asarray(a[k]).dtype, np.floating) and np.size(a[k]):
+                scale = float(np.max(np.abs(a[k]))) or 1.0
+                np.testing.assert_allclose(a[k], b[k], rtol=0, atol=1e-8 * scale,
+                                           err_msg=f"{name}:{k}")
+            else:
+                np.testing.assert_array_equal(a[k], b[k], err_msg=f"{name}:{k}")
 
 
 def test_housing_fields_written_in_blocks(pump_runs, tmp_path, monkeypatch):

@@ -37,7 +37,7 @@ from .lumped import axial_spring, disk_mass, rigid_body_mass
 from .materials import Material
 from .mesh import FEMesh
 from .model import FEModel, build_model
-from .spec import LINK_KINDS, ModelSpec
+from .spec import ModelSpec, check_link_kind
 
 log = logging.getLogger(__name__)
 
@@ -51,12 +51,6 @@ def _check(owner: str, name: str, value: float, lo: float = 0.0, lo_open: bool =
             or not math.isfinite(value) or (value <= lo if lo_open else value < lo):
         raise ValueError(f"{owner}.{name} = {value!r}{' ' + unit if unit else ''}: must be a "
                          f"finite number {'>' if lo_open else '>='} {lo:g}")
-
-
-def _kind(owner: str, name: str, value: str) -> None:
-    if value not in LINK_KINDS:
-        raise ValueError(f"{owner}.{name} = {value!r}: allowed "
-                         f"{', '.join(repr(k) for k in LINK_KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -81,8 +75,8 @@ class GearboxBearing:
         _check(owner, "radial", self.radial, lo_open=True, unit="N/m")
         _check(owner, "axial", self.axial, lo_open=True, unit="N/m")
         _check(owner, "tilting", self.tilting, unit="N m/rad")
-        _kind(owner, "journal_link", self.journal_link)
-        _kind(owner, "bore_link", self.bore_link)
+        check_link_kind(f"{owner}.journal_link", self.journal_link)
+        check_link_kind(f"{owner}.bore_link", self.bore_link)
 
     @property
     def journal(self) -> str:
@@ -110,7 +104,7 @@ class GearboxGear:
     link: str = "rigid"
 
     def __post_init__(self) -> None:
-        _kind(f"gears[{self.node}]", "link", self.link)
+        check_link_kind(f"gears[{self.node}].link", self.link)
 
 
 def gear_body_mass(mass: float, polar_inertia: float, diametral_inertia: float

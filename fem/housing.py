@@ -35,17 +35,12 @@ import numpy as np
 from mpi4py import MPI
 
 from .mesh import FEMesh
-from .spec import LINK_KINDS, ModelSpec
+from .spec import ModelSpec, check_link_kind
 
 log = logging.getLogger(__name__)
 
 #: Mount support kinds.
 MOUNT_KINDS = ("clamped", "springs")
-
-
-def _kind(fld: str, value: str) -> None:
-    if value not in LINK_KINDS:
-        raise ValueError(f"{fld} = {value!r}: allowed {', '.join(map(repr, LINK_KINDS))}")
 
 
 @dataclass(frozen=True)
@@ -72,7 +67,7 @@ class MountSupport:
         if self.kind not in MOUNT_KINDS:
             raise ValueError(f"mount.kind = {self.kind!r}: allowed "
                              f"{', '.join(map(repr, MOUNT_KINDS))}")
-        _kind("mount.link", self.link)
+        check_link_kind("mount.link", self.link)
         k = tuple(self.stiffness)
         if len(k) != 6 or not all(isinstance(v, (int, float)) and math.isfinite(v) and v >= 0
                                   for v in k):
@@ -114,7 +109,7 @@ def add_seats(spec: ModelSpec, fe_mesh: FEMesh, seats: Mapping[str, str],
         :func:`surface_weights`).
     """
     for group, kind in seats.items():
-        _kind(f"seats[{group!r}]", kind)
+        check_link_kind(f"seats[{group!r}]", kind)
         fe_mesh.tag(group, 2)
         spec.add_node(group, _centre(fe_mesh, group, centres))
         spec.add_link(group, group, kind=kind)

@@ -27,7 +27,7 @@ from .lumped import axial_spring, disk_mass, rigid_body_mass
 from .materials import Material
 from .mesh import FEMesh, load_meshed_model
 from .model import FEModel, build_model
-from .spec import LINK_KINDS, ModelSpec
+from .spec import ModelSpec, check_link_kind
 
 log = logging.getLogger(__name__)
 
@@ -45,12 +45,6 @@ def _check(cls: str, name: str, value: float, lo: float, hi: float = math.inf,
     if not ok:
         rng = f"{'(' if lo_open else '['}{lo}, {hi})"
         raise ValueError(f"{cls}.{name} = {value}: must be in {rng}")
-
-
-def _check_kind(cls: str, name: str, value: str) -> None:
-    if value not in LINK_KINDS:
-        raise ValueError(f"{cls}.{name} = {value!r}: allowed "
-                         f"{', '.join(repr(k) for k in LINK_KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -98,7 +92,7 @@ class GearParams:
     hub_link: str = "rigid"
 
     def __post_init__(self) -> None:
-        _check_kind("gears", "hub_link", self.hub_link)
+        check_link_kind("gears.hub_link", self.hub_link)
         _check("gears", "base_radius_1", self.base_radius_1, 0.0)
         _check("gears", "base_radius_2", self.base_radius_2, 0.0)
         _check("gears", "pressure_angle", self.pressure_angle, 0.0, 0.5 * math.pi, False)
@@ -140,7 +134,7 @@ class BearingParams:
     seat_link: str = "rigid"
 
     def __post_init__(self) -> None:
-        _check_kind("bearings", "seat_link", self.seat_link)
+        check_link_kind("bearings.seat_link", self.seat_link)
         _check("bearings", "radial", self.radial, 0.0)
         _check("bearings", "axial", self.axial, 0.0)
         _check("bearings", "tilting", self.tilting, 0.0, lo_open=False)
@@ -161,8 +155,8 @@ class LinkParams:
     journal: str = "rigid"
 
     def __post_init__(self) -> None:
-        _check_kind("links", "hub", self.hub)
-        _check_kind("links", "journal", self.journal)
+        check_link_kind("links.hub", self.hub)
+        check_link_kind("links.journal", self.journal)
 
     def apply(self, gears: GearParams, bearings: BearingParams
               ) -> tuple[GearParams, BearingParams]:

@@ -34,6 +34,12 @@ class Node:
 LINK_KINDS = ("rigid", "distributing")
 
 
+def check_link_kind(field: str, value: str) -> None:
+    """Refuse a link kind not in :data:`LINK_KINDS`, naming ``field``."""
+    if value not in LINK_KINDS:
+        raise ValueError(f"{field} = {value!r}: allowed {', '.join(map(repr, LINK_KINDS))}")
+
+
 @dataclass
 class Link:
     """A link of surface group ``surface`` to ``node``.

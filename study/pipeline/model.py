@@ -22,7 +22,7 @@ from study.scene.data import Scene
 logger = logging.getLogger(__name__)
 
 __all__ = ["gear_meshes", "harmonic_set", "build_problem", "scene_problem", "BasisChoice",
-           "train_basis_choice", "torus_basis"]
+           "train_basis_choice", "torus_basis", "torus_resonance"]
 
 
 def gear_meshes(scene: Scene, machine: Machine, G) -> list:
@@ -199,9 +199,53 @@ def torus_basis(layout, mesh_harmonics: int, sideband_order: int = 0):
             v = [0] * len(names)
             v[names.index(base)] = k
             vectors[p] = tuple(v)
-    return train_basis(meshes, mesh_harmonics,
-                       {b: (v, tuple(sorted(o))) for b, (v, o) in shafts.items()},
-                       sideband_order=max(int(sideband_order), 1), vectors=vectors)
+    torus = train_basis(meshes, mesh_harmonics,
+                        {b: (v, tuple(sorted(o))) for b, (v, o) in shafts.items()},
+                        sideband_order=max(int(sideband_order), 1), vectors=vectors)
+    _warn_resonances(torus)
+    return torus
+
+
+def torus_resonance(torus) -> tuple[int, ...] | None:
+    """The shortest (sum of |k_j|) non-zero integer vector ``k`` (canonical: first
+    non-zero component > 0) with ``k . r = 0`` and
+    ``|k_j| <= 3 max |k_j|`` of the set, or None.
+
+    Such a ``k`` joins two different harmonics of the torus of one frequency within the
+    reach of the harmonic balance (a product of two harmonics of the set reaches 2 max |k|
+    and can land on the frequency of a third): the periodic set over the hunting period
+    couples them, the torus — which averages over the relative phases of its bases —
+    does not, so the two differ at the size of that coupling (docs/hbm.md)."""
+    n = np.asarray(torus.multiples, dtype=np.int64)
+    top = [3 * int(t) for t in torus.max_index]
+    d = len(n)
+    if d < 2:
+        return None
+    grids = np.meshgrid(*[np.arange(-t, t + 1) for t in top[:-1]], indexing="ij")
+    head = np.stack([g.ravel() for g in grids], axis=-1)
+    rest = head @ n[:-1]
+    ok = (rest % n[-1] == 0)
+    last = -rest // n[-1]
+    ok &= np.abs(last) <= top[-1]
+    k = np.concatenate([head, last[:, None]], axis=1)[ok]
+    k = k[np.any(k != 0, axis=1)]
+    if not len(k):
+        return None
+    from hbm.torus import canonical
+
+    return canonical(k[np.argmin(np.abs(k).sum(axis=1))])
+
+
+def _warn_resonances(torus) -> None:
+    """Log a warning naming :func:`torus_resonance`'s vector when there is one."""
+    k = torus_resonance(torus)
+    if k is not None:
+        terms = " ".join(f"{'+' if v > 0 else '-'} {abs(v)} {name!r}".replace(" 1 '", " '")
+                         for v, name in zip(k, torus.names, strict=True) if v)
+        logger.warning("torus: the bases are commensurate within the reach of the set "
+                       "(%s = 0, order %d): the torus averages over their relative phase "
+                       "and is not this train's response at that order; use hbm.basis = "
+                       "'periodic'", terms.lstrip("+ "), sum(abs(v) for v in k))
 
 
 def harmonic_set(scene: Scene, machine: Machine | None = None):

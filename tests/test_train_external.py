@@ -280,3 +280,19 @@ def test_sideband_order_needs_shaft_orders_and_periodic_bound_says_the_size():
     assert err.value.field == "hbm.max_aft_samples"
     assert "with its shaft orders" in str(err.value)
     assert "254 harmonics up to index 32179 and 262144 AFT samples" in str(err.value)
+
+
+def test_stability_over_a_long_hunting_period():
+    """The periodic set over 23/4087 (4087 mesh-1 periods): the monodromy takes at least
+    16 steps per mesh-1 period (2048 in all overflowed) and gives a finite, stable
+    verdict at 3238 rpm (largest real part −18.88 1/s)."""
+    from hbm.stability.monodromy import monodromy_exponents
+
+    over = {"external.aero": [{"shaft": "output", "order": 1,
+                               "torque_Nm": [0.0, 0.0, 20.0]}],
+            "hbm.max_aft_samples": 1 << 18, "hbm.basis": "periodic"}
+    pb, _ = _problem(load_scene("scenes/two-stage-lumped.toml", over))
+    assert pb.steps == (4087, 1273)
+    r = monodromy_exponents(pb, pb.solve(3238.0, tol=1e-10))
+    assert r.n_steps >= 16 * 4087
+    assert np.isfinite(r.max_real) and r.max_real == pytest.approx(-18.882, abs=0.01)

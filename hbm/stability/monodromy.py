@@ -376,10 +376,10 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
                     mu_h = np.linalg.eigvals(half(np.eye(size))) if basis is None else \
                         _projected(half, basis)
                     prev = float(floquet_from_multipliers(mu_h, period)[0].real)
-            finite = bool(np.all(np.isfinite(lam))) and np.isfinite(prev)
-        except np.linalg.LinAlgError:       # the step map overflowed to inf/NaN
-            finite = False
-        if not finite:
+            overflow = False
+        except np.linalg.LinAlgError:       # the period map overflowed to inf/NaN
+            overflow = True
+        if overflow:
             # steps too long for the fastest dynamics over a long period (a train's
             # hunting period): the map overflows; halve the step, not counted as a
             # refinement of the error (at most MAX_OVERFLOW_DOUBLINGS times)

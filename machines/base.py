@@ -143,10 +143,12 @@ class LinearModel:
     G : numpy.ndarray (n, E)
         One direction per gear mesh of the machine, in the order of
         :attr:`Machine.gear_meshes` (eq. 11 in these coordinates).
-    constant : dict[int, numpy.ndarray]
-        Forcing per shaft order (complex (n,) vectors, N), order 0 the static load.
-    omega_squared : dict[int, numpy.ndarray]
-        Forcing proportional to Ω² per shaft order (N s²), e.g. unbalance.
+    constant : dict[int or Fraction, numpy.ndarray]
+        Forcing per frequency ratio of the reference speed (complex (n,) vectors, N):
+        an order of the reference shaft, or ``k ρ_s`` (exact) for order k of a shaft
+        turning at ``ρ_s Ω``; 0 the static load.
+    omega_squared : dict[int or Fraction, numpy.ndarray]
+        Forcing proportional to Ω² per frequency ratio (N s²), e.g. unbalance.
     """
 
     M: np.ndarray

@@ -40,13 +40,31 @@ def _value(series, phi: float) -> float:
     return out
 
 
+def shaft_order_torques(scene, machine, rpm: float) -> list[tuple[int, float, float, float]]:
+    """``(coordinate, amplitude, rate, phase)`` of each gear's share of each
+    ``[[external.aero]]`` torque, written out from the scene: ``A cos(k ρ_s Ω t + φ)``
+    about z on shaft s, split evenly on its gears (docs/scenes.md)."""
+    big_omega = rpm * 2.0 * math.pi / 60.0
+    names = list(machine.dof_names)
+    out = []
+    for a in scene.external.aero:
+        shaft = machine.layout.shaft(a.shaft)
+        gears = [g for g in machine.layout.gears if g.shaft == a.shaft]
+        rate = a.order * float(shaft.speed_ratio) * big_omega
+        for g in gears:
+            out.append((names.index(g.name), a.torque[2] / len(gears), rate, a.phase))
+    return out
+
+
 def integrate_train(scene, machine, rpm: float, theta0: np.ndarray, omega0: np.ndarray,
                     period: float, transient_periods: int, window_periods: int,
                     rtol: float = 1e-11) -> Integrated:
     """Integrate the lumped train ``machine`` of ``scene`` at ``rpm`` (of the drive shaft)
     from ``(theta0, omega0)`` for ``transient_periods`` fundamental periods ``period`` (s),
-    then average each mesh load over ``window_periods`` periods."""
+    then average each mesh load over ``window_periods`` periods. The static torques are
+    the machine's (order 0); the shaft-order torques :func:`shaft_order_torques`'s."""
     lm = machine.linear_model()
+    torques = shaft_order_torques(scene, machine, rpm)
     M, C, K, G = (np.asarray(a, dtype=float) for a in (lm.M, lm.C, lm.K, lm.G))
     f0 = np.asarray(lm.constant[0]).real
     minv = np.linalg.inv(M)
@@ -79,6 +97,8 @@ def integrate_train(scene, machine, rpm: float, theta0: np.ndarray, omega0: np.n
         theta, vel = y[:n], y[n:2 * n]
         f = loads(theta, t)
         force = f0 - C @ vel - K @ theta - G @ np.asarray(f)
+        for j, amp, rate, phase in torques:
+            force[j] += amp * math.cos(rate * t + phase)
         acc = minv @ force
         w = 1.0 / (t1 - t0) if t >= t0 else 0.0
         dev = [fe - m[6] for fe, m in zip(f, meshes, strict=True)]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from fractions import Fraction
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -113,8 +114,13 @@ class Gearbox(FEMachine):
         return gearbox_geometry(self.scene, self.layout, self.params)
 
     def check(self) -> None:
-        """The layout, the FE sections and the geometry, before any meshing."""
+        """The layout, a periodic basis (``hbm.basis = "periodic"``) within
+        ``hbm.max_aft_samples``, the FE sections and the geometry, before any meshing."""
         _ = self.layout
+        h = getattr(self.scene, "hbm", None)     # machine tests build scenes without it
+        if h is not None and h.basis == "periodic":
+            self.layout.check_periodic(h.mesh_harmonics, h.max_aft_samples,
+                                       h.sideband_order)
         p = self.params
         for i, s in enumerate(self.scene.shafts):
             if len(s.bearings) != 2:
@@ -232,12 +238,51 @@ class Gearbox(FEMachine):
             out[f"{ld.shaft}/load"] = t
         return out
 
+    def shaft_order_loads(self) -> tuple[dict[Fraction, dict[str, np.ndarray]],
+                                         dict[Fraction, dict[str, np.ndarray]]]:
+        """The ``[external]`` loads as node loads (6,) complex, global frame, per frequency
+        ratio ``k ρ_s`` of the drive speed: (constant, Ω²-proportional) ``{p: {node:
+        load}}``, each spread evenly on the gear nodes of its shaft (as the pump spreads
+        its unbalance on its stations).
+
+        ``[[external.aero]]``: ``[F, M] e^{iφ}`` at ``k ρ_s``. ``[[external.unbalance]]``:
+        the force ``m e (ρ_s Ω)² (cos ψ, sin ψ, 0)``, ``ψ = σ ρ_s Ω t + φ`` (σ the shaft's
+        sense: it turns with the shaft, at the angle φ from the global x axis at t = 0),
+        i.e. the Ω²-coefficients ``m e ρ_s² e^{iσφ} (1, −iσ, 0)`` at ``ρ_s``."""
+        lay = self.layout
+        const: dict[Fraction, dict[str, np.ndarray]] = {}
+        om2: dict[Fraction, dict[str, np.ndarray]] = {}
+
+        def spread(out, p, shaft, load):
+            gears = lay.gears_on(shaft)
+            at = out.setdefault(p, {})
+            for g in gears:
+                node = gear_node(shaft, g.name)
+                at[node] = at.get(node, np.zeros(6, complex)) + load / len(gears)
+
+        ext = getattr(self.scene, "external", None)
+        for a in getattr(ext, "aero", ()):
+            f = np.concatenate([a.force, a.torque]) * np.exp(1j * a.phase)
+            spread(const, int(a.order) * lay.shaft(a.shaft).speed_ratio, a.shaft, f)
+        for u in getattr(ext, "unbalance", ()):
+            s = lay.shaft(u.shaft)
+            c = u.m_unb * float(s.speed_ratio) ** 2 * np.exp(1j * s.sense * u.phase)
+            spread(om2, s.speed_ratio, u.shaft,
+                   np.array([c, -1j * s.sense * c, 0, 0, 0, 0]))
+        return const, om2
+
     def rom_forcing(self, rows: dict[str, np.ndarray], n_r: int
-                    ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+                    ) -> tuple[dict, dict]:
         """Order 0: the load torques on the load nodes (balanced by the motor spring on
-        the drive shaft; the meshes carry the layout's F_s). No other forcing."""
-        const: dict[int, np.ndarray] = {0: np.zeros(n_r, complex)}
+        the drive shaft; the meshes carry the layout's F_s). The ``[external]`` loads at
+        their frequency ratios ``k ρ_s`` (:meth:`shaft_order_loads`) projected with the
+        basis rows, ``f_r = T_nodeᵀ f``."""
+        const: dict = {0: np.zeros(n_r, complex)}
         for node, t in self.load_torques().items():
             const[0] += rows[node].T @ t
         const[0] = const[0].real.astype(complex)
-        return const, {}
+        om2: dict = {}
+        for source, target in zip(self.shaft_order_loads(), (const, om2), strict=True):
+            for p, loads in source.items():
+                target[p] = sum(rows[node].T @ f for node, f in loads.items())
+        return const, om2

@@ -355,17 +355,23 @@ class TrainLayout:
         Input torque T_d (N m).
     load_torques : dict[str, float]
         Static torque taken out at each load shaft (N m), ``share T_d / ρ``.
+    shaft_orders : dict[str, tuple[int, ...]]
+        The orders of each shaft that the scene's ``[external]`` loads excite (an
+        unbalance: order 1), sorted, shafts in the order of ``[[shafts]]``; empty with
+        mesh excitation only.
     """
 
     def __init__(self, shafts: tuple[TrainShaft, ...], gears: tuple[TrainGear, ...],
                  meshes: tuple[TrainMesh, ...], drive: str, drive_torque: float,
-                 load_torques: dict[str, float]) -> None:
+                 load_torques: dict[str, float],
+                 shaft_orders: dict[str, tuple[int, ...]] | None = None) -> None:
         self.shafts = shafts
         self.gears = gears
         self.meshes = meshes
         self.drive = drive
         self.drive_torque = drive_torque
         self.load_torques = load_torques
+        self.shaft_orders = dict(shaft_orders or {})
 
     # ------------------------------------------------------------------ access
     def shaft(self, name: str) -> TrainShaft:
@@ -388,47 +394,69 @@ class TrainLayout:
                             key=lambda g: g.position))
 
     # ------------------------------------------------------------------ frequencies
-    def hunting_fundamental(self, shaft_orders: bool = False) -> Fraction:
+    def order_frequencies(self, orders: dict[str, Sequence[int]] | None = None
+                          ) -> dict[tuple[str, int], Fraction]:
+        """``{(shaft, k): k ρ_s}``: the frequency (over the drive speed, exact) of each
+        excited order ``k`` of each shaft (``orders``, default :attr:`shaft_orders`)."""
+        orders = self.shaft_orders if orders is None else orders
+        return {(s, int(k)): int(k) * self.shaft(s).speed_ratio
+                for s, ks in orders.items() for k in ks}
+
+    def hunting_fundamental(self, orders: dict[str, Sequence[int]] | None = None
+                            ) -> Fraction:
         """The train's fundamental over the drive speed (exact): the largest r of which
-        every mesh frequency ``Z_1 ρ_1`` — and with ``shaft_orders`` every shaft speed
-        ρ_s — is an integer multiple (docs/theory.md §14.1). With mesh excitations
-        only, the response repeats after 2π/(r Ω)."""
+        every mesh frequency ``Z_1 ρ_1`` and every excited shaft-order frequency ``k ρ_s``
+        (``orders``, default :attr:`shaft_orders`) is an integer multiple (docs/theory.md
+        §14.1); the response repeats after 2π/(r Ω). With mesh excitation only, the
+        meshes' common submultiple."""
         values = [m.frequency_ratio for m in self.meshes]
-        if shaft_orders:
-            values += [s.speed_ratio for s in self.shafts]
+        values += list(self.order_frequencies(orders).values())
         return _fraction_gcd(values)
 
-    def periodic_indices(self, mesh_harmonics: int, shaft_orders: bool = False
+    def periodic_indices(self, mesh_harmonics: int, sideband_order: int = 0,
+                         orders: dict[str, Sequence[int]] | None = None
                          ) -> tuple[int, ...]:
-        """The harmonic indices over :meth:`hunting_fundamental` that the meshes need:
-        every ``|Σ_e m_e p_e|`` with ``|m_e| <= mesh_harmonics`` (p_e the mesh's index
-        ``Z ρ / r``), the combinations the meshes' products create (the torus set of
-        :func:`hbm.train_basis` folded onto one time line), and 0."""
-        r = self.hunting_fundamental(shaft_orders)
+        """The harmonic indices over :meth:`hunting_fundamental` that the excitations
+        need: every ``|Σ_e m_e p_e + c|`` with ``|m_e| <= mesh_harmonics`` (p_e the mesh's
+        index ``Z ρ / r``; the combinations the meshes' products create) and ``c`` a
+        combination ``Σ ± q_j`` of at most ``max(sideband_order, 1)`` shaft-order indices
+        ``q_j = k ρ_s / r`` (the orders themselves and their sidebands around every mesh
+        combination; none without shaft orders): the torus set of :func:`hbm.train_basis`
+        folded onto one time line, and 0."""
+        r = self.hunting_fundamental(orders)
         steps = sorted({int(m.frequency_ratio / r) for m in self.meshes})
         h = int(mesh_harmonics)
         sums = {0}
         for p in steps:
             sums = {s + k * p for s in sums for k in range(-h, h + 1)}
-        return tuple(sorted({abs(s) for s in sums}))
+        offsets = {0}
+        q = sorted({int(f / r) for f in self.order_frequencies(orders).values()})
+        if q:
+            frontier = {0}
+            for _ in range(max(int(sideband_order), 1)):
+                frontier = {c + sign * x for c in frontier for x in q for sign in (1, -1)}
+                offsets |= frontier
+        return tuple(sorted({abs(s + c) for s in sums for c in offsets}))
 
-    def periodic_aft_samples(self, mesh_harmonics: int, shaft_orders: bool = False) -> int:
+    def periodic_aft_samples(self, mesh_harmonics: int, sideband_order: int = 0) -> int:
         """AFT samples per period of the one-dimensional set of :meth:`periodic_indices`
         (:func:`default_n_time` of its largest index)."""
-        return default_n_time(max(self.periodic_indices(mesh_harmonics, shaft_orders)))
+        return default_n_time(max(self.periodic_indices(mesh_harmonics, sideband_order)))
 
-    def check_periodic(self, mesh_harmonics: int, bound: int,
+    def check_periodic(self, mesh_harmonics: int, bound: int, sideband_order: int = 0,
                        field: str = "hbm.max_aft_samples") -> int:
         """AFT samples of the periodic set, or an :class:`InputError` naming ``field``
         when they exceed ``bound`` (saying the set size it would need)."""
-        idx = self.periodic_indices(mesh_harmonics)
+        idx = self.periodic_indices(mesh_harmonics, sideband_order)
         n = default_n_time(max(idx))
         if n > bound:
             r = self.hunting_fundamental()
             raise InputError(
                 f"{field} = {bound}: the hunting period of this train (fundamental "
                 f"{r} of the drive speed, {int(self.meshes[0].frequency_ratio / r)} periods "
-                f"of mesh {self.meshes[0].name!r}) needs a one-dimensional set of "
+                f"of mesh {self.meshes[0].name!r}"
+                + (", with its shaft orders" if self.shaft_orders else "")
+                + ") needs a one-dimensional set of "
                 f"{len(idx)} harmonics up to index {max(idx)} and {n} AFT samples per "
                 f"period: raise {field} to {n} or use hbm.basis = 'torus'",
                 field=field, value=bound, allowed=f">= {n}")
@@ -517,7 +545,27 @@ class TrainLayout:
                 g1.teeth * ratio[g1.shaft], ratio[g1.shaft], phase, mode, loads[i],
                 float(m.backlash)))
         return cls(shafts, gears, tuple(meshes), drive.shaft, float(drive.torque),
-                   load_torques)
+                   load_torques, _shaft_orders(scene, names))
+
+
+def _shaft_orders(scene: Any, names: list[str]) -> dict[str, tuple[int, ...]]:
+    """The shaft orders ``[external]`` excites (``external.aero[i]``: its ``order``;
+    ``external.unbalance[i]``: 1), shafts in table order; an unknown shaft or an order
+    < 1 is refused naming the field."""
+    ext = _get(scene, "external")
+    found: dict[str, set[int]] = {}
+    for what, items in (("aero", _get(ext, "aero", ())), ("unbalance",
+                                                           _get(ext, "unbalance", ()))):
+        for i, item in enumerate(items):
+            if item.shaft not in names:
+                raise InputError.of(f"external.{what}[{i}].shaft", item.shaft,
+                                    "unknown shaft; known: " + ", ".join(map(repr, names)))
+            k = _get(item, "order", 1)
+            if isinstance(k, bool) or int(k) != k or k < 1:
+                raise InputError.of(f"external.{what}[{i}].order", k, "must be an integer "
+                                    ">= 1 (an order of the shaft's speed)")
+            found.setdefault(item.shaft, set()).add(int(k))
+    return {n: tuple(sorted(found[n])) for n in names if n in found}
 
 
 def _place(names: list[str], meshes: list[Any], graph: _Graph, gears: tuple[TrainGear, ...],

@@ -17,11 +17,21 @@ T the drive torque on the motor and the static load torques on the loads (opposi
 shafts' rotation: the rigid rotation of the train is unloaded and free, dropped at zero
 frequency by the harmonic balance). Damping: the modal ratio ξ of ``[damping]`` in the
 modes of K + Σ_e k̄_e g_e g_eᵀ (eq. 18–19).
+
+Shaft-order excitation (``[[external.aero]]``): a torque ``A cos(k ρ_s Ω t + φ)`` about
++z (``torque_Nm[2]``; the model has no other DOF, so a force or an x/y moment is
+refused) on shaft ``s``, spread evenly on its gears: the coefficient ``A e^{iφ} / n_s``
+on each gear's rotation at the frequency ratio ``k ρ_s`` (an exact Fraction, the key
+of :class:`hbm.Excitation`). An unbalance (``[[external.unbalance]]``) is a rotating
+*lateral* force through the shaft's axis: it has no torque about the axis and this
+model no lateral DOF, so it is refused (the FE gearbox, ``scene.kind = "gearbox"``,
+takes it).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 from functools import cached_property
 from typing import Any
 
@@ -105,7 +115,42 @@ def train_matrices(scene: Any, layout: TrainLayout) -> dict[str, Any]:
     for e, mesh in enumerate(layout.meshes):
         G[index[mesh.gears[0]], e] += mesh.vector[5]
         G[index[mesh.gears[1]], e] += mesh.vector[11]
-    return {"M": np.diag(m), "K": K, "G": G, "f0": f0, "names": tuple(names)}
+    return {"M": np.diag(m), "K": K, "G": G, "f0": f0, "names": tuple(names),
+            "orders": shaft_order_torques(scene, layout, index)}
+
+
+def check_torsional_external(external: Any) -> None:
+    """Refuse what a torsional model cannot take, naming the field: an unbalance (a
+    lateral force: module docstring), an ``[[external.aero]]`` force or x/y moment."""
+    for i, u in enumerate(external.unbalance):
+        raise InputError.of(f"external.unbalance[{i}].m_unb_kgm", u.m_unb,
+                            "an unbalance is a rotating lateral force through the shaft "
+                            "axis: no torque about it, and a lumped torsional train "
+                            "(scene.kind = 'train') has no lateral DOF; use scene.kind = "
+                            "'gearbox', or a shaft-order torque ([[external.aero]] "
+                            "torque_Nm = [0, 0, Mz])", unit="kg m")
+    for i, a in enumerate(external.aero):
+        if any(a.force) or a.torque[0] or a.torque[1]:
+            raise InputError.of(f"external.aero[{i}].force_N", [*a.force, *a.torque[:2]],
+                                "a lumped torsional train takes torque_Nm = [0, 0, Mz] only "
+                                "(about the shafts' axis; force_N and the x/y moments need "
+                                "scene.kind = 'gearbox')", unit="N, N m")
+
+
+def shaft_order_torques(scene: Any, layout: TrainLayout, index: dict[str, int]
+                        ) -> dict[Fraction, np.ndarray]:
+    """``{k ρ_s: complex (n,)}``: each ``[[external.aero]]`` torque ``A e^{iφ}`` about z
+    spread evenly on the gears of its shaft (module docstring), summed per frequency."""
+    out: dict[Fraction, np.ndarray] = {}
+    ext = getattr(scene, "external", None)
+    for a in getattr(ext, "aero", ()):
+        gears = layout.gears_on(a.shaft)       # every shaft has one (the layout's check)
+        p = int(a.order) * layout.shaft(a.shaft).speed_ratio
+        v = out.setdefault(p, np.zeros(len(index), complex))
+        c = a.torque[2] * np.exp(1j * a.phase) / len(gears)
+        for g in gears:
+            v[index[g.name]] += c
+    return out
 
 
 @register
@@ -125,10 +170,12 @@ class LumpedTrain(LumpedMachine):
     def check(self) -> None:
         """The layout's checks, the matrices' (shaft stiffness data), and a periodic basis
         (``hbm.basis = "periodic"``) within ``hbm.max_aft_samples``."""
+        check_torsional_external(self.scene.external)
         self._matrices  # noqa: B018  (builds and checks)
         h = self.scene.hbm
         if h.basis == "periodic":
-            self.layout.check_periodic(h.mesh_harmonics, h.max_aft_samples)
+            self.layout.check_periodic(h.mesh_harmonics, h.max_aft_samples,
+                                       h.sideband_order)
 
     @cached_property
     def _matrices(self) -> dict[str, Any]:
@@ -187,10 +234,10 @@ class LumpedTrain(LumpedMachine):
         return self._matrices["names"]
 
     def linear_model(self) -> LinearModel:
-        """M, C (modal ξ in the modes with the mean mesh stiffnesses), K, G and the static
-        torques (order 0)."""
+        """M, C (modal ξ in the modes with the mean mesh stiffnesses), K, G, the static
+        torques (order 0) and the shaft-order torques (keys ``k ρ_s``)."""
         mats = self._matrices
         M, K, G = mats["M"], mats["K"], mats["G"]
         km = np.asarray(self.mean_mesh_stiffness())
         C = modal_damping(M, K + (G * km) @ G.T, self.scene.damping.modal_ratio)
-        return LinearModel(M, C, K, G, {0: mats["f0"].astype(complex)})
+        return LinearModel(M, C, K, G, {0: mats["f0"].astype(complex), **mats["orders"]})

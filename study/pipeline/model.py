@@ -22,7 +22,7 @@ from study.scene.data import Scene
 logger = logging.getLogger(__name__)
 
 __all__ = ["gear_meshes", "harmonic_set", "build_problem", "scene_problem", "BasisChoice",
-           "train_basis_choice"]
+           "train_basis_choice", "torus_basis", "torus_resonance"]
 
 
 def gear_meshes(scene: Scene, machine: Machine, G) -> list:
@@ -117,42 +117,135 @@ class BasisChoice:
 
 
 def train_basis_choice(scene: Scene, layout) -> BasisChoice:
-    """The basis of a train scene (docs/hbm.md, "Several base frequencies"): the
-    one-dimensional set over the hunting fundamental (every combination of the meshes'
-    harmonics up to ``hbm.mesh_harmonics``, :meth:`TrainLayout.periodic_indices`), or the
-    torus with one base per distinct mesh frequency (:func:`hbm.train_basis`). ``auto``
-    takes the periodic set when its AFT grid stays within ``hbm.max_aft_samples``;
-    ``periodic`` above it is refused (naming the field and the size it needs). The
-    choice and both sizes are logged."""
-    from hbm import HarmonicSet, train_basis
+    """The basis of a train scene (docs/hbm.md, "The basis of a train scene").
+
+    Periodic: the one-dimensional set over the hunting fundamental of the meshes and the
+    excited shaft orders (:meth:`TrainLayout.periodic_indices`: every combination of the
+    meshes' harmonics up to ``hbm.mesh_harmonics``, each with the shaft orders' sidebands
+    up to ``hbm.sideband_order``). Torus (:func:`torus_basis`): one base per distinct
+    mesh frequency and one per distinct speed of an excited shaft. ``auto`` takes the
+    periodic set when its AFT grid stays within ``hbm.max_aft_samples``; ``periodic``
+    above it is refused (naming the field and the size it needs). The choice and both
+    sizes are logged."""
+    from hbm import HarmonicSet
 
     h = scene.hbm
-    H = h.mesh_harmonics
+    H, s = h.mesh_harmonics, h.sideband_order
     r = layout.hunting_fundamental()
-    idx = layout.periodic_indices(H)
-    n_periodic = h.aft_samples or layout.periodic_aft_samples(H)
-    bases: dict[str, Fraction] = {}
-    for m in layout.meshes:
-        if m.frequency_ratio not in bases.values():
-            bases[m.name] = m.frequency_ratio
-    torus = train_basis(bases, H)
+    idx = layout.periodic_indices(H, s)
+    n_periodic = h.aft_samples or layout.periodic_aft_samples(H, s)
+    torus = torus_basis(layout, H, s)
     n_torus = int(np.prod(torus.n_time))
     if h.basis == "periodic":
-        layout.check_periodic(H, h.max_aft_samples)
+        layout.check_periodic(H, h.max_aft_samples, s)
     kind = h.basis if h.basis != "auto" else (
         "periodic" if n_periodic <= h.max_aft_samples else "torus")
+    n_mesh_bases = len({m.frequency_ratio for m in layout.meshes})
     if kind == "periodic":
-        basis = HarmonicSet(idx, ratio=r, fundamental="hunting" if len(bases) > 1 else "mesh",
+        one = n_mesh_bases == 1 and not layout.shaft_orders
+        basis = HarmonicSet(idx, ratio=r, fundamental="mesh" if one else "hunting",
                             n_time=n_periodic)
     else:
         basis = torus
     choice = BasisChoice(basis, kind, h.basis, r, len(idx), n_periodic,
                          len(torus.indices), n_torus)
     logger.info("harmonic basis: %s (hbm.basis = %r); periodic over the hunting fundamental "
-                "%s Omega: %d harmonics, %d AFT samples; torus of %d bases: %d harmonics, "
-                "%d AFT samples", kind, h.basis, r, len(idx), n_periodic, len(bases),
-                len(torus.indices), n_torus)
+                "%s Omega: %d harmonics, %d AFT samples; torus of %d bases (%s): %d "
+                "harmonics, %d AFT samples", kind, h.basis, r, len(idx), n_periodic,
+                torus.dimension, ", ".join(torus.names), len(torus.indices), n_torus)
     return choice
+
+
+def torus_basis(layout, mesh_harmonics: int, sideband_order: int = 0):
+    """The torus of a train (:func:`hbm.train_basis`): a carrier base per distinct mesh
+    frequency with ``mesh_harmonics`` harmonics, and a sideband base per distinct speed
+    ``ρ_s`` of an excited shaft with its orders, combined up to ``max(sideband_order, 1)``
+    (the orders themselves and their sidebands around every mesh combination).
+
+    Why mesh bases and not the shafts' speeds alone: a mesh's frequency is ``Z ρ`` of
+    its gear's shaft, so on shaft bases its harmonic m would be the lattice vector
+    ``m Z e_shaft`` and the grid along that shaft would need ``> 2 H Z`` samples (2048
+    for Z = 23, H = 6, against 64 along a mesh base), and the two gears of a mesh give
+    it two vectors (``Z_1 e_1``, ``Z_2 e_2``) of which the element may take only one.
+    The mesh and shaft bases are commensurate (``Z_1 ρ_1 = Z_2 ρ_2``); the torus treats
+    them as independent, which averages over their relative phases (docs/theory.md
+    T.39-T.40: the relation enters only through combinations of high order, e.g. 68 for
+    the second mesh of 19:67 against its output shaft).
+
+    An excited order whose frequency equals a mesh frequency is that mesh's first
+    harmonic (its base) and adds no sideband; every other order ``k`` of shaft ``s``
+    is the lattice vector ``k e_s`` of the excitation key ``k ρ_s`` (``vectors``)."""
+    from hbm import train_basis
+
+    meshes: dict[str, Fraction] = {}
+    for m in layout.meshes:
+        if m.frequency_ratio not in meshes.values():
+            meshes[m.name] = m.frequency_ratio
+    shafts: dict[str, tuple[Fraction, list[int]]] = {}
+    keys: dict[Fraction, tuple[str, int]] = {}
+    for (name, k), p in layout.order_frequencies().items():
+        if p in meshes.values() or p in keys:
+            continue
+        speed = layout.shaft(name).speed_ratio
+        base = next((b for b, (v, _) in shafts.items() if v == speed), f"shaft {name}")
+        if base in meshes:
+            raise ValueError(f"torus: shaft base {base!r} has the name of a mesh")
+        shafts.setdefault(base, (speed, []))[1].append(k)
+        keys[p] = (base, k)
+    names = list(meshes) + list(shafts)
+    vectors = {}
+    for p, (base, k) in keys.items():
+        if k > 1:      # order 1 is the base itself
+            v = [0] * len(names)
+            v[names.index(base)] = k
+            vectors[p] = tuple(v)
+    torus = train_basis(meshes, mesh_harmonics,
+                        {b: (v, tuple(sorted(o))) for b, (v, o) in shafts.items()},
+                        sideband_order=max(int(sideband_order), 1), vectors=vectors)
+    _warn_resonances(torus)
+    return torus
+
+
+def torus_resonance(torus) -> tuple[int, ...] | None:
+    """The shortest (sum of |k_j|) non-zero integer vector ``k`` (canonical: first
+    non-zero component > 0) with ``k . r = 0`` and
+    ``|k_j| <= 3 max |k_j|`` of the set, or None.
+
+    Such a ``k`` joins two different harmonics of the torus of one frequency within the
+    reach of the harmonic balance (a product of two harmonics of the set reaches 2 max |k|
+    and can land on the frequency of a third): the periodic set over the hunting period
+    couples them, the torus — which averages over the relative phases of its bases —
+    does not, so the two differ at the size of that coupling (docs/hbm.md)."""
+    n = np.asarray(torus.multiples, dtype=np.int64)
+    top = [3 * int(t) for t in torus.max_index]
+    d = len(n)
+    if d < 2:
+        return None
+    grids = np.meshgrid(*[np.arange(-t, t + 1) for t in top[:-1]], indexing="ij")
+    head = np.stack([g.ravel() for g in grids], axis=-1)
+    rest = head @ n[:-1]
+    ok = (rest % n[-1] == 0)
+    last = -rest // n[-1]
+    ok &= np.abs(last) <= top[-1]
+    k = np.concatenate([head, last[:, None]], axis=1)[ok]
+    k = k[np.any(k != 0, axis=1)]
+    if not len(k):
+        return None
+    from hbm.torus import canonical
+
+    return canonical(k[np.argmin(np.abs(k).sum(axis=1))])
+
+
+def _warn_resonances(torus) -> None:
+    """Log a warning naming :func:`torus_resonance`'s vector when there is one."""
+    k = torus_resonance(torus)
+    if k is not None:
+        terms = " ".join(f"{'+' if v > 0 else '-'} {abs(v)} {name!r}".replace(" 1 '", " '")
+                         for v, name in zip(k, torus.names, strict=True) if v)
+        logger.warning("torus: the bases are commensurate within the reach of the set "
+                       "(%s = 0, order %d): the torus averages over their relative phase "
+                       "and is not this train's response at that order; use hbm.basis = "
+                       "'periodic'", terms.lstrip("+ "), sum(abs(v) for v in k))
 
 
 def harmonic_set(scene: Scene, machine: Machine | None = None):

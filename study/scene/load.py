@@ -143,6 +143,11 @@ def _build_external(ext: Any, kind: str) -> ExternalData:
                              f"([[external.{name}]])")
         for i, item in enumerate(items):
             where = f"external.{name}[{i}]"
+            if kind in TRAIN_KINDS:     # the train's shafts; machines.train checks the rest
+                d = check_table(where, item, SCHEMA[f"train.external.{name}"])
+                target.append(AeroLoad(station=None, **d) if name == "aero"
+                              else Unbalance(**d))
+                continue
             d = check_table(where, item, SCHEMA[f"external.{name}"])
             if name == "aero":
                 if kind == "lumped":
@@ -231,9 +236,10 @@ def _hbm(h: dict, ms: MeshStiffness, te: TransmissionError, gear: GearData,
             raise SceneError(f"hbm.harmonics = {list(hs)}: not for a train (scene.kind = "
                              f"{kind!r}); its set follows from hbm.mesh_harmonics, "
                              "hbm.basis and the meshes")
-        if h["sideband_order"] != 0:
+        if h["sideband_order"] != 0 and not external.present:
             raise SceneError(f"hbm.sideband_order = {h['sideband_order']}: a train without "
-                             "shaft-order excitation has no sidebands (omit it)")
+                             "shaft-order excitation ([[external.aero]], "
+                             "[[external.unbalance]]) has no sidebands (omit it)")
         return HbmData(**h)
     if h["basis"] != "auto":
         raise SceneError(f"hbm.basis = {h['basis']!r}: only for a train (scene.kind = "
@@ -395,9 +401,6 @@ def _train_tables(raw: dict, kind: str) -> tuple:
             raise SceneError(f"[{s}]: not in a gear train (scene.kind = {kind!r}): each "
                              "[[meshes]] has its own gears, backlash, mesh_stiffness and "
                              "transmission_error, [drive] the torque")
-    if raw.get("external"):
-        raise SceneError(f"[external]: not yet for a gear train (scene.kind = {kind!r}); "
-                         "shaft-order excitation of trains is not implemented")
     shafts = []
     for i, t in enumerate(_array(raw, "shafts")):
         t = dict(t)

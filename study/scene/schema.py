@@ -212,6 +212,26 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "m_unb_kgm": _f(None, "kgm", 0, 10, lo_open=True, doc="unbalance m·e", required=True),
         "phase_deg": _f(0.0, "deg", -360, 360, doc="phase of the rotating force (eq. 2–3)"),
     },
+    "train.external.aero": {
+        "shaft": Spec("str", None, doc="shaft of the train (its name in [[shafts]]) the load "
+                      "acts on, spread evenly on its gears", required=True),
+        "order": _f(None, "", 1, 200, kind="int", required=True,
+                    doc="order k of that shaft: frequency k ρ_s Ω (ρ_s its speed ratio)"),
+        "force_N": _f([0.0, 0.0, 0.0], "N", -1e9, 1e9, kind="vec3",
+                      doc="force amplitude (global x, y, z; gearbox only)"),
+        "torque_Nm": _f([0.0, 0.0, 0.0], "Nm", -1e9, 1e9, kind="vec3",
+                        doc="moment amplitude (global x, y, z; lumped train: z only)"),
+        "phase_deg": _f(0.0, "deg", -360, 360,
+                        doc="phase φ: f(t) = A cos(k ρ_s Ω t + φ)"),
+    },
+    "train.external.unbalance": {
+        "shaft": Spec("str", None, doc="shaft of the train (gearbox only: a lumped train has "
+                      "no lateral DOF)", required=True),
+        "m_unb_kgm": _f(None, "kgm", 0, 10, lo_open=True, doc="unbalance m·e, spread evenly "
+                        "on the shaft's gears", required=True),
+        "phase_deg": _f(0.0, "deg", -360, 360, doc="angle of the force from the global x "
+                        "axis at t = 0, in the shaft's sense of rotation"),
+    },
     "damping": {
         "modal_ratio": _f(0.05, "", 0, 1, hi_open=True, lo_open=True,
                           doc="modal damping ratio ξ of every mode (eq. 18–19)"),
@@ -244,7 +264,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "hbm": {
         "mesh_harmonics": _f(3, "", 1, 200, kind="int", doc="mesh harmonics kZ, k = 1…n"),
-        "sideband_order": _f(0, "", 0, 50, kind="int", doc="sidebands kZ ± e combination order"),
+        "sideband_order": _f(0, "", 0, 50, kind="int",
+                             doc="sidebands kZ ± e combination order (a train: of its shaft "
+                             "orders around the meshes' combinations)"),
         "harmonic_set": _c("combinations", ("combinations", "bands", "contiguous"),
                            "how the builder fills the sidebands: the order-s combinations, "
                            "every index within their reach, or all indices (docs/convergence.md)"),
@@ -415,7 +437,9 @@ TOP_LEVEL = ("scene", "gear", "mesh_stiffness", "transmission_error", "micro_geo
 #: How :func:`schema_markdown` heads a section (default ``[sec]``, ``[[sec]]`` if dotted).
 HEADINGS = {"shafts": "[[shafts]]", "gears": "[[gears]]", "meshes": "[[meshes]]",
             "loads": "[[loads]]", "shafts.bearings": "[[shafts.bearings]]",
-            "train.drive": "[drive] (scene.kind = \"train\" or \"gearbox\")"}
+            "train.drive": "[drive] (scene.kind = \"train\" or \"gearbox\")",
+            "train.external.aero": "[[external.aero]] (scene.kind = \"train\" or \"gearbox\")",
+            "train.external.unbalance": "[[external.unbalance]] (scene.kind = \"gearbox\")"}
 
 
 def attr_name(key: str) -> str:

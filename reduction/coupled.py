@@ -139,7 +139,9 @@ def coupled_modes(M_r: np.ndarray, K_r: np.ndarray, G, km_mean) -> CoupledModes:
     return CoupledModes(lam, phi, rigid)
 
 
-def _check_xi(xi, n_r: int) -> np.ndarray:
+def check_xi(xi, n_r: int) -> np.ndarray:
+    """Modal damping ratios ξ (dimensionless, in [0, 1)) as an array of ``n_r``: a scalar
+    broadcast, or one per coupled mode; refused otherwise, naming ``xi``."""
     xi_arr = np.broadcast_to(np.asarray(xi, dtype=float), (n_r,)) if np.ndim(xi) == 0 else (
         np.asarray(xi, dtype=float)
     )
@@ -168,7 +170,7 @@ def modal_damping(M_r: np.ndarray, K_r: np.ndarray, G, km_mean, xi=0.05) -> np.n
         Damping ratio per coupled mode (ascending frequency order), in [0, 1).
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
-    xi_arr = _check_xi(xi, modes.omega2.size)
+    xi_arr = check_xi(xi, modes.omega2.size)
     c_modal = 2.0 * xi_arr * np.sqrt(modes.omega2)  # eq. (18)
     A = M_r @ modes.phi
     C = (A * c_modal) @ A.T  # eq. (19)
@@ -183,7 +185,7 @@ def mesh_energy(M_r: np.ndarray, K_r: np.ndarray, G, km_mean) -> np.ndarray:
     coupled frequencies (ascending).
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
-    return _mesh_energy_of(modes, K_r, G, km_mean)
+    return mesh_energy_of(modes, K_r, G, km_mean)
 
 
 def dynamic_factor(M_r: np.ndarray, K_r: np.ndarray, G, km_mean,
@@ -234,7 +236,7 @@ def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean,
     mode of mesh energy ρ gives ``√(1 − ρ/2)``: 0.92 for ρ = 0.32, 0.75 for ρ = 0.87.
     """
     modes = coupled_modes(M_r, K_r, G, km_mean)
-    rho = _mesh_energy_of(modes, K_r, G, km_mean)
+    rho = mesh_energy_of(modes, K_r, G, km_mean)
     rho = np.where(modes.frequencies_hz >= f_min, rho, 0.0)
     f_top = float(modes.frequencies_hz[int(np.argmax(rho))])
     if not f_top > 0.0:
@@ -246,7 +248,10 @@ def mesh_softening(M_r: np.ndarray, K_r: np.ndarray, G, km_mean,
     return float(f_peak), float(f_half / f_peak)
 
 
-def _mesh_energy_of(modes: CoupledModes, K_r, G, km_mean) -> np.ndarray:
+def mesh_energy_of(modes: CoupledModes, K_r, G, km_mean) -> np.ndarray:
+    """Share ρ_j of each coupled mode's strain energy stored in the meshes (in [0, 1], 0
+    for rigid-body modes), from already computed ``modes`` (K_r in N/m, G in m per unit
+    DOF, km_mean in N/m, one per mesh or shared)."""
     G = _check_g(G, modes.phi.shape[0])
     km = _check_km(km_mean, G.shape[1])
     num = km[0] * (direction(G, 0) @ modes.phi) ** 2

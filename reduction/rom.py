@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from reduction.coupled import _check_xi, _mesh_energy_of, coupled_modes, modal_damping
+from reduction.coupled import check_xi, coupled_modes, mesh_energy_of, modal_damping
 from reduction.craig_bampton import CBResult
 from reduction.validate import Validation
 
@@ -128,10 +128,10 @@ def build_rom(
         raise ValueError(f"len(gear_dof_names) = {len(gear_dof_names)}: must equal {n_c}")
     G = np.zeros((cb.n_r, G_gear.shape[1]))
     G[:n_c] = G_gear
-    xi_arr = np.array(_check_xi(xi, cb.n_r))
+    xi_arr = np.array(check_xi(xi, cb.n_r))
     modes = coupled_modes(cb.M_r, cb.K_r, G, km_mean)
     C = modal_damping(cb.M_r, cb.K_r, G, km_mean, xi_arr)
-    rho = _mesh_energy_of(modes, cb.K_r, G, km_mean)
+    rho = mesh_energy_of(modes, cb.K_r, G, km_mean)
     log.info(
         "ROM: n_r = %d, %d mesh(es), coupled modes %.4g..%.4g Hz, max mesh energy %.3f at "
         "%.4g Hz", cb.n_r, G.shape[1], modes.frequencies_hz[0], modes.frequencies_hz[-1],

@@ -59,15 +59,7 @@ def full_residual(problem: HBMProblem, point: Point) -> float:
         f_t = el.load(g @ coords, smp, corrected)                # f_e(Delta_e(tau_j))
         fk = np.fft.rfft(f_t)[k] / n_t * np.where(k == 0, 1.0, 2.0)  # f_e,k
         loads.append(np.outer(g, fk))
-    w = problem.kS * hs.rate * point.omega
-    forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)
-    terms = [s.K @ q, -(w ** 2) * (s.M @ q), 1j * w * (s.C @ q), *loads, -forcing]
-    r = np.sum(terms, axis=0)
-    scale = np.max([np.linalg.norm(t, axis=1) for t in terms], axis=0)
-    live = scale > 0
-    if not np.any(live):
-        return 0.0
-    return float(np.max(np.linalg.norm(r[live], axis=1) / scale[live]))
+    return _balance(problem, point, q, loads)
 
 
 def _torus_full_residual(problem: HBMProblem, point: Point) -> float:
@@ -75,7 +67,6 @@ def _torus_full_residual(problem: HBMProblem, point: Point) -> float:
     grid, every element's full force analysed there (d-dimensional FFTs), frequencies
     ``(k . r) Omega``."""
     hs = problem.harmonics
-    s = problem.system
     q = problem.recover(point)                                   # (n, nS)
     coords = hs.synthesize(hs.to_real(q))                        # (n, N_1, ..., N_d)
     corrected = problem.aft == "corrected"
@@ -84,7 +75,15 @@ def _torus_full_residual(problem: HBMProblem, point: Point) -> float:
                           strict=True):
         f_t = el.load(np.tensordot(g, coords, axes=1), smp, corrected)
         loads.append(np.outer(g, hs.to_complex(hs.analyse(f_t))))
-    w = problem.kS * hs.rate * point.omega
+    return _balance(problem, point, q, loads)
+
+
+def _balance(problem: HBMProblem, point: Point, q: np.ndarray, loads: list) -> float:
+    """Largest relative residual of the harmonic balance over the harmonics: the terms
+    K q, -w^2 M q, i w C q, each element's load and the forcing (eq. 21) summed per
+    harmonic, against the largest of them."""
+    s = problem.system
+    w = problem.kS * problem.harmonics.rate * point.omega
     forcing = (problem.Fc + point.omega ** 2 * problem.Fu).T     # (n, nS)
     terms = [s.K @ q, -(w ** 2) * (s.M @ q), 1j * w * (s.C @ q), *loads, -forcing]
     r = np.sum(terms, axis=0)

@@ -97,14 +97,21 @@ def test_order_map_stops_at_20_khz_and_shades_beyond_the_rom(tmp_path, monkeypat
     # the band from 3997 Hz up on the frequency panel
     band = [p for p in bx.patches if p.get_label().startswith("ROM")][0]
     assert _span(band, 1) == pytest.approx((3997.0, F_STOP))
-    # every drawn segment of the left panel lies below 20 kHz: the highest order drawn at
-    # 7000 rpm is 171 (171 × 7000/60 = 19 950 Hz)
-    seg = ax.collections[0]
-    vals = np.asarray(seg.get_array())
-    pts = np.asarray(seg.get_segments())
-    drawn = pts[np.isfinite(vals)]
-    f = orders[1:][np.round(drawn[..., 1]).astype(int)] * drawn[..., 0] / 60.0
-    assert f.max() <= F_STOP
+    # every painted pixel of the left panel lies below 20 kHz: the highest order drawn at
+    # 7000 rpm is 171 (171 × 7000/60 = 19 950 Hz); a pixel may show any row within half a
+    # line width (1 pt here, 925 rows) and a pixel of its centre
+    im = ax.images[0]
+    img = np.asarray(im.get_array(), dtype=float)
+    x0, x1, y0, y1 = im.get_extent()
+    ny, nx = img.shape
+    p, c = np.nonzero(np.isfinite(img))
+    y = y0 + (p + 0.5) * (y1 - y0) / ny
+    reach = (0.5 * 130 / 72 + 1.0) * (y1 - y0) / ny            # rows per half line + pixel
+    lowest = np.clip(np.ceil(y - reach), 0, None).astype(int)     # row r is orders[1:][r]
+    f = orders[1:][lowest] * (x0 + c * (x1 - x0) / nx) / 60.0
+    assert p.size > 1000 and f.max() <= F_STOP
+    # nothing painted above the frequency of the highest row drawn at each speed
+    assert np.isnan(img[-1, -1]) and np.isfinite(img[0, 0])
 
 
 def test_campbell_spectrum_and_erp_shade_beyond_the_rom(tmp_path, monkeypatch):

@@ -21,7 +21,7 @@ from study.outputs.curves import contact_intervals  # noqa: E402
 
 logger = logging.getLogger("study.plots")  # one logger for every plot module
 
-__all__ = ["CLASS_COLOURS", "F_STOP", "save_figure", "shade_impacts", "grazing_values",
+__all__ = ["CLASS_COLOURS", "DPI", "F_STOP", "save_figure", "shade_impacts", "grazing_values",
            "ROM_SHADE", "rom_label", "shade_beyond_rom"]
 
 CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "double-sided impacts")}
@@ -30,6 +30,8 @@ CLASS_COLOURS = {1: ("tab:orange", "single-sided impacts"), 2: ("tab:red", "doub
 #: of hearing, which the levels and the ERP are for (docs/results-format.md, "Plots");
 #: they stop lower where the harmonic set (or the mesh orders drawn) stops lower.
 F_STOP = 20_000.0
+#: Resolution of the PNG files (dots per inch).
+DPI = 130
 #: How a frequency range outside the ROM's validity is shaded.
 ROM_SHADE = {"facecolor": "0.6", "alpha": 0.3, "hatch": "///", "edgecolor": "0.35", "lw": 0}
 
@@ -59,7 +61,7 @@ def save_figure(fig, path: Path) -> Path:
     path = Path(path)
     try:
         with atomic_write(path) as tmp:
-            fig.savefig(tmp, dpi=130, bbox_inches="tight")
+            fig.savefig(tmp, dpi=DPI, bbox_inches="tight")
     finally:
         plt.close(fig)
     logger.info("wrote %s", path)

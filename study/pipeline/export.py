@@ -67,10 +67,9 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     logger.info("wrote %s", result.results)
     comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
                    result.nvh)
-    if housing:
-        write_housing(result, figures)
+    renders = write_housing(result) if housing else []
     if figures:
-        comm.root_call(_figures, result)            # plots, checks, report.md
+        comm.root_call(_figures, result, renders)   # plots, renderings, checks, report.md
     else:
         result.checks = comm.root_call(run_checks, result)
     comm.root_call(record_checks, result)
@@ -88,16 +87,18 @@ def record_checks(result) -> None:
         write_checks_group(f, result.checks)
 
 
-def write_housing(result, figures: bool = True) -> None:
-    """The housing fields the scene asks for (FE scenes, ``[outputs] housing_field_rpm``)
-    and, with ``figures`` and the ``housing`` plot, their renderings; collective under
-    mpirun (rank 0 writes)."""
+def write_housing(result) -> list[Path]:
+    """The housing fields the scene asks for (FE scenes, ``[outputs] housing_field_rpm``),
+    appended to ``result.figures``; collective under mpirun (rank 0 writes). Returns the
+    XDMF files to render when the scene asks for the ``housing`` plot (the renderings
+    run beside the other plots, :func:`draw_figures`)."""
     if result.rom is None or not result.scene.outputs.housing_field:
-        return
+        return []
     paths = housing_fields(result)
     result.figures += paths
-    if figures and "housing" in result.scene.outputs.plots:
-        world().root_call(_render, result, paths)
+    if "housing" not in result.scene.outputs.plots:
+        return []
+    return [x for x in paths if not x.name.startswith(("housing_orders_", "housing_surface_"))]
 
 
 def write_rom_group(f, result) -> None:
@@ -144,31 +145,33 @@ def _write_housing_fields(result) -> list[Path]:
     return paths
 
 
-def _render(result, paths: list[Path]) -> None:
-    from study.plots.render import render_housing_isolated
-    for x in paths:
-        if x.name.startswith(("housing_orders_", "housing_surface_")):
-            continue
-        png = render_housing_isolated(x, x.with_suffix(".png"))
-        if png is not None:
-            result.figures.append(png)
-
-
-def draw_figures(result) -> None:
+def draw_figures(result, renders: list[Path] = ()) -> None:
     """The PNG plots of a run: those the scene's ``[outputs] plots`` asks for
-    (:func:`study.plots.figures.draw_all`) and those of an ``ltca``/``table`` mesh
-    excitation (:func:`study.plots.mesh_excitation.mesh_excitation_plots`)."""
+    (:func:`study.plots.figures.draw_all`), those of an ``ltca``/``table`` mesh
+    excitation (:func:`study.plots.mesh_excitation.mesh_excitation_plots`) and the
+    renderings of the housing fields ``renders`` (each in a child process started first
+    and collected last, :class:`study.plots.render.HousingRender`: it runs while the
+    plots are drawn; its PNG is listed where the rendering was asked, after the fields)."""
     from study.plots.figures import draw_all
 
-    result.figures += draw_all(result)
-    if getattr(result, "mesh_excitation", None) is not None:
-        from study.plots.mesh_excitation import mesh_excitation_plots
-        result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
-                                                Path(result.out))
+    at = len(result.figures)
+    running = []
+    if renders:
+        from study.plots.render import HousingRender
+        running = [HousingRender(x, x.with_suffix(".png")) for x in renders]
+    try:
+        result.figures += draw_all(result)
+        if getattr(result, "mesh_excitation", None) is not None:
+            from study.plots.mesh_excitation import mesh_excitation_plots
+            result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
+                                                    Path(result.out))
+    finally:
+        pngs = [r.wait() for r in running]
+    result.figures[at:at] = [p for p in pngs if p is not None]
 
 
-def _figures(result) -> None:
-    draw_figures(result)
+def _figures(result, renders: list[Path] = ()) -> None:
+    draw_figures(result, renders)
     result.checks = run_checks(result)
     if result.scene.outputs.report:
         write_report_files(result)

@@ -3,7 +3,9 @@
 The branch is read back (it must belong to the scene's inputs: the hbm stage key is
 compared), the HBM problem and, for FE scenes, the ROM come from the stage cache, and
 the plots, housing fields and ``report.md`` are written as the export stage writes them
-(:mod:`study.pipeline.export`); the continuation does not run.
+(:mod:`study.pipeline.export`), and the checks computed for them replace ``/checks`` of
+``results.h5`` (the report's banner and the file say the same); the continuation does
+not run.
 """
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from pathlib import Path
 
 from study.outputs.nvh import compute_nvh
 from study.outputs.results import read_branch
-from study.pipeline.export import draw_figures, write_housing, write_report_files
+from study.pipeline.export import draw_figures, record_checks, write_housing, write_report_files
 from study.pipeline.parallel import mark_collective
 from study.pipeline.runs import RunResult
 from study.pipeline.stages import Pipeline
@@ -43,12 +45,14 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
     if scene.mesh_source is not None:           # the ltca stage's arrays (cached)
         res.mesh_excitation = pipe.comm.root_call(pipe.run_mesh_excitation)
+    # the housing fields from the cached ROM (rank 0 writes); their renderings, if asked,
+    # run beside the plots
+    renders = write_housing(res) if scene.outputs.housing_field else []
 
     def draw() -> None:
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
-        draw_figures(res)
+        draw_figures(res, renders)
         write_report_files(res)
-    if scene.outputs.housing_field:  # only for a machine with a radiating part (load_scene)
-        write_housing(res)                          # from the cached ROM, rank 0 writes
+        record_checks(res)          # /checks of results.h5 as report.md's banner states them
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res

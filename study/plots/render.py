@@ -14,26 +14,54 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["render_housing", "render_housing_isolated"]
+__all__ = ["HousingRender", "render_housing", "render_housing_isolated"]
+
+
+class HousingRender:
+    """:func:`render_housing` of one XDMF file in a child process
+    (``python -m study.plots.render XDMF PNG``), started at once and collected by
+    :meth:`wait`: the parent draws its other plots meanwhile (the child's ~3 s of VTK
+    import and rendering overlap them on a second core)."""
+
+    def __init__(self, xdmf: Path, png: Path, timeout: float = 300.0) -> None:
+        import subprocess
+        import sys
+
+        self.png, self.timeout = Path(png), timeout
+        try:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", "study.plots.render", str(xdmf), str(png)],
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            self._error = ""
+        except OSError as exc:
+            self._proc, self._error = None, str(exc)
+
+    def wait(self) -> Path | None:
+        """The PNG once the child has written it; None (and a warning) if it failed."""
+        import subprocess
+
+        if self._proc is None:
+            logger.warning("housing rendering failed: %s", self._error)
+            return None
+        try:
+            _, err = self._proc.communicate(timeout=self.timeout)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.communicate()
+            logger.warning("housing rendering failed: timed out after %g s", self.timeout)
+            return None
+        if self._proc.returncode != 0 or not self.png.exists():
+            tail = (err or "").strip().splitlines()[-1:] or [""]
+            logger.warning("housing rendering failed (exit %s): %s", self._proc.returncode,
+                           tail[0][:200])
+            return None
+        logger.info("wrote %s", self.png)
+        return self.png
 
 
 def render_housing_isolated(xdmf: Path, png: Path, timeout: float = 300.0) -> Path | None:
-    """:func:`render_housing` in a child process (``python -m study.plots.render XDMF PNG``)."""
-    import subprocess
-    import sys
-
-    try:
-        p = subprocess.run([sys.executable, "-m", "study.plots.render", str(xdmf), str(png)],
-                           capture_output=True, text=True, timeout=timeout)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        logger.warning("housing rendering failed: %s", exc)
-        return None
-    if p.returncode != 0 or not Path(png).exists():
-        tail = (p.stderr or "").strip().splitlines()[-1:] or [""]
-        logger.warning("housing rendering failed (exit %s): %s", p.returncode, tail[0][:200])
-        return None
-    logger.info("wrote %s", png)
-    return Path(png)
+    """:func:`render_housing` in a child process, waited for (:class:`HousingRender`)."""
+    return HousingRender(xdmf, png, timeout).wait()
 
 
 def _dynamic_frames(xdmf: Path) -> tuple[np.ndarray, dict, np.ndarray]:

@@ -32,7 +32,8 @@ from study.scene.errors import SceneError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Bound", "BOUNDS", "REQUIRED_SECTIONS", "DYNAMIC_RATIO_USUAL", "Finding",
+__all__ = ["Bound", "BOUNDS", "LENGTH_FIELDS", "REQUIRED_SECTIONS", "DYNAMIC_RATIO_USUAL",
+           "Finding",
            "check_required_sections", "check_plausibility", "plausibility_warnings",
            "dynamic_ratio_warning", "bounds_markdown"]
 
@@ -54,6 +55,8 @@ class Bound:
         Outside ``[lo, hi]`` (and inside ``error``) a warning.
     meaning : str
         Why these bounds (docs/scenes.md).
+    zero_is_none : bool
+        A value 0 means "none" (no rotor, no tail) and is not judged.
     """
 
     field: str
@@ -61,17 +64,24 @@ class Bound:
     error: tuple[float | None, float | None]
     usual: tuple[float | None, float | None]
     meaning: str
+    zero_is_none: bool = False
 
 
 #: Factor from SI to each unit of :data:`BOUNDS` (N/(mm·µm): k [N/m] / b [m] · 1e-9).
 _FROM_SI = {"GPa": 1e-9, "kg/m³": 1.0, "-": 1.0, "N/µm": 1e-6, "µm": 1e6, "mm": 1e3,
             "N/(mm·µm)": 1e-9, "N·m/rad": 1.0, "N/mm": 1e-3, "deg": 180.0 / math.pi,
-            "kg·m²": 1.0}
+            "kg·m²": 1.0, "kg": 1.0, "kg·m": 1.0}
 
 _E = "Young's modulus; metals 40–450 GPa, polymers and composites from 1 GPa"
 _NU = "Poisson's ratio; metals 0.25–0.35"
 _RHO = "density; metals 1700–20000 kg/m³, polymers from 900 kg/m³"
 _BEAR = "rolling-bearing stiffness; ball and roller bearings 10–5000 N/µm"
+_LEN = ("; 0: none, not judged. A length in m under a plain key (8 for 8 mm) or in m "
+        "under a `_mm` key (0.008) is refused")
+_J = ("polar inertia of a rotating part; 1e-7 kg·m² (a 20 mm steel gear) to 100 kg·m² "
+      "(a 200 kg wheel of 1 m diameter)")
+_MASS = "mass of a lumped part; 1 g to 1 t"
+_ZERO_NONE = "; 0: none, not judged"
 
 #: The plausibility table (docs/scenes.md, "Plausibility bounds").
 BOUNDS: tuple[Bound, ...] = (
@@ -106,9 +116,51 @@ BOUNDS: tuple[Bound, ...] = (
     Bound("drive.impeller_inertia", "kg·m²", (None, 1e4), (None, 100.0),
           "driven inertia on the output coupling"),
     Bound("rotors.lateral_stiffness", "N/µm", (0.1, 1e6), (10.0, 1e4),
-          "radial spring beside each gear (0: none, not judged)"),
+          "radial spring beside each gear (0: none, not judged)", zero_is_none=True),
     Bound("rotors.torsional_stiffness", "N·m/rad", (1.0, 1e10), (100.0, 1e9),
-          "rotor neck (0: no rotor, not judged)"),
+          "rotor neck (0: no rotor, not judged)", zero_is_none=True),
+    # geometry dimensions
+    Bound("geometry.*", "mm", (0.01, 5000.0), (0.5, 2000.0),
+          "every length of the pump's [geometry] and of its tables [geometry.housing], "
+          "[geometry.shaft_in], [geometry.shaft_out] (radii, lengths, walls, feet, ribs, "
+          "clearance)" + _LEN, zero_is_none=True),
+    Bound("housing.*", "mm", (0.01, 5000.0), (0.5, 2000.0),
+          "every length of a gearbox's parametric [housing] (walls, clearance, bosses, "
+          "bearing section and width, feet, ribs)" + _LEN, zero_is_none=True),
+    Bound("shafts.diameter", "mm", (0.5, 5000.0), (3.0, 1000.0),
+          "shaft diameter of a train or gearbox [[shafts]]"),
+    Bound("shafts.length", "mm", (1.0, 20000.0), (10.0, 5000.0),
+          "shaft length of a gearbox [[shafts]]"),
+    Bound("gears.module", "mm", (0.05, 100.0), (0.3, 50.0), "normal module of a [[gears]]"),
+    Bound("gears.face_width / gears.module", "-", (0.5, 200.0), (3.0, 40.0),
+          "face width over module b_f/m of a [[gears]]; spur gears 6–30"),
+    Bound("shafts.bearings.radial", "N/µm", (0.1, 1e6), (10.0, 5000.0), _BEAR),
+    Bound("shafts.bearings.axial", "N/µm", (0.01, 1e6), (1.0, 5000.0), _BEAR),
+    # rotor inertias and lumped masses
+    Bound("lumped.inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J),
+    Bound("lumped.equivalent_mass", "kg", (None, 1e5), (1e-3, 1e3), _MASS),
+    Bound("rotors.inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("rotors.gear_inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("rotors.rim_inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("rotors.gear_mass", "kg", (None, 1e5), (1e-3, 1e3), _MASS + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("rotors.rim_mass", "kg", (None, 1e5), (1e-3, 1e3), _MASS + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("drive.impeller_mass", "kg", (None, 1e5), (1e-3, 1e3), _MASS + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("shafts.inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J + _ZERO_NONE,
+          zero_is_none=True),
+    Bound("gears.inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J),
+    Bound("gears.mass", "kg", (None, 1e5), (1e-3, 1e3), _MASS),
+    Bound("drive.motor_inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J),
+    Bound("loads.inertia", "kg·m²", (None, 1e4), (1e-7, 100.0), _J),
+    # unbalance
+    Bound("external.unbalance.m_unb", "kg·m", (None, 1.0), (1e-7, 1e-2),
+          "mass unbalance m·e; ISO 21940-11 (G 0.4 – G 40): 1e-6 kg·m (1 g·mm) on a small "
+          "rotor to 1e-2 kg·m on a 100 kg one (the pump: 3e-5 kg·m = 30 g·mm)"),
 )
 
 #: Largest usual ratio of the peak mesh load to the static one (≈ peak deflection over
@@ -194,33 +246,132 @@ def _fe_value(section: str, table: Any, name: str) -> tuple[str, float, float] |
     return None
 
 
-def _value(scene: Scene, field: str) -> tuple[str, float, float] | None:
-    """(key as written, SI value, value as written) of one side of a row, None when not
-    given or not applicable."""
+_SHAFT_LENGTHS = ("coupling_radius", "coupling_length", "journal_radius", "journal_length",
+                  "body_radius", "span_a", "hub_radius", "hub_length", "span_b",
+                  "tail_radius", "tail_length", "station_width", "rotor_radius", "rotor_gap")
+#: The lengths judged by the ``geometry.*`` row (pump: :class:`geometry.PumpParams` and
+#: the tables of its :class:`geometry.HousingParams` and :class:`geometry.ShaftParams`) and
+#: by the ``housing.*`` row (gearbox: :class:`geometry.GearboxHousingParams` and
+#: ``HousingOptions.bearing_width``); a test checks them against the dataclasses.
+LENGTH_FIELDS: dict[str, tuple[str, ...]] = {
+    "geometry": ("centre_distance", "gear_z", "gear_tip_radius", "gear_width",
+                 "min_clearance"),
+    "geometry.housing": ("length_x", "height_y", "length_z", "wall_thickness", "boss_radius",
+                         "boss_length", "bore_radius", "foot_width", "foot_depth",
+                         "foot_height", "foot_overhang", "rib_thickness", "rib_height"),
+    "geometry.shaft_in": _SHAFT_LENGTHS,
+    "geometry.shaft_out": _SHAFT_LENGTHS,
+    "housing": ("wall_thickness", "clearance", "boss_length", "boss_thickness",
+                "bearing_section", "foot_width", "foot_depth", "foot_height",
+                "foot_overhang", "rib_thickness", "rib_height", "bearing_width"),
+}
+#: Scene kinds with free FE tables (study.scene.schema FE_SECTIONS, GEARBOX_SECTIONS).
+_FE_KINDS = ("fe", "gearbox")
+
+
+def _entries(scene: Scene, field: str) -> list[tuple[str, float]] | None:
+    """(key as written, SI value) of every entry of a train table, of ``[lumped]``
+    inertias or ``[[external.unbalance]]`` that ``field`` names; None when ``field`` is
+    not one of them."""
+    sh, gs = scene.shafts, scene.gears
+    d = scene.drive
+    get: dict[str, Callable[[], list]] = {
+        "shafts.diameter": lambda: [(f"shafts[{i}].diameter_mm", x.diameter)
+                                    for i, x in enumerate(sh)],
+        "shafts.length": lambda: [(f"shafts[{i}].length_mm", x.length)
+                                  for i, x in enumerate(sh)],
+        "shafts.inertia": lambda: [(f"shafts[{i}].inertia_kgm2", x.inertia)
+                                   for i, x in enumerate(sh)],
+        "shafts.bearings.radial": lambda: [
+            (f"shafts[{i}].bearings[{j}].radial_N_per_um", b.radial)
+            for i, x in enumerate(sh) for j, b in enumerate(x.bearings)],
+        "shafts.bearings.axial": lambda: [
+            (f"shafts[{i}].bearings[{j}].axial_N_per_um", b.axial)
+            for i, x in enumerate(sh) for j, b in enumerate(x.bearings)],
+        "gears.module": lambda: [(f"gears[{i}].module_mm", g.module) for i, g in enumerate(gs)],
+        "gears.face_width": lambda: [(f"gears[{i}].face_width_mm", g.face_width)
+                                     for i, g in enumerate(gs)],
+        "gears.inertia": lambda: [(f"gears[{i}].inertia_kgm2", g.inertia)
+                                  for i, g in enumerate(gs)],
+        "gears.mass": lambda: [(f"gears[{i}].mass_kg", g.mass) for i, g in enumerate(gs)],
+        "drive.motor_inertia": lambda: [] if d is None else
+        [("drive.motor_inertia_kgm2", d.motor_inertia)],
+        "loads.inertia": lambda: [(f"loads[{i}].inertia_kgm2", x.inertia)
+                                  for i, x in enumerate(scene.loads)],
+        "lumped.inertia": lambda: [(f"lumped.inertia_kgm2[{i}]", v)
+                                   for i, v in enumerate(scene.lumped.inertia or ())],
+        "lumped.equivalent_mass": lambda: [("lumped.equivalent_mass_kg",
+                                            scene.lumped.equivalent_mass)],
+        "external.unbalance.m_unb": lambda: [
+            (f"external.unbalance[{i}].m_unb_kgm", u.m_unb)
+            for i, u in enumerate(scene.external.unbalance)],
+    }
+    if field not in get:
+        return None
+    return [(k, float(v)) for k, v in get[field]() if v is not None]
+
+
+def _written(key: str, si: float) -> float:
+    """``si`` in the unit of ``key``'s suffix (``_mm``, ``_kgm2``, ...; none: SI)."""
+    base = key.split("[")[0] if key.endswith("]") else key
+    suffix = next((s for s in sorted(TO_SI, key=len, reverse=True)
+                   if s and base.endswith("_" + s)), "")
+    return si / TO_SI[suffix]
+
+
+def _values(scene: Scene, field: str) -> list[tuple[str, float, float]]:
+    """(key as written, SI value, value as written) of every instance of one side of a
+    row (one for a scene value or an FE key, one per entry of a table), [] when not given
+    or not applicable."""
     if field in _SCENE_FIELDS:
         v = _SCENE_FIELDS[field](scene)
         if v is None:
-            return None
+            return []
         key = _SCENE_KEYS[field]
-        suffix = next((s for s in sorted(TO_SI, key=len, reverse=True)
-                       if s and key.endswith("_" + s)), "")
-        return key, float(v), float(v) / TO_SI[suffix]
+        return [(key, float(v), _written(key, float(v)))]
+    entries = _entries(scene, field)
+    if entries is not None:
+        return [(k, v, _written(k, v)) for k, v in entries]
+    if scene.scene.kind not in _FE_KINDS:
+        return []
     section, name = field.split(".", 1)
-    if scene.scene.kind != "fe":
-        return None
-    return _fe_value(section, scene.fe.get(section), name)
+    if name == "*":           # every length of the section and its tables
+        out = []
+        for path, names in LENGTH_FIELDS.items():
+            head, *sub = path.split(".")
+            if head != section or (section == "geometry") != (scene.scene.kind == "fe"):
+                continue
+            table = scene.fe.get(head)
+            for t in sub:
+                table = table.get(t) if isinstance(table, dict) else None
+            out += [v for n in names if (v := _fe_value(path, table, n)) is not None]
+        return out
+    v = _fe_value(section, scene.fe.get(section), name)
+    return [] if v is None else [v]
 
 
-def _judge(scene: Scene, b: Bound) -> Finding | None:
+def _judge(scene: Scene, b: Bound) -> list[Finding]:
+    """The findings of one row: per instance of its field, or per entry of a ratio
+    (a ratio of a table's entries pairs them entry by entry)."""
     parts = [p.strip() for p in b.field.split("/")]
-    vals = [_value(scene, p) for p in parts]
-    if any(v is None for v in vals):
-        return None
-    key = " / ".join(v[0] for v in vals)
-    si = vals[0][1] if len(vals) == 1 else vals[0][1] / vals[1][1]
-    if b.field.startswith("rotors.") and si == 0.0:
-        return None
-    return _judge_value(b, key, si, vals[0][2] if len(vals) == 1 else None)
+    if len(parts) == 1:
+        rows = [(k, si, w) for k, si, w in _values(scene, parts[0])]
+    else:
+        num, den = (_values(scene, p) for p in parts)
+        if not num or not den:
+            return []
+        if len(den) == 1:
+            den = den * len(num)
+        rows = [(f"{a[0]} / {c[0]}", a[1] / c[1], None)
+                for a, c in zip(num, den, strict=True)]
+    out = []
+    for key, si, written in rows:
+        if b.zero_is_none and si == 0.0:
+            continue
+        f = _judge_value(b, key, si, written)
+        if f is not None:
+            out.append(f)
+    return out
 
 
 def check_required_sections(raw: dict, kind: str) -> None:
@@ -242,11 +393,11 @@ def _judge_value(b: Bound, key: str, si: float, written: float | None) -> Findin
 
 def _findings(scene: Scene) -> list[Finding]:
     if not getattr(scene, "is_train", False):
-        return [f for b in BOUNDS if (f := _judge(scene, b)) is not None]
-    # a train: the rows of its own sections (FE, damping), then each mesh's
+        return [f for b in BOUNDS for f in _judge(scene, b)]
+    # a train: the rows of its own sections (FE, damping, its tables), then each mesh's
     own = [b for b in BOUNDS if b.field.split(".")[0] not in ("gear", "mesh_stiffness", "load",
                                                               "lumped")]
-    out = [f for b in own if (f := _judge(scene, b)) is not None]
+    out = [f for b in own for f in _judge(scene, b)]
     rows = {b.field: b for b in BOUNDS}
     for i, m in enumerate(scene.meshes):
         for field, (key, get) in _MESH_ROWS.items():

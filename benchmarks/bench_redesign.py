@@ -117,11 +117,13 @@ def main(argv: list[str] | None = None) -> int:
                         args.new], check=True, capture_output=True)
     trees = {"old": old_tree, "new": new_tree}
     revs = {k: revision(t) for k, t in trees.items()}
+    load_start = os.getloadavg()[0]
     caches = {k: work / f"cache_{k}" for k in trees}
     for k, tree in trees.items():                 # mesh and ROM once per version
         LOG.info("warm-up %s (%s)", k, revs[k])
         run_scene(tree, args.scene, work / f"warm_{k}", caches[k])
     rows, ratios = [], {"hbm": [], "export": [], "total": []}
+    share: dict[str, list[float]] = {"old": [], "new": []}     # export / hbm, same process
     for r in range(args.repeats):
         pair = {}
         for k in (("old", "new") if r % 2 == 0 else ("new", "old")):
@@ -132,32 +134,45 @@ def main(argv: list[str] | None = None) -> int:
             LOG.info("round %d %s: %s", r, k, pair[k])
         for s in ratios:
             ratios[s].append(pair["new"][s] / pair["old"][s])
+        for k in share:
+            share[k].append(pair[k]["export"] / pair[k]["hbm"])
         rows.append([r, *(f"{pair[k][s]:.1f}" for s in ("hbm", "export", "total")
                           for k in ("old", "new"))])
     diff = largest_difference(work / "run_old_0" / "results.h5",
                               work / "run_new_0" / "results.h5")
     med = {s: statistics.median(v) for s, v in ratios.items()}
+    med_share = {k: statistics.median(v) for k, v in share.items()}
+    load_end = os.getloadavg()[0]
     summary = (f"{args.scene}: the whole curve with stability (hbm stage) and the export, "
                f"old {revs['old']} against new {revs['new']}, {args.repeats} interleaved "
                f"pairs after a warm-up (mesh and ROM cached per version). Median ratio "
                f"new/old: hbm {med['hbm']:.2f}, export {med['export']:.2f}, whole run "
-               f"{med['total']:.2f}. results.h5 largest relative difference {diff:.1e}.")
+               f"{med['total']:.2f}; export / hbm of the same run: old "
+               f"{med_share['old']:.2f}, new {med_share['new']:.2f}. results.h5 largest "
+               f"relative difference {diff:.1e}. Load average (1 min) {load_start:.1f} at "
+               f"the start, {load_end:.1f} at the end on {os.cpu_count()} cores.")
     LOG.info(summary)
     write_json(args.name, {
         "command": f"python -m benchmarks.bench_redesign --baseline {args.baseline} "
                    + (f"--new {args.new} " if args.new else "")
                    + f"--repeats {args.repeats} --scene {args.scene}",
         "summary": summary,
-        "headline": {"hbm new/old": med["hbm"], "export new/old": med["export"]},
-        "revisions": revs, "ratios": ratios, "results_max_rel_diff": diff,
+        "headline": {"hbm new/old": med["hbm"], "export new/old": med["export"],
+                     "export/hbm old": med_share["old"], "export/hbm new": med_share["new"]},
+        "revisions": revs, "ratios": ratios, "export_over_hbm": share,
+        "results_max_rel_diff": diff, "load_average_start": load_start,
+        "load_average_end": load_end,
         "tables": [{"title": "stage wall times per round (s)",
                     "columns": ["round", "hbm old", "hbm new", "export old", "export new",
                                 "run old", "run new"],
                     "rows": [[r[0], r[1], r[2], r[3], r[4], r[5], r[6]] for r in rows]},
-                   {"title": "median ratio new / old (pair by pair)",
-                    "columns": ["hbm", "export", "whole run"],
+                   {"title": "median ratio new / old (pair by pair) and export / hbm of "
+                             "each version (same run)",
+                    "columns": ["hbm", "export", "whole run", "export/hbm old",
+                                "export/hbm new"],
                     "rows": [[f"{med['hbm']:.3f}", f"{med['export']:.3f}",
-                              f"{med['total']:.3f}"]]}]})
+                              f"{med['total']:.3f}", f"{med_share['old']:.3f}",
+                              f"{med_share['new']:.3f}"]]}]})
     return 0
 
 

@@ -14,6 +14,9 @@ Run (one heavy run at a time; ~4 min per pair on the pump)::
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_redesign \\
         --baseline <revision> [--repeats 3] [--scene scenes/pump.toml] [--name redesign]
 
+``--export-only`` keeps each version's hbm cache: every counted run is then the export
+stage alone (a finer ratio of the export, a few minutes; no hbm time).
+
 Writes ``benchmarks/results/<name>.json`` (rendered into BENCHMARKS.md by
 ``benchmarks.report``). Also checks that both versions wrote the same ``results.h5``
 numbers (largest relative difference over the datasets both files hold).
@@ -103,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scene", default="scenes/pump.toml")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--name", default="redesign")
+    ap.add_argument("--export-only", action="store_true",
+                    help="keep each version's hbm cache: every counted run is the export "
+                         "stage alone (a finer ratio of the export; no hbm time)")
     ap.add_argument("--work", default=None, help="folder for worktree, caches, outputs")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -122,57 +128,71 @@ def main(argv: list[str] | None = None) -> int:
     for k, tree in trees.items():                 # mesh and ROM once per version
         LOG.info("warm-up %s (%s)", k, revs[k])
         run_scene(tree, args.scene, work / f"warm_{k}", caches[k])
-    rows, ratios = [], {"hbm": [], "export": [], "total": []}
+    stages = ("export", "total") if args.export_only else ("hbm", "export", "total")
+    rows, ratios = [], {s: [] for s in stages}
     share: dict[str, list[float]] = {"old": [], "new": []}     # export / hbm, same process
     for r in range(args.repeats):
         pair = {}
         for k in (("old", "new") if r % 2 == 0 else ("new", "old")):
-            drop_hbm(caches[k])
+            if not args.export_only:
+                drop_hbm(caches[k])
             out = work / f"run_{k}_{r}"
             shutil.rmtree(out, ignore_errors=True)
             pair[k] = run_scene(trees[k], args.scene, out, caches[k])
             LOG.info("round %d %s: %s", r, k, pair[k])
         for s in ratios:
             ratios[s].append(pair["new"][s] / pair["old"][s])
-        for k in share:
-            share[k].append(pair[k]["export"] / pair[k]["hbm"])
-        rows.append([r, *(f"{pair[k][s]:.1f}" for s in ("hbm", "export", "total")
-                          for k in ("old", "new"))])
+        if not args.export_only:
+            for k in share:
+                share[k].append(pair[k]["export"] / pair[k]["hbm"])
+        rows.append([r, *(f"{pair[k][s]:.1f}" for s in stages for k in ("old", "new"))])
     diff = largest_difference(work / "run_old_0" / "results.h5",
                               work / "run_new_0" / "results.h5")
     med = {s: statistics.median(v) for s, v in ratios.items()}
-    med_share = {k: statistics.median(v) for k, v in share.items()}
     load_end = os.getloadavg()[0]
-    summary = (f"{args.scene}: the whole curve with stability (hbm stage) and the export, "
-               f"old {revs['old']} against new {revs['new']}, {args.repeats} interleaved "
-               f"pairs after a warm-up (mesh and ROM cached per version). Median ratio "
-               f"new/old: hbm {med['hbm']:.2f}, export {med['export']:.2f}, whole run "
-               f"{med['total']:.2f}; export / hbm of the same run: old "
-               f"{med_share['old']:.2f}, new {med_share['new']:.2f}. results.h5 largest "
-               f"relative difference {diff:.1e}. Load average (1 min) {load_start:.1f} at "
-               f"the start, {load_end:.1f} at the end on {os.cpu_count()} cores.")
+    what = ("the export stage alone (hbm cached per version)" if args.export_only else
+            "the whole curve with stability (hbm stage) and the export")
+    summary = (f"{args.scene}: {what}, old {revs['old']} against new {revs['new']}, "
+               f"{args.repeats} interleaved pairs after a warm-up (mesh and ROM cached per "
+               "version). Median ratio new/old: "
+               + ", ".join(f"{'whole run' if s == 'total' else s} {med[s]:.2f}"
+                           for s in stages))
+    headline = {f"{s} new/old" + (" (export only)" if args.export_only else ""): med[s]
+                for s in stages if s != "total"}
+    extra_cols, extra = [], []
+    if not args.export_only:
+        med_share = {k: statistics.median(v) for k, v in share.items()}
+        summary += (f"; export / hbm of the same run: old {med_share['old']:.2f}, new "
+                    f"{med_share['new']:.2f}")
+        headline.update({"export/hbm old": med_share["old"],
+                         "export/hbm new": med_share["new"]})
+        extra_cols = ["export/hbm old", "export/hbm new"]
+        extra = [f"{med_share['old']:.3f}", f"{med_share['new']:.3f}"]
+    summary += (f". results.h5 largest relative difference {diff:.1e}. Load average (1 min) "
+                f"{load_start:.1f} at the start, {load_end:.1f} at the end on "
+                f"{os.cpu_count()} cores.")
     LOG.info(summary)
+    names = {"hbm": "hbm", "export": "export", "total": "run"}
     write_json(args.name, {
         "command": f"python -m benchmarks.bench_redesign --baseline {args.baseline} "
                    + (f"--new {args.new} " if args.new else "")
-                   + f"--repeats {args.repeats} --scene {args.scene}",
+                   + f"--repeats {args.repeats} --scene {args.scene}"
+                   + (" --export-only" if args.export_only else ""),
         "summary": summary,
-        "headline": {"hbm new/old": med["hbm"], "export new/old": med["export"],
-                     "export/hbm old": med_share["old"], "export/hbm new": med_share["new"]},
+        "headline": headline,
         "revisions": revs, "ratios": ratios, "export_over_hbm": share,
         "results_max_rel_diff": diff, "load_average_start": load_start,
         "load_average_end": load_end,
         "tables": [{"title": "stage wall times per round (s)",
-                    "columns": ["round", "hbm old", "hbm new", "export old", "export new",
-                                "run old", "run new"],
-                    "rows": [[r[0], r[1], r[2], r[3], r[4], r[5], r[6]] for r in rows]},
-                   {"title": "median ratio new / old (pair by pair) and export / hbm of "
-                             "each version (same run)",
-                    "columns": ["hbm", "export", "whole run", "export/hbm old",
-                                "export/hbm new"],
-                    "rows": [[f"{med['hbm']:.3f}", f"{med['export']:.3f}",
-                              f"{med['total']:.3f}", f"{med_share['old']:.3f}",
-                              f"{med_share['new']:.3f}"]]}]})
+                    "columns": ["round", *(f"{names[s]} {k}" for s in stages
+                                           for k in ("old", "new"))],
+                    "rows": rows},
+                   {"title": "median ratio new / old (pair by pair)"
+                             + ("" if args.export_only else
+                                " and export / hbm of each version (same run)"),
+                    "columns": [("whole run" if s == "total" else s) for s in stages]
+                    + extra_cols,
+                    "rows": [[f"{med[s]:.3f}" for s in stages] + extra]}]})
     return 0
 
 

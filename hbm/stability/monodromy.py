@@ -56,8 +56,9 @@ MIN_STEPS_PER_BASE_PERIOD = 16
 #: fastest dynamics: a long period at low speed), before giving up.
 MAX_OVERFLOW_DOUBLINGS = 4
 
-__all__ = ["DensePeriod", "ModalPeriod", "MonodromyResult", "exponents_along",
-           "monodromy_exponents", "orbit_deltas", "period_map", "step_stiffness"]
+__all__ = ["DensePeriod", "ModalPeriod", "MonodromyResult", "dominant_multipliers",
+           "energy_weights", "exponents_along", "monodromy_exponents", "orbit_deltas",
+           "period_amplification", "period_map", "step_stiffness"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,15 @@ class MonodromyResult:
     basis
         Orthonormal basis (2 m x columns) of the dominant subspace, to start the
         next point from; None for the full monodromy.
+    amplification
+        Transient amplification over one period: the largest singular value of the
+        monodromy in the energy norm (:func:`energy_weights`), the largest growth of a
+        disturbance's ``sqrt(energy)`` over one period whatever the multipliers (a
+        non-normal ``Phi`` grows disturbances although every ``|mu| < 1``). Exact for the
+        full monodromy; on the dominant subspace of a subspace iteration, a lower bound
+        (``amplification_exact`` False).
+    amplification_exact
+        True when ``amplification`` is that of the whole monodromy.
     """
 
     exponents: np.ndarray
@@ -88,6 +98,8 @@ class MonodromyResult:
     n_steps: int
     columns: int
     basis: np.ndarray | None = None
+    amplification: float = float("nan")
+    amplification_exact: bool = False
 
 
 def orbit_deltas(problem: HBMProblem, unknowns: np.ndarray, n_steps: int) -> np.ndarray:
@@ -262,9 +274,10 @@ def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int):
     return mu, False, x
 
 
-def _multipliers(step, size: int, columns: int, tol: float, start, rng):
+def dominant_multipliers(step, size: int, columns: int, tol: float, start, rng, full=None):
     """Dominant multipliers of one period map: subspace iteration (from ``start`` when
-    it has the right shape, else random), the full eig when the block reaches ``size``.
+    it has the right shape, else random), the full eig when the block reaches ``size``
+    (the monodromy then put in ``full[0]`` when a list is given).
 
     Returns (multipliers, block size, basis of the dominant subspace or None).
     """
@@ -276,7 +289,57 @@ def _multipliers(step, size: int, columns: int, tol: float, start, rng):
         if ok:
             return mu, p, basis
         p, start = 2 * p, None
-    return np.linalg.eigvals(step(np.eye(size))), size, None
+    phi = step(np.eye(size))
+    if full is not None:
+        full[:] = [phi]
+    return np.linalg.eigvals(phi), size, None
+
+
+def energy_weights(problem: HBMProblem) -> tuple[np.ndarray, np.ndarray | None]:
+    """Weights of the energy norm on the states of the period map.
+
+    Modal damping (the kept eq. (17) modes, mass-normalised): ``w = (omega_j, 1)`` on
+    ``(q_j, v_j)``, so ``|w x|^2`` is twice the energy of the state in ``K'`` and ``M``.
+    Otherwise, physical ``(q, v)``: returns ``(w, T)`` with ``T`` the modal transform
+    (the eigenvectors of ``(K', M)``, a rigid mode weighted with 1e-3 of the largest
+    frequency); for the modal case ``T`` is None.
+    """
+    if problem.modal:
+        w = np.sqrt(np.abs(problem.w2[~problem.rigid]))
+        return np.concatenate([w, np.ones(w.size)]), None
+    s = problem.system
+    w2, phi = sla.eigh(problem.Kp, s.M)
+    w = np.sqrt(np.maximum(w2, (1e-3 ** 2) * np.max(np.abs(w2))))
+    tinv = np.linalg.inv(phi)
+    n = s.n_dof
+    t = np.zeros((2 * n, 2 * n))
+    t[:n, :n] = tinv
+    t[n:, n:] = tinv
+    return np.concatenate([w, np.ones(n)]), t
+
+
+def period_amplification(problem: HBMProblem, step, phi: np.ndarray | None = None,
+                         basis: np.ndarray | None = None) -> tuple[float, bool]:
+    """Largest singular value of the period map in the energy norm (:func:`energy_weights`).
+
+    ``phi``: the whole monodromy (exact); else ``basis``: the dominant subspace, on which
+    the map is applied once (a lower bound of the whole map's). Returns (value, exact).
+    """
+    w, t = energy_weights(problem)
+    if phi is None and basis is None:
+        return float("nan"), False
+    if phi is not None:
+        a = phi if t is None else t @ phi @ np.linalg.inv(t)
+        a = w[:, None] * a / w[None, :]
+        return float(np.linalg.svd(a, compute_uv=False)[0]), True
+    x = basis
+    y = step(x)
+    bx = w[:, None] * (x if t is None else t @ x)
+    by = w[:, None] * (y if t is None else t @ y)
+    q, r = np.linalg.qr(bx)
+    # the map on span(x) in the energy norm: by = A bx, A restricted = by r^-1 q^T
+    a = np.linalg.solve(r.T, by.T).T
+    return float(np.linalg.svd(a, compute_uv=False)[0]), False
 
 
 def _projected(step, basis: np.ndarray) -> np.ndarray:
@@ -298,7 +361,7 @@ def exponents_along(problem: HBMProblem, deltas: np.ndarray, period: float,
     size = 2 * (int(np.sum(~problem.rigid)) if problem.modal else problem.n_dof)
     cols = size if size <= 2 * columns else columns
     deltas = np.asarray(deltas, dtype=float).reshape(problem.n_elements, -1)
-    mu, _, _ = _multipliers(period_map(problem, deltas, period), size,
+    mu, _, _ = dominant_multipliers(period_map(problem, deltas, period), size,
                             cols, ritz_tol, None, np.random.default_rng(12345))
     return floquet_from_multipliers(mu, period)
 
@@ -364,11 +427,12 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     overflowed = 0
     refine = 0
     while refine <= max_refine:
+        full: list = []
         try:
             with np.errstate(over="ignore", invalid="ignore"):
-                mu, cols_n, basis = _multipliers(
-                    period_map(problem, orbit_deltas(problem, point.unknowns, n), period),
-                    size, cols, ritz_tol, start, rng)
+                step = period_map(problem, orbit_deltas(problem, point.unknowns, n), period)
+                mu, cols_n, basis = dominant_multipliers(step, size, cols, ritz_tol, start,
+                                                         rng, full)
                 lam = floquet_from_multipliers(mu, period)
                 if prev is None:
                     half = period_map(problem, orbit_deltas(problem, point.unknowns, n // 2),
@@ -398,7 +462,10 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
             if not resolved:
                 logger.warning("monodromy at %.2f rpm: largest real part %.4g 1/s, estimated "
                                "error %.2g after %d steps per period", point.rpm, mx, err, n)
-            return MonodromyResult(lam, mx, err, n, cols, basis)
+            with np.errstate(over="ignore", invalid="ignore"):
+                amp, exact = period_amplification(problem, step, full[0] if full else None,
+                                                  basis)
+            return MonodromyResult(lam, mx, err, n, cols, basis, amp, exact)
         prev, start = mx, basis
         n *= 2
         refine += 1

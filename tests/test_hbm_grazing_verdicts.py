@@ -130,3 +130,33 @@ def test_an_exponent_not_computed_stays_nan(pair8):
     # without stability no exponent is written either
     nb = hbm.trace(pb, 1800.0, 1801.0, stability=False)
     assert np.all(np.isnan(nb.floquet_max_real)) and np.all(np.isnan(nb.floquet_amplification))
+
+
+@pytest.mark.slow
+@pytest.mark.fem
+def test_pump_exponent_converged_in_the_step_and_amplification_exact(tmp_path):
+    """The shipped pump (ROM from the stage cache, built when missing) at 2508.948 rpm,
+    where issue 40 found 10.7 1/s against the time integration's 6.1-6.3 (a step count
+    before the second-order regime): the orbit Newton reaches from the linear start (a fold
+    orbit there) has the exponent of a 65536-step monodromy to 1 %, its transient
+    amplification is the whole monodromy's, and no contact interval is within the orbit's
+    error estimate of grazing. About 90 s (the Newton solve is 60 s of it)."""
+    from hbm.stability.monodromy import monodromy_exponents, orbit_deltas, period_map
+    from hbm.stability.monodromy import period_amplification
+    from study.pipeline import Pipeline
+
+    root = Path(__file__).resolve().parents[1]
+    scene = load_scene(root / "scenes" / "pump.toml")
+    pb, _ = Pipeline(scene, tmp_path / "pump", cache_dir=root / ".cache" / "test-pump",
+                     progress=False).problem()
+    pt = pb.solve(2508.948, tol=1e-10)
+    s = stability(pb, pt)
+    assert s.kind != "stable" and not s.grazing
+    ref = monodromy_exponents(pb, pt, n_steps=65536, sign_margin=np.inf, rtol=1e-3,
+                              max_refine=1)
+    assert s.max_real == pytest.approx(ref.max_real, rel=0.01)      # measured 0.36 %
+    period = 2 * np.pi / pb.harmonics.fundamental_rad_s(pt.omega)
+    step = period_map(pb, orbit_deltas(pb, pt.unknowns, 8192), period)
+    size = 2 * int(np.sum(~pb.rigid))
+    whole, exact = period_amplification(pb, step, phi=step(np.eye(size)))
+    assert exact and s.amplification == pytest.approx(whole, rel=0.05)

@@ -504,10 +504,13 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
         resolved = asymptotic and (err <= rtol * abs(mx) or err * sign_margin < abs(mx))
         if resolved or refine == max_refine:
             if not resolved:
-                logger.warning("monodromy at %.2f rpm: largest real part %.4g 1/s, estimated "
-                               "error %.2g after %d steps per period%s", point.rpm, mx, err, n,
-                               "" if asymptotic else " (steps not yet in the second-order "
-                               "regime: the estimate is not reliable)")
+                # the sign undecided: a warning; only the magnitude's error unknown: info
+                sign = err * sign_margin < abs(mx) or err <= rtol * abs(mx)
+                (logger.info if sign else logger.warning)(
+                    "monodromy at %.2f rpm: largest real part %.4g 1/s, estimated error %.2g "
+                    "after %d steps per period%s", point.rpm, mx, err, n,
+                    "" if asymptotic else " (steps not yet in the second-order regime: the "
+                    "estimate is not reliable)")
             with np.errstate(over="ignore", invalid="ignore"):
                 amp, exact = period_amplification(problem, step, full[0] if full else None,
                                                   basis)

@@ -141,8 +141,12 @@ def test_pump_exponent_converged_in_the_step_and_amplification_exact(tmp_path):
     orbit there) has the exponent of a 65536-step monodromy to 1 %, its transient
     amplification is the whole monodromy's, and no contact interval is within the orbit's
     error estimate of grazing. About 90 s (the Newton solve is 60 s of it)."""
-    from hbm.stability.monodromy import monodromy_exponents, orbit_deltas, period_map
-    from hbm.stability.monodromy import period_amplification
+    from hbm.stability.monodromy import (
+        monodromy_exponents,
+        orbit_deltas,
+        period_amplification,
+        period_map,
+    )
     from study.pipeline import Pipeline
 
     root = Path(__file__).resolve().parents[1]

@@ -77,9 +77,9 @@ def test_a_run_without_stability_says_so():
                                "(2508.73–2508.90 rpm)**")
     assert lines[2].startswith("- exponent **not computed** (NaN in `floquet_max_real`) at "
                                "1 point (2508.80–2508.80 rpm)")
-    assert lines[3].startswith("- largest transient amplification over one period 1.2e+03× "
-                               "at 1384.7 rpm (stable orbit)")
-    s["amplification"] = (4.6, 1800.0, False)
+    assert lines[3].startswith("- largest transient amplification over one period of a stable "
+                               "orbit 1.2e+03× at 1384.7 rpm")
+    s["amplification"] = (4.6, 1800.0, True)
     assert len(_stability_lines(s, True, [])) == 3          # below 10: not named
     # no 'unstable' flag on the largest std when nothing was checked
     s = {"max_mesh_load_std": 50.0, "at_rpm": 2600.0, "max_std_kind": "fold",

@@ -56,13 +56,16 @@ AMPLIFICATION_REPORTED = 10.0
 
 
 def _largest_amplification(br) -> tuple[float, float, bool] | None:
-    """(amplification, rpm, stable) of the point with the largest transient amplification
-    over one period, None when none was computed."""
-    amp = np.asarray(br.floquet_amplification, dtype=float)
+    """(amplification, rpm, True) of the stable point with the largest transient
+    amplification over one period (on an unstable orbit it is mostly the growing
+    multiplier, ``e^{lambda T}``, up to 1e13 on the shipped pump), None when none was
+    computed."""
+    amp = np.where(np.asarray(br.stable, dtype=bool),
+                   np.asarray(br.floquet_amplification, dtype=float), np.nan)
     if not np.isfinite(amp).any():
         return None
     j = int(np.nanargmax(amp))
-    return float(amp[j]), float(br.rpm[j]), bool(br.stable[j])
+    return float(amp[j]), float(br.rpm[j]), True
 
 
 def _largest_stable(br) -> tuple[float, float] | None:
@@ -130,13 +133,13 @@ def _not_computed(rpm: list[float]) -> list[str]:
 
 
 def _amplification(amp) -> list[str]:
-    """Report line for a large transient amplification over one period."""
+    """Report line for a large transient amplification over one period of a stable orbit."""
     if amp is None or amp[0] < AMPLIFICATION_REPORTED:
         return []
-    return [f"- largest transient amplification over one period {amp[0]:.3g}× at "
-            f"{amp[1]:.1f} rpm ({'stable' if amp[2] else 'unstable'} orbit): a disturbance "
-            "can grow that much in energy norm within one period whatever the exponents "
-            "(largest singular value of the monodromy; `floquet_amplification`)"]
+    return [f"- largest transient amplification over one period of a stable orbit "
+            f"{amp[0]:.3g}× at {amp[1]:.1f} rpm: a disturbance can grow that much in energy "
+            "norm within one period although every Floquet multiplier is inside the unit "
+            "circle (largest singular value of the monodromy; `floquet_amplification`)"]
 
 
 def _unresolved(rpm: list[float]) -> list[str]:

@@ -23,13 +23,11 @@
    (T.10) and on the integrated orbit, the transient amplification against the largest
    singular value of the finite-difference monodromy (energy norm), and whether the
    integration started on a "stable" point stays there.
-4. ``--pump-points RPM ...``: the same on points of the shipped pump curve read from a
-   results.h5 (``--pump-results``), the integrated orbit from the time integration's
-   steady state (:func:`orbit_exponent`; minutes per point).
+   (On the pump the exponent's convergence in the step is checked by the slow test of
+   tests/test_hbm_grazing_verdicts.py, docs/theory.md §11 "Exponent accuracy".)
 
 Run: ``.venv/bin/python -m benchmarks.bench_stability [--periods 8]``, ``--lumped``.
-Writes ``benchmarks/results/stability.json`` (``stability_lumped.json``,
-``stability_pump_points.json``).
+Writes ``benchmarks/results/stability.json`` (``stability_lumped.json``).
 """
 from __future__ import annotations
 
@@ -218,41 +216,6 @@ def lumped(harmonics: tuple[int, ...] = (8, 16)) -> dict:
                         "rows": rows}]}
 
 
-def pump_points(results: Path, rpms: list[float], work: Path) -> dict:
-    """T.10 on the HBM orbit of shipped pump points against T.10 on the orbit the time
-    integration settles on (module doc, 4)."""
-    import study
-    from hbm.stability import stability
-    from study.outputs.results import read_branch
-    from study.pipeline import Pipeline
-
-    scene = study.load_scene(PUMP_SCENE)
-    problem, _ = Pipeline(scene, work, progress=False).problem()
-    br = read_branch(results, problem)
-    if br is None:
-        raise ValueError(f"--pump-results {results}: no pump curve of this ROM there")
-    rows = []
-    for rpm in rpms:
-        i = int(np.argmin(np.abs(br.rpm - rpm)))
-        pt = problem.point(br.unknowns[i], br.omega[i])
-        s = stability(problem, pt)
-        along = orbit_exponent(problem, pt)
-        rows.append([float(br.rpm[i]), s.kind, s.max_real, s.error, bool(s.grazing),
-                     s.amplification, along["max_real"], along["orbit_difference"]])
-        logger.info("pump %.4f rpm: %s %.3f 1/s (error %.2g, near grazing %s, amplification "
-                    "%.3g); integrated orbit %.3f 1/s, orbits differ by %.2g", br.rpm[i],
-                    s.kind, s.max_real, s.error, s.grazing, s.amplification,
-                    along["max_real"], along["orbit_difference"])
-    return {"command": ".venv/bin/python -m benchmarks.bench_stability --pump-points "
-                       + " ".join(f"{r:g}" for r in rpms),
-            "tables": [{"title": "pump points: T.10 on the HBM orbit and on the integrated "
-                                 "orbit",
-                        "columns": ["rpm", "verdict", "T.10 HBM orbit", "its error",
-                                    "near grazing", "amplification", "T.10 settled orbit",
-                                    "orbit difference"],
-                        "rows": rows}]}
-
-
 def main(argv: list[str] | None = None) -> dict:
     import hbm
     import study
@@ -263,20 +226,11 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--periods", type=int, default=8)
     ap.add_argument("--work", type=Path, default=ROOT / ".cache" / "bench-stability")
     ap.add_argument("--lumped", action="store_true", help="the SDOF part only (seconds)")
-    ap.add_argument("--pump-points", type=float, nargs="*", default=None,
-                    help="pump speeds (rpm) of --pump-results to check")
-    ap.add_argument("--pump-results", type=Path, default=None)
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     if args.lumped:
         payload = lumped()
         write_json("stability_lumped", payload)
-        return payload
-    if args.pump_points:
-        if args.pump_results is None:
-            ap.error("--pump-points needs --pump-results (a results.h5 of scenes/pump.toml)")
-        payload = pump_points(args.pump_results, args.pump_points, args.work)
-        write_json("stability_pump_points", payload)
         return payload
     scene = study.load_scene(PUMP_SCENE)
     pl = Pipeline(scene, args.work, progress=False)
@@ -329,7 +283,9 @@ def main(argv: list[str] | None = None) -> dict:
                        "contact": int(br.element(0).contact[i]),
                        "floquet_max_real": s.max_real, "kind": s.kind,
                        "fold_parity": s.fold_parity, "consistent": s.consistent,
-                       "variational_max_real": float(s.exponents[0].real) if s.consistent
+                       # the T.9 root is put first when one was located (not when NaN)
+                       "variational_max_real": float(s.exponents[0].real)
+                       if s.consistent or np.isnan(s.max_real)
                        else float(s.exponents[1].real),
                        "time_integration_rate": meas["rate"], "changes": meas["changes"],
                        "ti_orbit_max_real": along["max_real"],

@@ -14,8 +14,20 @@
    period, is the measured largest real part, compared with the Floquet exponent.
    A period-doubling point is added when the branch has one.
 
-Run: ``.venv/bin/python -m benchmarks.bench_stability [--periods 8]``. Writes
-``benchmarks/results/stability.json``.
+3. ``--lumped`` (issue 40 item 1, seconds): exponent accuracy and verdicts near grazing on
+   the SDOF gear pair (scenes/gear-pair-sdof.toml, 8 and 16 mesh harmonics), against our
+   own time integration: Newton shooting on the integrated periodic orbit from the HBM
+   state and a finite-difference monodromy of it (DOP853, rtol 1e-12, central
+   differences), at the unstable, stable and flagged points of the branch around the fold
+   at grazing (1791 rpm) and the fold at 1452 rpm: the largest real part on the HBM orbit
+   (T.10) and on the integrated orbit, the transient amplification against the largest
+   singular value of the finite-difference monodromy (energy norm), and whether the
+   integration started on a "stable" point stays there.
+   (On the pump the exponent's convergence in the step is checked by the slow test of
+   tests/test_hbm_grazing_verdicts.py, docs/theory.md §11 "Exponent accuracy".)
+
+Run: ``.venv/bin/python -m benchmarks.bench_stability [--periods 8]``, ``--lumped``.
+Writes ``benchmarks/results/stability.json`` (``stability_lumped.json``).
 """
 from __future__ import annotations
 
@@ -82,6 +94,128 @@ def orbit_exponent(problem, point, n_steps: int | None = None) -> dict:
             "orbit_difference": float(np.max(np.abs(gap - hbm_gap)) / (0.5 * np.ptp(hbm_gap)))}
 
 
+def _energy(mm) -> np.ndarray:
+    """Weights of the energy norm on the modal state (eta, eta')."""
+    return np.concatenate([np.sqrt(mm.w2), np.ones(mm.n_modes)])
+
+
+def fd_monodromy(problem, rpm: float, y0: np.ndarray, eps: float = 1e-8,
+                 rtol: float = 1e-12) -> tuple[float, float, np.ndarray]:
+    """Monodromy of the integrated equations about the state ``y0`` by central
+    differences (DOP853): (largest real part 1/s, largest singular value in the energy
+    norm, the matrix)."""
+    mm = modal_model(problem, rpm)
+    fun, w = equations(mm), _energy(mm)
+    scale = np.linalg.norm(y0 * w)
+    cols = []
+    for j in range(y0.size):
+        d = np.zeros(y0.size)
+        d[j] = eps * scale / w[j]
+        ends = [solve_ivp(fun, (0.0, mm.period), y0 + s * d, method="DOP853", rtol=rtol,
+                          atol=1e-15 * scale / w).y[:, -1] for s in (1, -1)]
+        cols.append((ends[0] - ends[1]) / (2 * d[j]))
+    phi = np.array(cols).T
+    lam = float(np.log(np.max(np.abs(np.linalg.eigvals(phi)))) / mm.period)
+    sv = float(np.linalg.svd(w[:, None] * phi / w[None, :], compute_uv=False)[0])
+    return lam, sv, phi
+
+
+def shooting_orbit(problem, point, tol: float = 1e-12, iters: int = 20
+                   ) -> tuple[np.ndarray, float, float]:
+    """The integrated periodic orbit nearest the HBM state: Newton on ``y(T) - y(0)`` with
+    the finite-difference monodromy. Returns (state at t = 0, relative periodicity
+    residual, relative distance from the HBM state), energy norm."""
+    mm = modal_model(problem, point.rpm)
+    fun, w = equations(mm), _energy(mm)
+    y0 = initial_state(problem, point, mm)
+    scale = np.linalg.norm(y0 * w)
+    y, res = y0.copy(), np.inf
+    for _ in range(iters):
+        yt = solve_ivp(fun, (0.0, mm.period), y, method="DOP853", rtol=1e-12,
+                       atol=1e-15 * scale / w).y[:, -1]
+        res = float(np.linalg.norm((yt - y) * w) / scale)
+        if res < tol:
+            break
+        _, _, phi = fd_monodromy(problem, point.rpm, y)
+        y = y - np.linalg.solve(phi - np.eye(y.size), yt - y)
+    return y, res, float(np.linalg.norm((y - y0) * w) / scale)
+
+
+def stays(problem, point, periods: int = 40) -> float:
+    """Relative distance (energy norm) from the HBM state after ``periods`` periods of the
+    integration started on it."""
+    mm = modal_model(problem, point.rpm)
+    fun, w = equations(mm), _energy(mm)
+    y0 = initial_state(problem, point, mm)
+    scale = np.linalg.norm(y0 * w)
+    y = solve_ivp(fun, (0.0, periods * mm.period), y0, method="DOP853", rtol=1e-10,
+                  atol=1e-14 * scale / w).y[:, -1]
+    return float(np.linalg.norm((y - y0) * w) / scale)
+
+
+def lumped(harmonics: tuple[int, ...] = (8, 16)) -> dict:
+    """Exponent accuracy and verdicts near grazing on the SDOF gear pair (module doc, 3)."""
+    import hbm
+    import study
+    from benchmarks.bench_verify import SDOF_SCENE
+    from study.pipeline.model import scene_problem
+
+    rows, summary = [], []
+    for h in harmonics:
+        pb, _ = scene_problem(study.load_scene(SDOF_SCENE, {"hbm.mesh_harmonics": h}))
+        t0 = time.perf_counter()
+        br = hbm.trace(pb, 1300.0, 2300.0, stability=True, stability_process=False, tol=1e-10)
+        t_trace = time.perf_counter() - t0
+        mesh = br.element(0)
+        near_fold = ((br.rpm > 1790.5) & (br.rpm < 1796.0)) | \
+            ((br.rpm > 1450.0) & (br.rpm < 1453.0))
+        picks = np.flatnonzero(near_fold | br.stability_grazing)
+        left = flagged_left = 0
+        for i in picks:
+            pt = pb.point(br.unknowns[i], br.omega[i])
+            y, res, dist = shooting_orbit(pb, pt)
+            lam_ti, sv_ti, _ = fd_monodromy(pb, pt.rpm, y)
+            _, sv_hbm_state, _ = fd_monodromy(pb, pt.rpm, initial_state(
+                pb, pt, modal_model(pb, pt.rpm)))
+            away = stays(pb, pt) if br.stable[i] else float("nan")
+            if br.stable[i] and away > 0.1:
+                left += 1
+                flagged_left += int(br.stability_grazing[i])
+            rows.append([h, float(br.rpm[i]), bool(br.stable[i]),
+                         bool(br.stability_grazing[i]), float(br.floquet_max_real[i]),
+                         lam_ti, dist, res, float(br.floquet_amplification[i]),
+                         sv_hbm_state, away,
+                         float(min(abs(mesh.margin_active[i]), abs(mesh.margin_reverse[i])))])
+            logger.info("H=%d %.4f rpm %s%s: T.10 %.2f, integrated orbit %.2f 1/s (%.2g away, "
+                        "residual %.1g); amplification %.3g, FD %.3g; TI from the point: %s",
+                        h, br.rpm[i], "stable" if br.stable[i] else "unstable",
+                        " [near grazing]" if br.stability_grazing[i] else "",
+                        br.floquet_max_real[i], lam_ti, dist, res,
+                        br.floquet_amplification[i], sv_hbm_state, away)
+        summary.append({"mesh_harmonics": h, "points": len(br), "trace_s": t_trace,
+                        "flagged": int(np.sum(br.stability_grazing)),
+                        "stable_points_the_integration_leaves": left,
+                        "of_them_flagged": flagged_left})
+    return {"command": ".venv/bin/python -m benchmarks.bench_stability --lumped",
+            "summary": "SDOF gear pair, 1300-2300 rpm: "
+                       + "; ".join(f"{s['mesh_harmonics']} harmonics: {s['points']} points, "
+                                   f"{s['flagged']} flagged near grazing, "
+                                   f"{s['stable_points_the_integration_leaves']} 'stable' "
+                                   f"points the integration leaves, "
+                                   f"{s['of_them_flagged']} of them flagged"
+                                   for s in summary),
+            "cases": summary,
+            "tables": [{"title": "largest real part (1/s) and transient amplification: HBM "
+                                 "orbit (T.10) against the integrated orbit's "
+                                 "finite-difference monodromy",
+                        "columns": ["H", "rpm", "stable", "near grazing", "T.10 HBM orbit",
+                                    "FD monodromy TI orbit", "TI orbit distance",
+                                    "shooting residual", "amplification",
+                                    "FD sigma_max at HBM state", "TI leaves (stable pts)",
+                                    "closest margin m"],
+                        "rows": rows}]}
+
+
 def main(argv: list[str] | None = None) -> dict:
     import hbm
     import study
@@ -91,8 +225,13 @@ def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--periods", type=int, default=8)
     ap.add_argument("--work", type=Path, default=ROOT / ".cache" / "bench-stability")
+    ap.add_argument("--lumped", action="store_true", help="the SDOF part only (seconds)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    if args.lumped:
+        payload = lumped()
+        write_json("stability_lumped", payload)
+        return payload
     scene = study.load_scene(PUMP_SCENE)
     pl = Pipeline(scene, args.work, progress=False)
     problem, _ = pl.problem()
@@ -144,7 +283,9 @@ def main(argv: list[str] | None = None) -> dict:
                        "contact": int(br.element(0).contact[i]),
                        "floquet_max_real": s.max_real, "kind": s.kind,
                        "fold_parity": s.fold_parity, "consistent": s.consistent,
-                       "variational_max_real": float(s.exponents[0].real) if s.consistent
+                       # the T.9 root is put first when one was located (not when NaN)
+                       "variational_max_real": float(s.exponents[0].real)
+                       if s.consistent or np.isnan(s.max_real)
                        else float(s.exponents[1].real),
                        "time_integration_rate": meas["rate"], "changes": meas["changes"],
                        "ti_orbit_max_real": along["max_real"],

@@ -112,10 +112,12 @@ class PointMonitor:
                                    parity=self.parity(pt, tangent))
             self.basis = stab.basis
             v = Verdict.of(stab)
-            return Measurement(v.stable, v.max_real, v.code, v.consistent, stats)
+            return Measurement(v.stable, v.max_real, v.code, v.consistent, stats,
+                               amplification=v.amplification, grazing=v.grazing)
         if not problem.periodic:           # not computed (see __init__)
             return Measurement(False, float("nan"), -1, True, stats)
-        return Measurement(True, 0.0, 0, True, stats)
+        # not computed: listed stable (documented), no exponent written
+        return Measurement(True, float("nan"), 0, True, stats)
 
     def test_value(self, index: int, unknowns: np.ndarray) -> float:
         ev = self.events[index]
@@ -131,7 +133,9 @@ class PointMonitor:
         if self.worker is None:
             return []
         return [(ticket, {"stable": v.stable, "floquet_max_real": v.max_real,
-                          "floquet_kind": v.code, "stability_consistent": v.consistent})
+                          "floquet_kind": v.code, "stability_consistent": v.consistent,
+                          "floquet_amplification": v.amplification,
+                          "stability_grazing": v.grazing})
                 for ticket, v in self.worker.collect(wait)]
 
     # ------------------------------------------------------------------ helpers

@@ -170,16 +170,17 @@ def test_chunked_period_equals_stepping():
     assert np.max(np.abs(phi - ref)) < 1e-11 * np.max(np.abs(ref))
 
 
-def test_a_fold_parity_without_a_positive_real_root_gives_a_fold_not_nan():
+def test_a_fold_parity_without_a_positive_real_root_gives_a_fold_with_nan():
     """A point the caller places between two folds (parity=True, as the continuation's
     tangent does) where det T(0) >= 0 (no positive real root to locate, the point within
-    round-off of a fold): reported unstable, a fold with a real exponent 0, never NaN."""
+    round-off of a fold): reported unstable, a fold, its exponent not computed: NaN (it was
+    written 0.0, a number nothing computed)."""
     pb = sdof_problem(harmonics=20, fa=0.01, b=1.0)
     pt = pb.solve(0.3 / RPM)
     ref = stability(pb, pt)
     assert not ref.fold_parity and ref.kind == "stable"
     st = stability(pb, pt, parity=True)
-    assert st.max_real == 0.0 and st.exponents[0] == 0.0
+    assert np.isnan(st.max_real) and st.exponents[0] == ref.exponents[0]
     assert st.kind == "fold" and st.fold_parity and not st.consistent
 
 

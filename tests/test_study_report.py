@@ -62,11 +62,25 @@ def test_largest_std_on_an_unstable_orbit_names_the_largest_stable_one():
 
 def test_a_run_without_stability_says_so():
     s = {"unstable_points": 0, "unstable_kinds": {}, "unstable_segments": [],
-         "unresolved_rpm": []}
+         "unresolved_rpm": [], "grazing_rpm": [], "nan_exponent_rpm": [],
+         "amplification": None}
     assert _stability_lines(s, False, []) == [
         "- stability: **not computed** (`[hbm] stability = false`): every point is listed "
         "as stable without a check"]
     assert _stability_lines(s, True, [])[0].startswith("- unstable points: 0 — Floquet")
+    assert len(_stability_lines(s, True, [])) == 1
+    # verdicts near grazing, exponents not computed, a large transient amplification
+    s = {**s, "grazing_rpm": [2508.73, 2508.9], "nan_exponent_rpm": [2508.8],
+         "amplification": (1200.0, 1384.66, True)}
+    lines = _stability_lines(s, True, [])
+    assert lines[1].startswith("- **verdict unresolved near grazing at 2 points "
+                               "(2508.73–2508.90 rpm)**")
+    assert lines[2].startswith("- exponent **not computed** (NaN in `floquet_max_real`) at "
+                               "1 point (2508.80–2508.80 rpm)")
+    assert lines[3].startswith("- largest transient amplification over one period of a stable "
+                               "orbit 1.2e+03× at 1384.7 rpm")
+    s["amplification"] = (4.6, 1800.0, True)
+    assert len(_stability_lines(s, True, [])) == 3          # below 10: not named
     # no 'unstable' flag on the largest std when nothing was checked
     s = {"max_mesh_load_std": 50.0, "at_rpm": 2600.0, "max_std_kind": "fold",
          "max_stable": None}

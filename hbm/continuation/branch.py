@@ -42,7 +42,9 @@ class GrazingPoint:
 #: The per-point arrays of every branch, whatever the elements.
 POINT_FIELDS = ("rpm", "omega", "unknowns", "residual", "newton_iterations", "stable",
                 "floquet_max_real", "tangents", "floquet_kind", "stability_consistent",
-                "loop")
+                "loop", "floquet_amplification", "stability_grazing")
+#: Point fields a branch of an older file may lack, and their value there (not computed)
+LATER_FIELDS = {"floquet_amplification": float("nan"), "stability_grazing": False}
 
 
 class ElementCurve(Record):
@@ -87,6 +89,14 @@ class Branch:
         False where the branch lies between two folds (T.9) but the variational
         equation (T.10) finds the orbit stable: the harmonic set does not resolve
         the orbit there (the point is reported unstable).
+    floquet_amplification
+        Transient amplification over one period: the largest singular value of the
+        monodromy in the energy norm (a lower bound from its dominant subspace for a
+        large model); NaN where not computed.
+    stability_grazing
+        True where the verdict is unresolved near grazing: an orbit shift of
+        ``hbm.stability.grazing.GRAZING_RTOL`` of the peak-to-peak deflection changes
+        its sign, or the fold parity contradicts (T.10) there (reported unstable).
     stats
         The per-element table: each statistic of the elements (a gear mesh:
         ``mesh_load_std``, ``mesh_load_max``, ``contact``, ``contact_loss_fraction``,
@@ -157,6 +167,8 @@ class Branch:
     element_names: tuple[str, ...] = ()
     element_statistics: tuple[tuple[str, ...], ...] = ()
     loop: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    floquet_amplification: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stability_grazing: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     loops: list = field(default_factory=list)
     grazing: list = field(default_factory=list)
     folds: list = field(default_factory=list)
@@ -170,6 +182,13 @@ class Branch:
     reversals: int = 0
     leaps: int = 0
     max_condition: float = float("nan")
+
+    def __post_init__(self) -> None:
+        # a branch read from an older file: the later fields were not computed
+        n = int(np.size(self.rpm))
+        for k, fill in LATER_FIELDS.items():
+            if np.size(getattr(self, k)) != n:
+                setattr(self, k, np.full(n, fill))
 
     def __len__(self) -> int:
         return int(self.rpm.size)
@@ -256,7 +275,8 @@ class Recorder:
         for k in POINT_FIELDS:
             v = getattr(resume, k, None)
             self.lists[k] = list(v) if v is not None and len(v) == n else (
-                [0] * n if k == "loop" else list(v))
+                [0] * n if k == "loop" else [LATER_FIELDS[k]] * n if k in LATER_FIELDS
+                else list(v))
         for k in self.stat_names:
             self.lists[k] = list(resume.stats[k])
         self.loops = [tuple(int(x) for x in row)
@@ -282,6 +302,8 @@ class Recorder:
         """Append a point: the :data:`POINT_FIELDS` (``loop`` 0 by default), its
         per-element ``stats`` and the ticket of a stability still to come."""
         values.setdefault("loop", 0)
+        for k, fill in LATER_FIELDS.items():
+            values.setdefault(k, fill)
         for k in POINT_FIELDS:
             self.lists[k].append(values[k])
         for k in self.stat_names:

@@ -70,7 +70,9 @@ class TraceContext:
                 unknowns=u, residual=res, newton_iterations=it, stable=bool(m.stable),
                 floquet_max_real=m.floquet_max_real, tangents=tangent,
                 floquet_kind=m.floquet_kind,
-                stability_consistent=bool(m.stability_consistent))
+                stability_consistent=bool(m.stability_consistent),
+                floquet_amplification=float(m.amplification),
+                stability_grazing=bool(m.grazing))
         if m.ticket is not None:
             # placeholders until the verdict arrives (Recorder.branch settles first)
             rec.settle = lambda: self.settle(rec, wait=True)

@@ -85,6 +85,8 @@ class Measurement:
     stability_consistent: bool
     stats: dict[str, np.ndarray] = field(default_factory=dict)
     ticket: Any = None
+    amplification: float = float("nan")
+    grazing: bool = False
 
 
 class Monitor(Protocol):

@@ -59,8 +59,8 @@ def _serve(problem: HBMProblem, conn) -> None:
         try:
             pt = problem.point(unknowns, omega, iterations, residual)
             stab = point_stability(problem, pt, start=basis, parity=parity)
-            if not np.isfinite(stab.max_real):
-                raise ValueError(f"largest Floquet real part {stab.max_real}")
+            if not np.isfinite(stab.exponents[0].real):
+                raise ValueError(f"largest Floquet real part {stab.exponents[0].real}")
             basis = stab.basis
             conn.send(Verdict.of(stab))
         except Exception as exc:  # noqa: BLE001  (handed to the parent, raised there)

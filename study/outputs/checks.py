@@ -207,12 +207,14 @@ def run_checks(result) -> list:
         out.append(_truncation_check(result, (*sc.outputs.time_series,
                                               *sc.outputs.housing_field)))
     if sc.hbm.stability and len(br):
-        bad = br.rpm[~np.asarray(br.stability_consistent, dtype=bool)]
+        bad = br.rpm[~np.asarray(br.stability_consistent, dtype=bool)
+                     | np.asarray(br.stability_grazing, dtype=bool)]
         out.append(Check("stability", bad.size == 0,
                          "stability resolved at every point" if bad.size == 0 else
                          f"stability **not resolved** at {bad.size} points "
                          f"({bad.min():.1f}–{bad.max():.1f} rpm): the harmonic set does not "
-                         "resolve the orbit there", float(bad.size), 0.0))
+                         "resolve the orbit there (between folds of the branch but stable by "
+                         "the variational equation, or near grazing)", float(bad.size), 0.0))
     elif not sc.hbm.stability:
         out.append(Check("stability", False, "stability **not computed** "
                          "(`hbm.stability = false`): every point is listed as stable"))

@@ -39,12 +39,33 @@ def summary(result) -> dict:
         "unstable_kinds": {KINDS[k]: int(np.sum(br.floquet_kind == k))
                            for k in range(1, len(KINDS)) if np.any(br.floquet_kind == k)},
         "unresolved_rpm": [float(r) for r in br.rpm[~br.stability_consistent.astype(bool)]],
+        "grazing_rpm": [float(r) for r in br.rpm[np.asarray(br.stability_grazing, dtype=bool)]],
+        "nan_exponent_rpm": [float(r) for r in br.rpm[np.isnan(br.floquet_max_real)
+                                                       & (br.floquet_kind > 0)]],
+        "amplification": _largest_amplification(br),
         "unstable_segments": unstable_segments(br.rpm, mesh.mesh_load_std, br.stable,
                                                br.floquet_kind),
         "intervals": contact_intervals(br),
         "max_std_kind": "" if br.stable[i] else kind_label(kind_name(int(br.floquet_kind[i]))),
         "max_stable": _largest_stable(br),
     }
+
+
+#: Transient amplification over one period above which report.md names it.
+AMPLIFICATION_REPORTED = 10.0
+
+
+def _largest_amplification(br) -> tuple[float, float, bool] | None:
+    """(amplification, rpm, True) of the stable point with the largest transient
+    amplification over one period (on an unstable orbit it is mostly the growing
+    multiplier, ``e^{lambda T}``, up to 1e13 on the shipped pump), None when none was
+    computed."""
+    amp = np.where(np.asarray(br.stable, dtype=bool),
+                   np.asarray(br.floquet_amplification, dtype=float), np.nan)
+    if not np.isfinite(amp).any():
+        return None
+    j = int(np.nanargmax(amp))
+    return float(amp[j]), float(br.rpm[j]), True
 
 
 def _largest_stable(br) -> tuple[float, float] | None:
@@ -82,7 +103,43 @@ def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
     return [f"- unstable points: {s['unstable_points']}" + (f" ({kinds})" if kinds else "")
             + " — Floquet exponents of the variational equation, every mode",
             *unstable_lines(s["unstable_segments"], attractors),
-            *_unresolved(s["unresolved_rpm"])]
+            *_unresolved(s["unresolved_rpm"]), *_near_grazing(s["grazing_rpm"]),
+            *_not_computed(s["nan_exponent_rpm"]), *_amplification(s["amplification"])]
+
+
+def _rpm_list(rpm: list[float]) -> str:
+    n = f"{len(rpm)} point{'' if len(rpm) == 1 else 's'}"
+    return f"{n} ({min(rpm):.2f}–{max(rpm):.2f} rpm)"
+
+
+def _near_grazing(rpm: list[float]) -> list[str]:
+    """Report lines for verdicts unresolved near grazing."""
+    if not rpm:
+        return []
+    return [f"- **verdict unresolved near grazing at {_rpm_list(rpm)}**: the orbit comes "
+            "within its own error estimate of a flank, and shifting it by that much opens or "
+            "closes a contact interval and changes the sign of the leading Floquet exponent "
+            "(or the branch's fold parity contradicts it): the verdict written there may be "
+            "wrong; check with a time integration (docs/theory.md §11, near grazing)"]
+
+
+def _not_computed(rpm: list[float]) -> list[str]:
+    """Report lines for unstable points whose exponent was not computed (NaN)."""
+    if not rpm:
+        return []
+    return [f"- exponent **not computed** (NaN in `floquet_max_real`) at {_rpm_list(rpm)}: "
+            "the branch puts these points between two folds (unstable, a fold) within "
+            "round-off of a turn, where no positive real exponent can be located"]
+
+
+def _amplification(amp) -> list[str]:
+    """Report line for a large transient amplification over one period of a stable orbit."""
+    if amp is None or amp[0] < AMPLIFICATION_REPORTED:
+        return []
+    return [f"- largest transient amplification over one period of a stable orbit "
+            f"{amp[0]:.3g}× at {amp[1]:.1f} rpm: a disturbance can grow that much in energy "
+            "norm within one period although every Floquet multiplier is inside the unit "
+            "circle (largest singular value of the monodromy; `floquet_amplification`)"]
 
 
 def _unresolved(rpm: list[float]) -> list[str]:

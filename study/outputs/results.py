@@ -202,7 +202,7 @@ def write_branch(f: h5py.File, branch, settings: dict | None = None) -> None:
         c.attrs[k] = v
     units = {"rpm": "rpm", "omega": "rad/s", "coefficients": "m", "mesh_load_std": "N",
              "mesh_load_max": "N", "margin_active": "m", "margin_reverse": "m",
-             "floquet_max_real": "1/s"}
+             "floquet_max_real": "1/s", "floquet_amplification": "1"}
     for k, u in units.items():
         if k in c:
             c[k].attrs["unit"] = u
@@ -260,7 +260,9 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
             c = f["continuation"]
             fields = _branch_array_fields()
             arrays = {k: c[k][()] for k in fields if k in c}
-            missing = set(fields) - set(arrays) - {"reversals", "leaps", "loop", "loops"}
+            missing = set(fields) - set(arrays) - {"reversals", "leaps", "loop", "loops",
+                                                   "floquet_amplification",
+                                                   "stability_grazing"}
             missing |= {"rpm", "omega", "unknowns", "coefficients"} - set(c)
             if missing:
                 raise KeyError(f"continuation datasets missing: {sorted(missing)}")

@@ -83,8 +83,9 @@ def hbm_inputs(scene: Scene) -> dict[str, Any]:
             "transmission_error": _asdict(scene.transmission_error),
             "load": _asdict(scene.load), "external": _asdict(scene.external),
             "damping": _asdict(scene.damping), "hbm": _asdict(scene.hbm),
+            # neither changes the curve (the secondary branches are their own stage)
             "continuation": {k: v for k, v in _asdict(scene.continuation).items()
-                             if k != "checkpoint_every"}}  # does not change the curve
+                             if k not in ("checkpoint_every", "period_doubling_depth")}}
 
 
 class Pipeline:
@@ -369,6 +370,35 @@ class Pipeline:
                                  elapsed=dt if resume is None else None)
         return br, how
 
+    # ------------------------------------------------------------------ branches
+    def run_branches(self, problem, branch) -> list:
+        """Stage ``branches``: switch at the period doublings of the main branch to the
+        branches of twice the period, to ``[continuation] period_doubling_depth``
+        (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
+        stability, on a torus, or when no point of the branch leads with a period
+        doubling. Not cached: it runs with the export (the main curve is cached)."""
+        from hbm.branching import doubling_brackets, period_doubling_branches
+
+        c = self.scene.continuation
+        why = ("period_doubling_depth = 0" if c.period_doubling_depth == 0 else
+               "no stability (hbm.stability = false)" if not self.scene.hbm.stability else
+               "torus basis: no Floquet verdict" if not problem.periodic else
+               "no period doubling on the main branch" if not doubling_brackets(branch)
+               else "")
+        if why:
+            self._log_stage("branches", StageStatus("skipped", why))
+            return []
+        t = time.perf_counter()
+        found = period_doubling_branches(
+            problem, branch, c.speed, c.period_doubling_depth,
+            step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
+            max_points=c.max_points)
+        self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
+        logger.info("branches: %d of period 2 or more (%s)", len(found),
+                    ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"
+                              for s in found) or "none")
+        return found
+
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
         """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
@@ -434,6 +464,7 @@ class Pipeline:
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
                 "point, or, after a walk back or a closed loop it could not leave, from the "
                 "point before the speeds where it was caught)", result))
+        result.secondary = self.comm.root_call(self.run_branches, problem, branch)
         t = time.perf_counter()
         # listed in report.md, written during export
         self._log_stage("export", StageStatus("ran"), log=False)

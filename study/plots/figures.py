@@ -27,7 +27,8 @@ def draw_all(result) -> list[Path]:
     paths: list[Path] = []
     name = result.scene.name
     if "forced_response" in want and not result.scene.is_train:
-        paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
+        paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response",
+                                     secondary=getattr(result, "secondary", ())))
     valid_hz = rom_limit_hz(result.rom)          # None for a lumped scene
     speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
     asked = bool(result.scene.outputs.time_series)   # else branch points (most loaded)

@@ -1,0 +1,135 @@
+"""The secondary branches of a run, born at period doublings (:mod:`hbm.branching`): their
+``/branches`` group of results.h5, their summary rows and their section of report.md.
+
+Each branch is written as ``/branches/<name>`` (``period2_1``, ``period4_1``, ...) with
+the datasets of the main branch (``continuation``, ``grazing``, ``folds``, by
+:func:`study.outputs.results.write_branch`: its unknowns are those of the doubled
+problem, its statistics over the doubled period) and attributes naming its parent, its
+period, the fundamental of its harmonic set, where it was switched from and where it met
+its parent again (docs/results-format.md, "/branches").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hbm.stability import KINDS
+
+__all__ = ["BranchRow", "branch_rows", "report_lines", "write_branches_group"]
+
+
+@dataclass(frozen=True)
+class BranchRow:
+    """One secondary branch in words and numbers (report.md, the log)."""
+
+    name: str
+    parent: str
+    period: int
+    doubling_rpm: float          # where it was switched from (harmonic balance)
+    floquet_rpm: float           # where the parent's Floquet verdict puts it (NaN: none)
+    rejoin_rpm: float            # where it met its parent again (NaN: it did not)
+    rpm_min: float
+    rpm_max: float
+    points: int
+    stable_points: int
+    stable_ranges: tuple[tuple[float, float], ...]
+    max_std: float               # largest mesh-load std (N) of element 0
+    max_std_rpm: float
+    kinds: dict                  # unstable kind -> points
+    status: str
+
+
+def _runs(rpm: np.ndarray, mask: np.ndarray) -> tuple[tuple[float, float], ...]:
+    """Speed intervals of the runs of consecutive points where ``mask`` holds."""
+    out, start = [], None
+    for i, m in enumerate(mask):
+        if m and start is None:
+            start = i
+        if (not m or i == len(mask) - 1) and start is not None:
+            stop = i if m else i - 1
+            seg = rpm[start:stop + 1]
+            out.append((float(seg.min()), float(seg.max())))
+            start = None
+    return tuple(out)
+
+
+def branch_rows(secondary) -> list[BranchRow]:
+    """A :class:`BranchRow` per :class:`hbm.branching.SecondaryBranch`."""
+    rows = []
+    for s in secondary:
+        br = s.branch
+        std = br.element(0).mesh_load_std
+        i = int(np.argmax(std))
+        stable = br.stable.astype(bool)
+        rows.append(BranchRow(
+            s.name, s.parent, s.period, s.doubling.rpm, s.doubling.floquet_rpm,
+            s.rejoin_rpm, float(br.rpm.min()), float(br.rpm.max()), len(br),
+            int(stable.sum()), _runs(br.rpm, stable), float(std[i]), float(br.rpm[i]),
+            {KINDS[k]: int(np.sum(br.floquet_kind == k)) for k in range(1, len(KINDS))
+             if np.any(br.floquet_kind == k)}, br.status))
+    return rows
+
+
+def write_branches_group(f, secondary) -> None:
+    """``/branches/<name>`` of every secondary branch (see the module docstring)."""
+    from study.outputs.results import write_branch
+
+    if not secondary:
+        return
+    top = f.create_group("branches")
+    top.attrs["names"] = [s.name for s in secondary]
+    for s in secondary:
+        g = top.create_group(s.name)
+        write_branch(g, s.branch)
+        hs = s.problem.harmonics
+        g.attrs["parent"] = s.parent
+        g.attrs["period"] = s.period
+        g.attrs["ratio"] = str(hs.ratio)
+        g.attrs["fundamental"] = hs.fundamental
+        g.attrs["doubling_rpm"] = s.doubling.rpm
+        g.attrs["doubling_floquet_rpm"] = s.doubling.floquet_rpm
+        g.attrs["doubling_bracket"] = s.doubling.index
+        g.attrs["rejoin_rpm"] = s.rejoin_rpm
+        g.attrs["epsilon"] = s.epsilon
+        g["doubling_vector"] = s.doubling.vector
+        g["doubling_unknowns"] = s.doubling.unknowns
+
+
+def _ranges(iv) -> str:
+    return ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
+
+
+def report_lines(secondary, located: int | None = None, depth: int = 1,
+                 seconds: float | None = None) -> list[str]:
+    """The report.md section "Period doubling" (empty when nothing was switched at)."""
+    if not secondary and not located:
+        return []
+    out = ["## Period doubling: branches of period 2 and beyond", "",
+           f"- switched at the period doublings of the main branch (multiplier −1, located "
+           f"on the harmonic-balance equations) to the branch of twice the period, to depth "
+           f"{depth} (`[continuation] period_doubling_depth`), each traced like the main "
+           "branch with stability over its own period; results.h5 `/branches/<name>` "
+           "(docs/theory.md §15)"]
+    if seconds is not None:
+        out.append(f"- {len(secondary)} branch{'es' if len(secondary) != 1 else ''} in "
+                   f"{seconds:.1f} s")
+    if not secondary:
+        out.append("- no period-2 branch could be started (see the log)")
+        return out
+    out += ["", "| branch | from | doubling at (rpm) | Floquet verdict (rpm) | rejoins at (rpm) "
+            "| speed range (rpm) | points | stable on (rpm) | largest std (N) | ends |",
+            "|---|---|---:|---:|---:|---|---:|---|---|---|"]
+    for r in branch_rows(secondary):
+        rej = f"{r.rejoin_rpm:.2f}" if np.isfinite(r.rejoin_rpm) else "–"
+        fl = f"{r.floquet_rpm:.2f}" if np.isfinite(r.floquet_rpm) else "–"
+        out.append(f"| {r.name} | {r.parent} | {r.doubling_rpm:.2f} | {fl} | {rej} | "
+                   f"{r.rpm_min:.1f}–{r.rpm_max:.1f} | {r.points} | "
+                   f"{_ranges(r.stable_ranges)} | {r.max_std:.4g} at {r.max_std_rpm:.1f} | "
+                   f"{r.status} |")
+    out += ["", "- where a period-2 branch is stable and its parent is not, the machine "
+            "settles on it (the curve of the main branch shows an orbit it leaves there): "
+            "its mesh load repeats every two fundamental periods, with lines at the half "
+            "orders (forced-response plot: in colour, unstable parts dashed)"]
+    return out

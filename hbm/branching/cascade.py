@@ -186,27 +186,38 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
         if not brackets:
             continue
         child = doubled_problem(parent, linear_solver)
-        located: list[DoublingPoint] = []
-        for i in brackets:
-            try:
-                pd = locate_doubling(parent, child, pbranch, i)
-            except (ConvergenceError, np.linalg.LinAlgError) as exc:
-                logger.warning("period doubling between %.6g and %.6g rpm of %s not located: "
-                               "%s", pbranch.rpm[i], pbranch.rpm[i + 1], pname, exc)
-                continue
-            if pd is not None and not any(abs(q.rpm - pd.rpm) < 1e-7 * pd.rpm
-                                          for q in located):
-                located.append(pd)
-        covered = [False] * len(located)
-        for j, pd in enumerate(located):
+        covered = [False] * len(brackets)
+        located: dict[int, DoublingPoint | None] = {}
+
+        def locate(j: int, parent=parent, child=child, pbranch=pbranch, pname=pname,
+                   located=located, brackets=brackets) -> DoublingPoint | None:
+            if j not in located:
+                i = brackets[j]
+                try:
+                    located[j] = locate_doubling(parent, child, pbranch, i)
+                except (ConvergenceError, np.linalg.LinAlgError) as exc:
+                    logger.warning("period doubling between %.6g and %.6g rpm of %s not "
+                                   "located: %s", pbranch.rpm[i], pbranch.rpm[i + 1], pname,
+                                   exc)
+                    located[j] = None
+            return located[j]
+
+        for j in range(len(brackets)):
             if covered[j]:
-                logger.info("period doubling at %.6g rpm of %s: its period-%d branch is "
-                            "already traced (it rejoined there)", pd.rpm, pname, 2 * period)
+                logger.info("period doubling near %.6g rpm of %s: its period-%d branch is "
+                            "already traced (it rejoined there)", pbranch.rpm[brackets[j]],
+                            pname, 2 * period)
+                continue
+            covered[j] = True
+            pd = locate(j)
+            if pd is None or any(q is not None and q is not pd and q.rpm == pd.rpm
+                                 for q in located.values()):
                 continue
             if len(found) >= max_branches:
-                logger.warning("period doubling: stopped at max_branches = %d", max_branches)
+                logger.warning("period doubling: stopped at max_branches = %d (the period "
+                               "doubling at %.6g rpm of %s and later ones not switched at)",
+                               max_branches, pd.rpm, pname)
                 return found
-            covered[j] = True
             try:
                 first = switch_branch(parent, child, pd, pbranch.omega_scale)
                 sub, rejoin = _trace_secondary(child, first, (lo, hi), step_rpm, tol,
@@ -224,16 +235,20 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                                pd.rpm, pname, 2 * period, exc)
                 continue
             if np.isfinite(rejoin):
-                # the period doubling of the parent it met again: the nearest one
-                dist = [abs(q.rpm - rejoin) if not (c and q is not pd) else np.inf
-                        for q, c in zip(located, covered, strict=True)]
-                m = int(np.argmin(dist))
-                if dist[m] < REJOIN_MATCH * (hi - lo):
+                # the bracket of the parent's period doubling it met again: the nearest
+                gap = [np.inf if covered[m] and m != j else
+                       max(0.0, min(pbranch.rpm[b], pbranch.rpm[b + 1]) - rejoin,
+                           rejoin - max(pbranch.rpm[b], pbranch.rpm[b + 1]))
+                       for m, b in enumerate(brackets)]
+                m = int(np.argmin(gap))
+                if gap[m] < REJOIN_MATCH * (hi - lo):
                     covered[m] = True
-                    rejoin = located[m].rpm
-                    sub = dataclasses.replace(sub, message=(
-                        f"rejoined its parent at the period doubling located at "
-                        f"{rejoin:.9g} rpm"))
+                    there = locate(m)
+                    if there is not None:
+                        rejoin = there.rpm
+                        sub = dataclasses.replace(sub, message=(
+                            f"rejoined its parent at the period doubling located at "
+                            f"{rejoin:.9g} rpm"))
             k = 1 + sum(1 for f in found if f.period == 2 * period)
             sec = SecondaryBranch(f"period{2 * period}_{k}", 2 * period, child, sub, pname,
                                   pd, rejoin, first.eps)

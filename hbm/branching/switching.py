@@ -155,7 +155,7 @@ def locate_doubling(parent: HBMProblem, child: HBMProblem, branch, index: int,
     without a multiplier crossing -1, e.g. a fold taking the lead).
 
     ``child`` is :func:`hbm.branching.doubled_problem` of ``parent``; ``rpm_tol`` the
-    tolerance on the located speed (default 1e-9 of it).
+    tolerance on the located speed (default 1e-8 of it).
     """
     mask = odd_mask(child)
     wscale = float(branch.omega_scale)
@@ -195,7 +195,7 @@ def locate_doubling(parent: HBMProblem, child: HBMProblem, branch, index: int,
     if not illinois:
         fa, fb = _sign_det(ja), _sign_det(jb)
     span_rpm = abs(branch.rpm[index + 1] - branch.rpm[index])
-    rtol = 1e-9 * max(branch.rpm[index], branch.rpm[index + 1]) if rpm_tol is None \
+    rtol = 1e-8 * max(branch.rpm[index], branch.rpm[index + 1]) if rpm_tol is None \
         else rpm_tol
     sa, sb, side = 0.0, 1.0, 0
     y, j = ya, ja

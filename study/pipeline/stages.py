@@ -73,6 +73,10 @@ def _asdict(x) -> dict:
 
 #: ``[continuation]`` fields that only steer the path finding: a partial run written with
 #: other values of them is resumed (``--resume``), the physics and harmonic set being equal.
+#: secondary branches at most per run (each period doubling a branch; the near-grazing
+#: tangles of a converged pump curve hold dozens of them, most joined in pairs)
+MAX_SECONDARY = 12
+
 RESUMABLE_CONTROLS = ("step", "min_step", "max_step", "tolerance", "max_points",
                       "checkpoint_every")
 
@@ -376,7 +380,9 @@ class Pipeline:
         branches of twice the period, to ``[continuation] period_doubling_depth``
         (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
         stability, on a torus, or when no point of the branch leads with a period
-        doubling. Not cached: it runs with the export (the main curve is cached)."""
+        doubling. Each branch traces at most as many points as the main branch (200 at
+        least), :data:`MAX_SECONDARY` branches at most. Not cached: it runs with the
+        export (the main curve is cached)."""
         from hbm.branching import doubling_brackets, period_doubling_branches
 
         c = self.scene.continuation
@@ -392,7 +398,8 @@ class Pipeline:
         found = period_doubling_branches(
             problem, branch, c.speed, c.period_doubling_depth,
             step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
-            max_points=c.max_points)
+            max_points=min(c.max_points, max(200, len(branch))),
+            max_branches=MAX_SECONDARY)
         self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
         logger.info("branches: %d of period 2 or more (%s)", len(found),
                     ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"

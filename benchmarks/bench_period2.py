@@ -8,10 +8,10 @@ set ``{0..H}`` the doubled set is ``{0..2H+1}`` of ``w0/2``: the same highest fr
 
 Per point, same run, medians: the fixed-speed Newton solve from the solution of the same
 branch at 0.99 x the speed (``solve``; and per Newton iteration, since the period-2
-branch bends more over 1 % of speed and takes more of them), one residual with its Jacobian (``evaluate``), the
-stability verdict (``stability``: the monodromy over the branch's own period, T.10), and,
-at ``H = 40``, the whole continuation per point (the main trace against the traces of its
-period-2 branches, the location and switch included). Ratios period-2 / period-1.
+branch bends more over 1 % of speed and takes more of them), one residual with its
+Jacobian (``evaluate``), the stability verdict (``stability``: the monodromy over the
+branch's own period, T.10), and the whole continuation per point (the main trace against
+the traces of its period-2 branches, the location and switch included). Ratios period-2 / period-1.
 
 Run: ``.venv/bin/python -m benchmarks.bench_period2 [--quick]``; writes
 ``benchmarks/results/period2.json``.

@@ -4,7 +4,7 @@ the half orders, and the embedding of a period-1 solution into it.
 A response of period ``2T`` (``T = 2 pi / w0``) is a Fourier series of ``w0 / 2``: the
 harmonics ``k w0`` of the period-1 set become the even indices ``2k`` of the doubled set,
 and the Floquet eigenfunction of the multiplier -1, ``p(t) e^{i w0 t / 2}`` with ``p``
-``T``-periodic (docs/theory.md, T.41), lives on the odd indices ``2k +- 1`` (the half
+``T``-periodic (docs/theory.md, T.50), lives on the odd indices ``2k +- 1`` (the half
 orders). A ``T``-periodic solution is a solution of the doubled problem with every odd
 coefficient zero; the harmonic-balance Jacobian there does not couple even and odd
 indices (shifting time by ``T`` flips the sign of the odd coefficients and leaves the

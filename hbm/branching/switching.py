@@ -1,5 +1,5 @@
 """Period doubling on a traced branch: locate it on the harmonic-balance equations, find
-the critical Floquet vector and step onto the period-2 branch (docs/theory.md, T.41-T.43).
+the critical Floquet vector and step onto the period-2 branch (docs/theory.md §15, T.50-T.53).
 
 A multiplier crossing -1 is a zero of Hill's operator at the exponent ``i w0 / 2``: on
 the doubled set (:mod:`hbm.branching.doubling`) it is the odd block ``J_odd`` of the

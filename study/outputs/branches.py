@@ -17,7 +17,8 @@ import numpy as np
 
 from hbm.stability import KINDS
 
-__all__ = ["BranchRow", "branch_rows", "report_lines", "write_branches_group"]
+__all__ = ["AttractingLevels", "BranchRow", "attracting_levels", "branch_rows", "report_lines",
+           "write_branches_group"]
 
 
 @dataclass(frozen=True)
@@ -133,3 +134,90 @@ def report_lines(secondary, located: int | None = None, depth: int = 1,
             "its mesh load repeats every two fundamental periods, with lines at the half "
             "orders (forced-response plot: in colour, unstable parts dashed)"]
     return out
+
+
+def _amplitudes(problem, branch, rows) -> np.ndarray:
+    """|f̃_k| of the mesh load (element 0) at the harmonics of ``problem`` for the points
+    ``rows`` of ``branch``, over one period of the problem (N)."""
+    from hbm import time_series
+
+    idx = np.asarray(problem.harmonics.indices, dtype=int)
+    out = np.zeros((len(rows), idx.size))
+    for r, i in enumerate(rows):
+        f = time_series(problem, problem.point(branch.unknowns[i], branch.omega[i])).load
+        c = np.fft.rfft(f) / f.size
+        c[1:] *= 2.0
+        out[r] = np.abs(c[idx])
+    return out
+
+
+def _erp(result, problem, branch, rows) -> np.ndarray | None:
+    """ERP per harmonic (W) of the housing at the points ``rows`` (None without one)."""
+    from study.outputs.acoustics import erp_harmonics
+
+    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
+    if rad is None:
+        return None
+    ac = result.scene.acoustics
+    idx = np.asarray(problem.harmonics.indices, dtype=int)
+    out = np.zeros((len(rows), idx.size))
+    for r, i in enumerate(rows):
+        qk = problem.recover(problem.point(branch.unknowns[i], branch.omega[i]))
+        w0 = problem.harmonics.fundamental_rad_s(branch.omega[i])
+        out[r] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+    return out
+
+
+@dataclass
+class AttractingLevels:
+    """Per order, the levels of the responses the machine settles on along the speed: the
+    stable points of the main branch and of every secondary branch, sorted by speed (where
+    two coexist both are kept). ``orders`` holds the main set's orders and the half (or
+    quarter) orders of the secondary ones; a level is NaN at an order its branch does
+    not hold."""
+
+    rpm: np.ndarray            # (n,)
+    orders: np.ndarray         # (n_o,) shaft orders (floats)
+    period: np.ndarray         # (n,) 1 on the main branch, 2, 4 ... on a secondary one
+    mesh_load: np.ndarray      # (n, n_o) N
+    erp: np.ndarray | None     # (n, n_o) W, or None without a radiating housing
+
+
+def attracting_levels(result) -> AttractingLevels | None:
+    """:class:`AttractingLevels` of a run with secondary branches (None without)."""
+    from study.outputs.nvh import orders_of
+
+    secondary = getattr(result, "secondary", None)
+    nvh = getattr(result, "nvh", None)
+    if not secondary or nvh is None or len(result.problem.elements) > 1:
+        return None
+    br = result.branch
+    parts = []           # (rpm, orders, period, amp, erp)
+    rows = np.flatnonzero(br.stable.astype(bool))
+    main_erp = None if nvh.erp is None else nvh.erp[rows]
+    parts.append((br.rpm[rows], np.asarray(nvh.orders, dtype=float), 1,
+                  nvh.mesh_load_amplitude[rows], main_erp))
+    for s in secondary:
+        rows = np.flatnonzero(s.branch.stable.astype(bool))
+        if rows.size == 0:
+            continue
+        parts.append((s.branch.rpm[rows], orders_of(s.problem.harmonics), s.period,
+                      _amplitudes(s.problem, s.branch, rows),
+                      _erp(result, s.problem, s.branch, rows)))
+    orders = np.unique(np.concatenate([p[1] for p in parts]))
+    n = sum(p[0].size for p in parts)
+    amp = np.full((n, orders.size), np.nan)
+    erp = None if nvh.erp is None else np.full((n, orders.size), np.nan)
+    rpm, period = np.zeros(n), np.zeros(n, dtype=int)
+    k = 0
+    for r, o, per, a, e in parts:
+        cols = np.searchsorted(orders, o)
+        sl = slice(k, k + r.size)
+        rpm[sl], period[sl] = r, per
+        amp[sl, cols] = a
+        if erp is not None and e is not None:
+            erp[sl, cols] = e
+        k += r.size
+    order = np.argsort(rpm, kind="stable")
+    return AttractingLevels(rpm[order], orders, period[order], amp[order],
+                            None if erp is None else erp[order])

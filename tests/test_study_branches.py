@@ -54,3 +54,12 @@ def test_stage_skips_without_period_doubling(tmp_path):
     assert r0.stages["branches"].startswith("skipped") and r0.secondary == []
     with h5py.File(r0.results, "r") as f:
         assert "branches" not in f
+
+
+@pytest.mark.parametrize("order, name", [(38, "Z/2"), (114, "3Z/2"), (75.5, "Z−1/2"),
+                                         (76.5, "Z+1/2"), (0.5, "1/2"), (76, "Z"),
+                                         (77, "Z+1"), (152, "2Z")])
+def test_half_order_labels(order, name):
+    from study.outputs.nvh import order_label
+
+    assert order_label(order, 76) == name

@@ -92,7 +92,26 @@ def run(quick: bool) -> dict[str, Any]:
                  1e3 * row["trace"]["secondary_s_per_point"],
                  1e3 * row["trace"]["main_s_per_point"], row["trace"]["ratio_per_point"])
         rows.append(row)
-    return {"rows": rows, "peak_rss_mb": peak_rss_mb()}
+    cols = ["H", "unknowns p1 / p2", "solve ms p1 / p2", "iterations p1 / p2",
+            "per iteration x", "evaluate x", "stability x", "trace ms/point p1 / p2",
+            "trace per point x"]
+    table = [[r["H"], f"{r['period1']['unknowns']} / {r['period2']['unknowns']}",
+              f"{1e3 * r['period1']['solve_s']:.3g} / {1e3 * r['period2']['solve_s']:.3g}",
+              f"{r['period1']['iterations']} / {r['period2']['iterations']}",
+              r["ratio"]["iteration_s"], r["ratio"]["evaluate_s"], r["ratio"]["stability_s"],
+              f"{1e3 * r['trace']['main_s_per_point']:.3g} / "
+              f"{1e3 * r['trace']['secondary_s_per_point']:.3g}",
+              r["trace"]["ratio_per_point"]] for r in rows]
+    return {"command": "python -m benchmarks.bench_period2",
+            "summary": "A point of the period-2 branch of the Kahraman-Singh pair against "
+                       "one of its period-1 parent of the same harmonic reach, same run "
+                       "(x: period-2 / period-1; trace per point includes locating the "
+                       "doublings and switching).",
+            "tables": [{"title": "period-2 against period-1 point", "columns": cols,
+                        "rows": table}],
+            "headline": {f"period-2 / period-1 continuation per point, H = {r['H']}":
+                         r["trace"]["ratio_per_point"] for r in rows},
+            "rows": rows, "peak_rss_mb": peak_rss_mb()}
 
 
 def main(argv: list[str] | None = None) -> None:

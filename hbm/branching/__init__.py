@@ -3,7 +3,7 @@ doubling"): the doubled problem (:mod:`~hbm.branching.doubling`), the located pe
 doubling and the first point of the period-2 branch (:mod:`~hbm.branching.switching`),
 and the secondary branches traced to a set depth (:mod:`~hbm.branching.cascade`)."""
 
-from .cascade import SecondaryBranch, period_doubling_branches
+from .cascade import SecondaryBranch, period_doubling_branches, trace_secondary
 from .doubling import doubled_problem, doubled_set, embed, odd_mask
 from .switching import (
     DoublingPoint,
@@ -16,4 +16,4 @@ from .switching import (
 
 __all__ = ["DoublingPoint", "SecondaryBranch", "SwitchedPoint", "doubled_problem",
            "doubled_set", "doubling_brackets", "embed", "locate_doubling", "odd_jacobian",
-           "odd_mask", "period_doubling_branches", "switch_branch"]
+           "odd_mask", "period_doubling_branches", "switch_branch", "trace_secondary"]

@@ -27,7 +27,7 @@ from .switching import DoublingPoint, doubling_brackets, locate_doubling, switch
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SecondaryBranch", "period_doubling_branches"]
+__all__ = ["SecondaryBranch", "period_doubling_branches", "trace_secondary"]
 
 # the period doubling of the parent nearest to where a branch rejoined it, within this
 # fraction of the range, is where it rejoined (the estimate from the two points around
@@ -104,7 +104,7 @@ def _rejoin_watch(child: HBMProblem) -> Callable[[Branch], None]:
     return watch
 
 
-def _trace_secondary(child: HBMProblem, first, rpm_range: tuple[float, float],
+def trace_secondary(child: HBMProblem, first, rpm_range: tuple[float, float],
                      step_rpm: tuple[float, float, float], tol: float, max_points: int,
                      stability: bool) -> tuple[Branch, float]:
     """Trace the doubled problem from its switched first point away from the period
@@ -220,7 +220,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                 return found
             try:
                 first = switch_branch(parent, child, pd, pbranch.omega_scale)
-                sub, rejoin = _trace_secondary(child, first, (lo, hi), step_rpm, tol,
+                sub, rejoin = trace_secondary(child, first, (lo, hi), step_rpm, tol,
                                                max_points, stability)
                 if len(sub) <= SHORT_REJOIN and np.isfinite(rejoin):
                     # came straight back through the pitchfork: the other way
@@ -228,7 +228,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                                 "after %d points; tracing it the other way", pd.rpm,
                                 2 * period, len(sub))
                     first = dataclasses.replace(first, direction=-first.direction)
-                    sub, rejoin = _trace_secondary(child, first, (lo, hi), step_rpm, tol,
+                    sub, rejoin = trace_secondary(child, first, (lo, hi), step_rpm, tol,
                                                    max_points, stability)
             except (ConvergenceError, np.linalg.LinAlgError) as exc:
                 logger.warning("period doubling at %.6g rpm of %s: no period-%d branch (%s)",

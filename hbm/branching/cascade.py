@@ -143,6 +143,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                              step_rpm: tuple[float, float, float], tol: float = 1e-8,
                              max_points: int = 2000, stability: bool = True,
                              linear_solver: str = "auto", max_branches: int = 50,
+                             max_total_points: int | None = None,
                              on_branch: Callable[[SecondaryBranch], None] | None = None,
                              ) -> list[SecondaryBranch]:
     """Switch at every period doubling of ``branch`` (``problem``'s) to the period-2
@@ -162,6 +163,9 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
         As :func:`hbm.trace` (the doubled problem's linear solver).
     max_branches
         At most this many secondary branches in all.
+    max_total_points
+        At most this many points on all secondary branches together (None: no bound);
+        each branch gets at most what is left.
     on_branch
         Called with each secondary branch when traced.
 
@@ -177,6 +181,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
         raise ValueError("period doubling: needs a periodic basis (a HarmonicSet)")
     lo, hi = sorted(float(r) for r in rpm_range)
     found: list[SecondaryBranch] = []
+    budget = np.inf if max_total_points is None else int(max_total_points)
     queue: list[tuple[str, int, HBMProblem, Branch]] = [("main", 1, problem, branch)]
     while queue and depth > 0:
         pname, period, parent, pbranch = queue.pop(0)
@@ -213,15 +218,18 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
             if pd is None or any(q is not None and q is not pd and q.rpm == pd.rpm
                                  for q in located.values()):
                 continue
-            if len(found) >= max_branches:
-                logger.warning("period doubling: stopped at max_branches = %d (the period "
-                               "doubling at %.6g rpm of %s and later ones not switched at)",
-                               max_branches, pd.rpm, pname)
+            left = budget - sum(len(f.branch) for f in found)
+            if len(found) >= max_branches or left < 2:
+                logger.warning("period doubling: stopped at %s (the period doubling at "
+                               "%.6g rpm of %s and later ones not switched at)",
+                               f"max_branches = {max_branches}" if left >= 2 else
+                               f"max_total_points = {max_total_points}", pd.rpm, pname)
                 return found
+            points = int(min(max_points, left))
             try:
                 first = switch_branch(parent, child, pd, pbranch.omega_scale)
                 sub, rejoin = trace_secondary(child, first, (lo, hi), step_rpm, tol,
-                                               max_points, stability)
+                                              points, stability)
                 if len(sub) <= SHORT_REJOIN and np.isfinite(rejoin):
                     # came straight back through the pitchfork: the other way
                     logger.info("period doubling at %.6g rpm: the period-%d branch rejoined "
@@ -229,7 +237,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                                 2 * period, len(sub))
                     first = dataclasses.replace(first, direction=-first.direction)
                     sub, rejoin = trace_secondary(child, first, (lo, hi), step_rpm, tol,
-                                                   max_points, stability)
+                                                  points, stability)
             except (ConvergenceError, np.linalg.LinAlgError) as exc:
                 logger.warning("period doubling at %.6g rpm of %s: no period-%d branch (%s)",
                                pd.rpm, pname, 2 * period, exc)

@@ -45,7 +45,7 @@ __all__ = ["DoublingPoint", "SwitchedPoint", "doubling_brackets", "locate_doubli
            "odd_jacobian", "switch_branch"]
 
 LOCATE_ITER = 40            # Illinois iterations at most
-SWITCH_EPS = (1e-2, 3e-3, 3e-2, 1e-3)   # deviations along phi tried in turn (scaled)
+SWITCH_EPS = (1e-2, 1e-3, 3e-3, 3e-2)   # deviations along phi tried in turn (scaled)
 
 
 @dataclass
@@ -225,7 +225,7 @@ def locate_doubling(parent: HBMProblem, child: HBMProblem, branch, index: int,
 
 
 def switch_branch(parent: HBMProblem, child: HBMProblem, pd: DoublingPoint,
-                  omega_scale: float, tol: float = 1e-10, max_iter: int = 20,
+                  omega_scale: float, tol: float = 1e-10, max_iter: int = 12,
                   eps: tuple[float, ...] = SWITCH_EPS) -> SwitchedPoint:
     """The first point of the period-2 branch born at ``pd``: Newton on the child's
     equations bordered by ``phi . (y - y_pred) = 0`` from ``y_pred = (x_PD + e phi,

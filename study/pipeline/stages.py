@@ -380,9 +380,11 @@ class Pipeline:
         branches of twice the period, to ``[continuation] period_doubling_depth``
         (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
         stability, on a torus, or when no point of the branch leads with a period
-        doubling. Each branch traces at most as many points as the main branch (200 at
-        least), :data:`MAX_SECONDARY` branches at most. Not cached: it runs with the
-        export (the main curve is cached)."""
+        doubling. All secondary branches together trace at most as many points as the
+        main branch (200 at least), :data:`MAX_SECONDARY` branches at most: the stage
+        costs about what the main curve did (a period-2 point 1.5-3x a period-1 point,
+        benchmarks/bench_period2.py), plus locating the doublings. Not cached: it runs
+        with the export (the main curve is cached)."""
         from hbm.branching import doubling_brackets, period_doubling_branches
 
         c = self.scene.continuation
@@ -399,7 +401,7 @@ class Pipeline:
             problem, branch, c.speed, c.period_doubling_depth,
             step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
             max_points=min(c.max_points, max(200, len(branch))),
-            max_branches=MAX_SECONDARY)
+            max_branches=MAX_SECONDARY, max_total_points=max(200, len(branch)))
         self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
         logger.info("branches: %d of period 2 or more (%s)", len(found),
                     ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"

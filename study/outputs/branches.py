@@ -102,10 +102,12 @@ def _ranges(iv) -> str:
     return ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
 
 
-def report_lines(secondary, located: int | None = None, depth: int = 1,
+def report_lines(secondary, brackets: int | None = None, depth: int = 1,
                  seconds: float | None = None) -> list[str]:
-    """The report.md section "Period doubling" (empty when nothing was switched at)."""
-    if not secondary and not located:
+    """The report.md section "Period doubling" (empty when nothing was switched at);
+    ``brackets``: the main branch's intervals where the leading Floquet kind enters or
+    leaves period doubling."""
+    if not secondary and not brackets:
         return []
     out = ["## Period doubling: branches of period 2 and beyond", "",
            f"- switched at the period doublings of the main branch (multiplier −1, located "
@@ -113,6 +115,14 @@ def report_lines(secondary, located: int | None = None, depth: int = 1,
            f"{depth} (`[continuation] period_doubling_depth`), each traced like the main "
            "branch with stability over its own period; results.h5 `/branches/<name>` "
            "(docs/theory.md §15)"]
+    if brackets is not None:
+        main = [x for x in secondary if x.parent == "main"]
+        out.append(f"- the main branch enters or leaves period doubling {brackets} time"
+                   f"{'s' if brackets != 1 else ''}; {len(main)} period-2 branch"
+                   f"{'es' if len(main) != 1 else ''} switched to (a period doubling where "
+                   "one of them rejoined the main branch is not switched at again; one "
+                   "where no multiplier crosses −1 on the harmonic balance, or past the "
+                   "stage's budget, is not switched at: see the log)")
     if seconds is not None:
         out.append(f"- {len(secondary)} branch{'es' if len(secondary) != 1 else ''} in "
                    f"{seconds:.1f} s")

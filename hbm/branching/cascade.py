@@ -227,7 +227,7 @@ def period_doubling_branches(problem: HBMProblem, branch: Branch,
                 return found
             points = int(min(max_points, left))
             try:
-                first = switch_branch(parent, child, pd, pbranch.omega_scale)
+                first = switch_branch(parent, child, pd, pbranch.omega_scale, tol)
                 sub, rejoin = trace_secondary(child, first, (lo, hi), step_rpm, tol,
                                               points, stability)
                 if len(sub) <= SHORT_REJOIN and np.isfinite(rejoin):

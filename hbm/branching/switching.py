@@ -45,7 +45,7 @@ __all__ = ["DoublingPoint", "SwitchedPoint", "doubling_brackets", "locate_doubli
            "odd_jacobian", "switch_branch"]
 
 LOCATE_ITER = 40            # Illinois iterations at most
-SWITCH_EPS = (1e-2, 1e-3, 3e-3, 3e-2)   # deviations along phi tried in turn (scaled)
+SWITCH_EPS = (1e-2, 1e-3, 1e-4, 3e-3)   # deviations along phi tried in turn (scaled)
 
 
 @dataclass

@@ -89,7 +89,8 @@ def hbm_inputs(scene: Scene) -> dict[str, Any]:
             "damping": _asdict(scene.damping), "hbm": _asdict(scene.hbm),
             # neither changes the curve (the secondary branches are their own stage)
             "continuation": {k: v for k, v in _asdict(scene.continuation).items()
-                             if k not in ("checkpoint_every", "period_doubling_depth")}}
+                             if k not in ("checkpoint_every", "period_doubling_depth",
+                                          "period_doubling_max_points")}}
 
 
 class Pipeline:
@@ -380,10 +381,13 @@ class Pipeline:
         branches of twice the period, to ``[continuation] period_doubling_depth``
         (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
         stability, on a torus, or when no point of the branch leads with a period
-        doubling. All secondary branches together trace at most as many points as the
-        main branch (200 at least), :data:`MAX_SECONDARY` branches at most: the stage
-        costs about what the main curve did (a period-2 point 1.5-3x a period-1 point,
-        benchmarks/bench_period2.py), plus locating the doublings. Not cached: it runs
+        doubling. All secondary branches together trace at most
+        ``period_doubling_max_points`` points (0: as many as the main branch, 200 at
+        least), :data:`MAX_SECONDARY` branches at most: on a small model the stage costs
+        about what the main curve did (a period-2 point 1.5-2.4x a period-1 point,
+        benchmarks/bench_period2.py), plus locating the doublings; in the near-grazing
+        tangles of the converged pump a period-2 point cost ~20 s on the loaded machine
+        (docs/hbm.md "Period doubling"). Not cached: it runs
         with the export (the main curve is cached)."""
         from hbm.branching import doubling_brackets, period_doubling_branches
 
@@ -397,11 +401,12 @@ class Pipeline:
             self._log_stage("branches", StageStatus("skipped", why))
             return []
         t = time.perf_counter()
+        budget = c.period_doubling_max_points or max(200, len(branch))
         found = period_doubling_branches(
             problem, branch, c.speed, c.period_doubling_depth,
             step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
-            max_points=min(c.max_points, max(200, len(branch))),
-            max_branches=MAX_SECONDARY, max_total_points=max(200, len(branch)))
+            max_points=min(c.max_points, budget), max_branches=MAX_SECONDARY,
+            max_total_points=budget)
         self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
         logger.info("branches: %d of period 2 or more (%s)", len(found),
                     ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"

@@ -276,6 +276,7 @@ class ContinuationData:
     max_points: int
     checkpoint_every: int
     period_doubling_depth: int = 1
+    period_doubling_max_points: int = 0
 
 
 @dataclass(frozen=True)

@@ -98,8 +98,15 @@ def write_branches_group(f, secondary) -> None:
         g["doubling_unknowns"] = s.doubling.unknowns
 
 
+def _span(a: float, b: float) -> str:
+    """``a–b`` rpm with enough decimals to tell them apart (0.1 rpm and finer)."""
+    width = abs(b - a)
+    d = 1 if width >= 1 else min(4, int(np.ceil(-np.log10(max(width, 1e-4)))) + 1)
+    return f"{a:.{d}f}–{b:.{d}f}"
+
+
 def _ranges(iv) -> str:
-    return ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
+    return ", ".join(_span(a, b) for a, b in iv) or "none"
 
 
 def report_lines(secondary, brackets: int | None = None, depth: int = 1,
@@ -133,10 +140,10 @@ def report_lines(secondary, brackets: int | None = None, depth: int = 1,
             "| speed range (rpm) | points | stable on (rpm) | largest std (N) | ends |",
             "|---|---|---:|---:|---:|---|---:|---|---|---|"]
     for r in branch_rows(secondary):
-        rej = f"{r.rejoin_rpm:.2f}" if np.isfinite(r.rejoin_rpm) else "–"
-        fl = f"{r.floquet_rpm:.2f}" if np.isfinite(r.floquet_rpm) else "–"
-        out.append(f"| {r.name} | {r.parent} | {r.doubling_rpm:.2f} | {fl} | {rej} | "
-                   f"{r.rpm_min:.1f}–{r.rpm_max:.1f} | {r.points} | "
+        rej = f"{r.rejoin_rpm:.4f}" if np.isfinite(r.rejoin_rpm) else "–"
+        fl = f"{r.floquet_rpm:.4f}" if np.isfinite(r.floquet_rpm) else "–"
+        out.append(f"| {r.name} | {r.parent} | {r.doubling_rpm:.4f} | {fl} | {rej} | "
+                   f"{_span(r.rpm_min, r.rpm_max)} | {r.points} | "
                    f"{_ranges(r.stable_ranges)} | {r.max_std:.4g} at {r.max_std_rpm:.1f} | "
                    f"{r.status} |")
     out += ["", "- where a period-2 branch is stable and its parent is not, the machine "

@@ -144,12 +144,14 @@ def report_lines(secondary, brackets: int | None = None, depth: int = 1,
         fl = f"{r.floquet_rpm:.4f}" if np.isfinite(r.floquet_rpm) else "–"
         out.append(f"| {r.name} | {r.parent} | {r.doubling_rpm:.4f} | {fl} | {rej} | "
                    f"{_span(r.rpm_min, r.rpm_max)} | {r.points} | "
-                   f"{_ranges(r.stable_ranges)} | {r.max_std:.4g} at {r.max_std_rpm:.1f} | "
+                   f"{_ranges(r.stable_ranges)} | {r.max_std:.4g} at {r.max_std_rpm:.6g} | "
                    f"{r.status} |")
-    out += ["", "- where a period-2 branch is stable and its parent is not, the machine "
-            "settles on it (the curve of the main branch shows an orbit it leaves there): "
-            "its mesh load repeats every two fundamental periods, with lines at the half "
-            "orders (forced-response plot: in colour, unstable parts dashed)"]
+    out += ["", "- a stable period-2 branch is where the harmonic balance says the machine "
+            "goes when its parent loses stability: a mesh load repeating every two "
+            "fundamental periods, with lines at the half orders (forced-response plot: in "
+            "colour, unstable parts dashed; order maps `*_attracting`). Near grazing "
+            "check it by time integration: in the pump's near-grazing tangles the "
+            "integration leaves such orbits (docs/hbm.md \"Period doubling\")"]
     return out
 
 
@@ -222,6 +224,8 @@ def attracting_levels(result) -> AttractingLevels | None:
                       _amplitudes(s.problem, s.branch, rows),
                       _erp(result, s.problem, s.branch, rows)))
     orders = np.unique(np.concatenate([p[1] for p in parts]))
+    # only the orders with a level somewhere (a main order above every stable point's
+    # set, e.g., would be an empty row)
     n = sum(p[0].size for p in parts)
     amp = np.full((n, orders.size), np.nan)
     erp = None if nvh.erp is None else np.full((n, orders.size), np.nan)
@@ -236,5 +240,6 @@ def attracting_levels(result) -> AttractingLevels | None:
             erp[sl, cols] = e
         k += r.size
     order = np.argsort(rpm, kind="stable")
-    return AttractingLevels(rpm[order], orders, period[order], amp[order],
-                            None if erp is None else erp[order])
+    keep = ~np.all(np.isnan(amp), axis=0)
+    return AttractingLevels(rpm[order], orders[keep], period[order], amp[order][:, keep],
+                            None if erp is None else erp[order][:, keep])

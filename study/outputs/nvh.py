@@ -32,16 +32,26 @@ __all__ = ["NVH", "compute_nvh", "write_nvh_group", "write_curves_csv", "CONTACT
 CONTACT_NAMES = ("permanent contact", "single-sided impacts", "double-sided impacts")
 
 
-def order_label(order: int, n_teeth: int) -> str:
+def order_label(order, n_teeth: int) -> str:
     """Name of a shaft order: ``"Z"``, ``"2Z"``, sidebands ``"Z+2"``, ``"2Z−1"``, and the
-    plain number for orders far below the mesh frequency (external orders)."""
-    order = int(order)
-    k = int(round(order / n_teeth))
-    e = order - k * n_teeth
+    plain number for orders far below the mesh frequency (external orders); half orders
+    of a period-2 response as fractions (``"1/2"``, ``"Z−1/2"``, ``"3Z/2"``)."""
+    q = Fraction(order).limit_denominator(64)
+    z = int(n_teeth)
+    k = round(q / z)
+    e = q - k * z
+
+    def text(x: Fraction) -> str:
+        return str(x.numerator) if x.denominator == 1 else f"{x.numerator}/{x.denominator}"
+    h = 2 * q / z
+    if h.denominator == 1 and h.numerator % 2 == 1:          # an odd multiple of Z/2
+        return "Z/2" if h == 1 else f"{h.numerator}Z/2"
     if k == 0:
-        return str(order)
+        return text(q)
     base = "Z" if k == 1 else f"{k}Z"
-    return base if e == 0 else f"{base}{'+' if e > 0 else '−'}{abs(e)}"
+    if e == 0:
+        return base
+    return f"{base}{'+' if e > 0 else '−'}{text(abs(e))}"
 
 
 @dataclass
@@ -108,7 +118,7 @@ class NVH:
         return None if self.erp_total is None else power_db(self.erp_total)
 
 
-def _orders(hs) -> np.ndarray:
+def orders_of(hs) -> np.ndarray:
     """Shaft orders (of the reference shaft) of the set's harmonics: integers for an integer
     fundamental, else floats (a train's hunting fundamental, or a torus's frequencies)."""
     if not hs.periodic:
@@ -144,7 +154,7 @@ def _train_nvh(result) -> NVH:
             else:
                 f = line_series(pb, pt, element=e).load
             ptp[i, e] = float(np.ptp(f))
-    out = NVH(idx, _orders(hs), amp[:, 0], ptp[:, 0], None, None,
+    out = NVH(idx, orders_of(hs), amp[:, 0], ptp[:, 0], None, None,
               result.scene.acoustics.air_density, result.scene.acoustics.sound_speed,
               mesh_names=tuple(el.name for el in pb.elements), amplitude_per_mesh=amp,
               ptp_per_mesh=ptp)
@@ -241,7 +251,7 @@ def compute_nvh(result) -> NVH:
         c[1:] *= 2.0
         amp[i] = np.abs(c[idx])
         ptp[i] = float(np.ptp(f))
-    out = NVH(idx, _orders(hs), amp, ptp, None, None, ac.air_density, ac.sound_speed)
+    out = NVH(idx, orders_of(hs), amp, ptp, None, None, ac.air_density, ac.sound_speed)
     return _housing_nvh(result, out)
 
 

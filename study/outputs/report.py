@@ -364,6 +364,14 @@ def write_report(result) -> Path:
     for c, iv in s["intervals"].items():
         txt = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in iv) or "none"
         lines.append(f"- {_CLASS[c]}: {txt}")
+    if getattr(result, "secondary", None):
+        from hbm.branching import doubling_brackets
+        from study.outputs.branches import report_lines
+
+        st = (getattr(result, "status", None) or {}).get("branches")
+        lines += ["", *report_lines(result.secondary, len(doubling_brackets(result.branch)),
+                                    depth=sc.continuation.period_doubling_depth,
+                                    seconds=getattr(st, "seconds", None))]
     if sc.is_train:
         from study.outputs.train import mesh_report_lines
 

@@ -32,7 +32,8 @@ def _settings(result) -> dict:
 def _extra(result):
     nvh = getattr(result, "nvh", None)
     mesh = getattr(result, "mesh_excitation", None)
-    if result.rom is None and nvh is None and mesh is None:
+    secondary = getattr(result, "secondary", None)
+    if result.rom is None and nvh is None and mesh is None and not secondary:
         return None
 
     def extra(f) -> None:
@@ -43,6 +44,9 @@ def _extra(result):
         if mesh is not None:
             from study.outputs.mesh_excitation import write_group
             write_group(f, mesh)
+        if secondary:
+            from study.outputs.branches import write_branches_group
+            write_branches_group(f, secondary)
     return extra
 
 

@@ -92,6 +92,11 @@ class RunResult:
     mesh_excitation
         :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
         source (None: both ``fourier``).
+    secondary
+        :class:`hbm.branching.SecondaryBranch` per branch switched to at a period doubling
+        (``[continuation] period_doubling_depth``; the stage ``branches``): each with its
+        doubled ``problem`` (fundamental ``problem.harmonics.ratio`` Omega) and its
+        :class:`hbm.Branch`; empty when the stage was off or found no period doubling.
     """
 
     out: Path
@@ -110,3 +115,4 @@ class RunResult:
     checks: list = field(default_factory=list)
     speed_uses: list = field(default_factory=list)
     mesh_excitation: Any = None
+    secondary: list = field(default_factory=list)

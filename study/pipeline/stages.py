@@ -73,6 +73,10 @@ def _asdict(x) -> dict:
 
 #: ``[continuation]`` fields that only steer the path finding: a partial run written with
 #: other values of them is resumed (``--resume``), the physics and harmonic set being equal.
+#: secondary branches at most per run (each period doubling a branch; the near-grazing
+#: tangles of a converged pump curve hold dozens of them, most joined in pairs)
+MAX_SECONDARY = 12
+
 RESUMABLE_CONTROLS = ("step", "min_step", "max_step", "tolerance", "max_points",
                       "checkpoint_every")
 
@@ -83,8 +87,10 @@ def hbm_inputs(scene: Scene) -> dict[str, Any]:
             "transmission_error": _asdict(scene.transmission_error),
             "load": _asdict(scene.load), "external": _asdict(scene.external),
             "damping": _asdict(scene.damping), "hbm": _asdict(scene.hbm),
+            # neither changes the curve (the secondary branches are their own stage)
             "continuation": {k: v for k, v in _asdict(scene.continuation).items()
-                             if k != "checkpoint_every"}}  # does not change the curve
+                             if k not in ("checkpoint_every", "period_doubling_depth",
+                                          "period_doubling_max_points")}}
 
 
 class Pipeline:
@@ -369,6 +375,44 @@ class Pipeline:
                                  elapsed=dt if resume is None else None)
         return br, how
 
+    # ------------------------------------------------------------------ branches
+    def run_branches(self, problem, branch) -> list:
+        """Stage ``branches``: switch at the period doublings of the main branch to the
+        branches of twice the period, to ``[continuation] period_doubling_depth``
+        (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
+        stability, on a torus, or when no point of the branch leads with a period
+        doubling. All secondary branches together trace at most
+        ``period_doubling_max_points`` points (0: as many as the main branch, 200 at
+        least), :data:`MAX_SECONDARY` branches at most: on a small model the stage costs
+        about what the main curve did (a period-2 point 1.5-2.4x a period-1 point,
+        benchmarks/bench_period2.py), plus locating the doublings; in the near-grazing
+        tangles of the converged pump a period-2 point cost ~20 s on the loaded machine
+        (docs/hbm.md "Period doubling"). Not cached: it runs
+        with the export (the main curve is cached)."""
+        from hbm.branching import doubling_brackets, period_doubling_branches
+
+        c = self.scene.continuation
+        why = ("period_doubling_depth = 0" if c.period_doubling_depth == 0 else
+               "no stability (hbm.stability = false)" if not self.scene.hbm.stability else
+               "torus basis: no Floquet verdict" if not problem.periodic else
+               "no period doubling on the main branch" if not doubling_brackets(branch)
+               else "")
+        if why:
+            self._log_stage("branches", StageStatus("skipped", why))
+            return []
+        t = time.perf_counter()
+        budget = c.period_doubling_max_points or max(200, len(branch))
+        found = period_doubling_branches(
+            problem, branch, c.speed, c.period_doubling_depth,
+            step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
+            max_points=min(c.max_points, budget), max_branches=MAX_SECONDARY,
+            max_total_points=budget)
+        self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
+        logger.info("branches: %d of period 2 or more (%s)", len(found),
+                    ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"
+                              for s in found) or "none")
+        return found
+
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
         """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
@@ -434,6 +478,7 @@ class Pipeline:
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
                 "point, or, after a walk back or a closed loop it could not leave, from the "
                 "point before the speeds where it was caught)", result))
+        result.secondary = self.comm.root_call(self.run_branches, problem, branch)
         t = time.perf_counter()
         # listed in report.md, written during export
         self._log_stage("export", StageStatus("ran"), log=False)

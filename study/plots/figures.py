@@ -19,6 +19,31 @@ from study.plots.speed import accelerometer_plot, erp_plot, forced_response
 __all__ = ["draw_all"]
 
 
+def _attracting_order_maps(result, z: int, valid_hz) -> list[Path]:
+    """Order maps of the responses the machine settles on: the stable points of the main
+    branch and of its period-2 (4, ...) branches, the half orders as their own rows
+    (:func:`study.outputs.branches.attracting_levels`)."""
+    from study.outputs.branches import attracting_levels
+
+    lv = attracting_levels(result)
+    if lv is None or lv.rpm.size < 2:
+        return []
+    out, name = Path(result.out), result.scene.name
+    modes = result.rom.frequencies_hz if result.rom is not None else None
+    paths = [order_map_plot(lv.rpm, lv.orders, 20 * np.log10(np.maximum(lv.mesh_load, 1e-30)),
+                            z, out / "order_map_mesh_load_attracting.png",
+                            "mesh-load amplitude, dB re 1 N",
+                            f"{name}: mesh load per order, stable responses (half orders: "
+                            "period 2)", modes, rom_valid_hz=valid_hz)]
+    if lv.erp is not None:
+        from study.outputs.acoustics import power_db
+        paths.append(order_map_plot(lv.rpm, lv.orders, power_db(np.maximum(lv.erp, 1e-300)),
+                                    z, out / "order_map_erp_attracting.png", "ERP, dB re 1 pW",
+                                    f"{name}: housing ERP per order, stable responses",
+                                    modes, rom_valid_hz=valid_hz))
+    return paths
+
+
 def draw_all(result) -> list[Path]:
     """All plots the scene's ``[outputs] plots`` asks for; returns the PNG paths."""
     want = set(result.scene.outputs.plots)
@@ -27,7 +52,8 @@ def draw_all(result) -> list[Path]:
     paths: list[Path] = []
     name = result.scene.name
     if "forced_response" in want and not result.scene.is_train:
-        paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response"))
+        paths.append(forced_response(br, out / "forced_response.png", f"{name}: forced response",
+                                     secondary=getattr(result, "secondary", ())))
     valid_hz = rom_limit_hz(result.rom)          # None for a lumped scene
     speeds = time_series_speeds(result) if {"time_series", "spectrum"} & want else []
     asked = bool(result.scene.outputs.time_series)   # else branch points (most loaded)
@@ -65,6 +91,8 @@ def draw_all(result) -> list[Path]:
                                         out / "order_map_erp.png", "ERP, dB re 1 pW",
                                         f"{name}: housing ERP per order", modes,
                                         rom_valid_hz=valid_hz))
+    if nvh is not None and "order_maps" in want and getattr(result, "secondary", None):
+        paths += _attracting_order_maps(result, z, valid_hz)
     if nvh is not None and nvh.erp is not None and "erp" in want and len(br) > 0:
         paths.append(erp_plot(br, nvh.erp_total_db, nvh.erp_db, nvh.orders, z,
                               out / "erp.png", f"{name}: equivalent radiated power",

@@ -37,11 +37,22 @@ def _curve(ax, branch, colour="k", label=None, shade=True):
                 mew=1.4, label="grazing" if label is None else None, zorder=5)
 
 
-def forced_response(branch, path: Path, title: str = "") -> Path:
+def forced_response(branch, path: Path, title: str = "", secondary=()) -> Path:
     """Std of the dynamic mesh load vs shaft speed (Fig. 12/14): grazing points as
-    diamonds, impact ranges shaded, unstable solutions dashed."""
+    diamonds, impact ranges shaded, unstable solutions dashed; the branches of period 2
+    and more born at its period doublings (``secondary``:
+    :class:`hbm.branching.SecondaryBranch`, std over their own period) in colour, their
+    switch points as triangles."""
     fig, ax = plt.subplots(figsize=(8, 4.2))
     _curve(ax, branch)
+    periods = sorted({s.period for s in secondary})
+    for s in secondary:
+        colour = f"C{periods.index(s.period) % 9 + 1}"
+        _curve(ax, s.branch, colour=colour, shade=False,
+               label=f"period {s.period}" if s is next(t for t in secondary
+                                                        if t.period == s.period) else "")
+        ax.plot([s.doubling.rpm], [s.branch.element(0).mesh_load_std[0]], "v", ms=5,
+                color=colour, zorder=5)
     ax.plot([], [], "k--", label="unstable")
     ax.set_xlabel("shaft speed Ω (rpm)")
     ax.set_ylabel("std of dynamic mesh load (N)")

@@ -265,7 +265,8 @@ class HbmData:
 
 @dataclass(frozen=True)
 class ContinuationData:
-    """``[continuation]``: speed range and steps in rpm, tolerance, checkpoints."""
+    """``[continuation]``: speed range and steps in rpm, tolerance, checkpoints, depth of
+    the branch switching at period doublings."""
 
     speed: tuple[float, float]
     step: float
@@ -274,6 +275,8 @@ class ContinuationData:
     tolerance: float
     max_points: int
     checkpoint_every: int
+    period_doubling_depth: int = 1
+    period_doubling_max_points: int = 0
 
 
 @dataclass(frozen=True)

@@ -281,7 +281,8 @@ def _continuation(c: dict) -> ContinuationData:
         raise SceneError(f"continuation.step_rpm = {step:g}: must be <= the speed range "
                          f"{span:g} rpm")
     return ContinuationData(c["speed"], step, min_step, max_step, c["tolerance"],
-                            c["max_points"], c["checkpoint_every"])
+                            c["max_points"], c["checkpoint_every"],
+                            c["period_doubling_depth"], c["period_doubling_max_points"])
 
 
 def _outputs(o: dict, accel_raw: Any, speed: tuple[float, float]) -> OutputsData:

@@ -378,6 +378,13 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "max_points": _f(20_000, "", 2, 10_000_000, kind="int", doc="maximum points"),
         "checkpoint_every": _f(20, "", 1, 1_000_000, kind="int",
                                doc="points between checkpoints in results.h5"),
+        "period_doubling_depth": _f(1, "", 0, 4, kind="int",
+                                    doc="switch at period doublings to the period-2 branches "
+                                    "(1), their period-4 branches (2), ...; 0: off"),
+        "period_doubling_max_points": _f(0, "", 0, 10_000_000, kind="int",
+                                         doc="points of all period-2 (4, ...) branches "
+                                         "together at most; 0: as many as the main branch, "
+                                         "200 at least"),
     },
     "acoustics": {
         "air_density_kg_per_m3": _f(1.2, "kg_per_m3", 0, 100, lo_open=True,

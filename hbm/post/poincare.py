@@ -1,6 +1,6 @@
 """Poincaré sections of an element's load: samples once per reference period, from a
 harmonic-balance orbit or from a time integration, and what they say about the response
-(periodic, period-k, quasi-periodic, chaotic-like; docs/theory.md §15).
+(periodic, period-k, quasi-periodic, chaotic-like; docs/theory.md §16).
 
 The section is ``t = j T_ref``, ``T_ref = 2 pi / w_ref`` the fundamental period of the
 reference problem (the main branch's: the mesh period of a gear pair whose harmonic set
@@ -8,7 +8,9 @@ is the mesh's). A period-1 orbit of that problem has one sample; an orbit of a p
 whose fundamental is ``w_ref / k`` (a period-k branch, e.g. :mod:`hbm.branching`'s
 doubled set) has ``k`` samples, at ``t = 0, T_ref, …, (k-1) T_ref`` of its own period.
 
-A sequence of ``N`` section samples ``x_j`` of a time integration is classified as
+A sequence of ``N`` section samples ``x_j`` of a time integration — the pair (Delta,
+load) relative to their std (:func:`section_coordinates`: the load alone is zero
+wherever contact is lost and can hide a period-2 motion) — is classified as
 (:func:`classify_section`):
 
 - ``period-k`` when ``max_j |x_{j+k} - x_j| <= tol * scale`` for the smallest ``k`` up to
@@ -40,7 +42,8 @@ from ..problem import HBMProblem, Point
 from .signals import time_series
 
 __all__ = ["CONCENTRATION", "LINES", "SECTION_KINDS", "Section", "classify_section",
-           "orbit_section", "periods_in", "section_kind_code", "windowed_lines"]
+           "orbit_samples", "orbit_section", "periods_in", "section_coordinates",
+           "section_kind_code", "windowed_lines"]
 
 #: Relative tolerance of the period-k test (of the load's std).
 PERIOD_TOL = 1e-3
@@ -73,12 +76,12 @@ def periods_in(reference: HBMProblem, problem: HBMProblem) -> int:
     return int(k)
 
 
-def orbit_section(problem: HBMProblem, point: Point, periods: int = 1, element: int = 0
-                  ) -> np.ndarray:
-    """Load (N) of element ``element`` on the orbit ``point`` at ``t = j T / periods``,
-    ``j = 0 … periods - 1`` (``T`` the problem's fundamental period): the orbit's
-    Poincaré samples when its period holds ``periods`` reference periods
-    (:func:`periods_in`).
+def orbit_samples(problem: HBMProblem, point: Point, periods: int = 1, element: int = 0
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Load (N) and deflection Delta (m) of element ``element`` on the orbit ``point``
+    at ``t = j T / periods``, ``j = 0 … periods - 1`` (``T`` the problem's fundamental
+    period): the orbit's Poincaré samples when its period holds ``periods`` reference
+    periods (:func:`periods_in`).
 
     Evaluated from the harmonics on the problem's fine grid (a multiple of ``periods``),
     as :func:`hbm.post.signals.time_series` synthesises it.
@@ -87,8 +90,27 @@ def orbit_section(problem: HBMProblem, point: Point, periods: int = 1, element: 
         raise ValueError(f"periods = {periods!r}: must be an integer >= 1")
     periods = int(periods)
     n = math.lcm(problem.fine_periods(None), periods)
-    load = time_series(problem, point, samples_per_period=n, element=element).load
-    return load[::n // periods].copy()
+    ts = time_series(problem, point, samples_per_period=n, element=element)
+    return ts.load[::n // periods].copy(), ts.delta[::n // periods].copy()
+
+
+def orbit_section(problem: HBMProblem, point: Point, periods: int = 1, element: int = 0
+                  ) -> np.ndarray:
+    """The load samples of :func:`orbit_samples` (N)."""
+    return orbit_samples(problem, point, periods, element)[0]
+
+
+def section_coordinates(delta: np.ndarray, delta_std: float, load: np.ndarray,
+                        load_std: float) -> np.ndarray:
+    """The section's samples as ``(N, 2)`` coordinates ``(Delta / std, load / std)``
+    for :func:`classify_section` with scale 1: Delta first (smooth, its spectrum is the
+    one tested for lines), the load beside it (a gear mesh's load is zero whenever
+    contact is lost, so alone it can hide a period-2 motion that loses contact at the
+    section's instants)."""
+    def unit(x, s):
+        x = np.asarray(x, dtype=float)
+        return x / max(s, 1e-12 * float(np.max(np.abs(x), initial=0.0)), 1e-300)
+    return np.column_stack([unit(delta, delta_std), unit(load, load_std)])
 
 
 @dataclass(frozen=True)

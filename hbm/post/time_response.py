@@ -24,7 +24,7 @@ from scipy.integrate import solve_ivp
 
 from ..problem import HBMProblem, Point
 from ..units import RPM_TO_RAD_S
-from .poincare import Section, classify_section, windowed_lines
+from .poincare import Section, classify_section, section_coordinates, windowed_lines
 from .stats import MeshPeriodEnvelope
 
 logger = logging.getLogger(__name__)
@@ -195,6 +195,11 @@ class TimeResponse:
     #: section of :mod:`hbm.post.poincare` (None when a turn's samples do not fall on
     #: every fundamental period's start)
     section: np.ndarray | None = field(default=None, repr=False)
+    #: Delta (m) at the same instants (the smooth coordinate of the section: the load
+    #: is zero whenever contact is lost, whatever the motion)
+    section_delta: np.ndarray | None = field(default=None, repr=False)
+    #: std of Delta over the window (m)
+    delta_std: float = 0.0
     #: load (N) over the window, ``samples_per_turn`` per shaft turn
     load: np.ndarray | None = field(default=None, repr=False)
     samples_per_turn: int = 0
@@ -225,12 +230,12 @@ class TimeResponse:
     @property
     def poincare(self) -> Section | None:
         """The window's Poincaré section classified
-        (:func:`hbm.post.poincare.classify_section`, relative to the load's std over the
-        window), None without a section."""
+        (:func:`hbm.post.poincare.classify_section` of (Delta, load), each relative to its
+        std over the window), None without a section."""
         if self.section is None or self.section.size < 2:
             return None
-        scale = max(self.std, 1e-12 * abs(float(self.section.mean())), 1e-300)
-        return classify_section(self.section, scale)
+        return classify_section(section_coordinates(self.section_delta, self.delta_std,
+                                                    self.section, self.std), 1.0)
 
 
 def fundamentals_per_turn(problem: HBMProblem) -> int:
@@ -333,7 +338,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
             deltas.append(delta)
     sig = np.concatenate(loads)
     fpt = fundamentals_per_turn(problem)
-    section = sig[::te.size // fpt].copy() if te.size % fpt == 0 else None
+    every = te.size // fpt if te.size % fpt == 0 else 0
+    dsig = np.concatenate(deltas)
     spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
     top = np.argsort(-spec)[:n_lines]
     out = TimeResponse(rpm=rpm, transient=transient, window=window,
@@ -342,9 +348,11 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
                        lines=[(float(j / window), float(spec[j])) for j in top],
                        seconds=time.perf_counter() - t0, state=y, delta=delta,
                        envelope=MeshPeriodEnvelope.of(
-                           sig, np.concatenate(deltas),
+                           sig, dsig,
                            periods_per_turn(problem, element) * window),
-                       section=section, load=sig, samples_per_turn=te.size)
+                       section=sig[::every].copy() if every else None,
+                       section_delta=dsig[::every].copy() if every else None,
+                       delta_std=float(dsig.std()), load=sig, samples_per_turn=te.size)
     logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
                 "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
                 out.periodic)

@@ -4,7 +4,7 @@ unstable point or ``attractor_speeds_per_segment`` speeds spread over the segmen
 optionally as a slow sweep, at most ``attractor_max_integrations``;
 :func:`hbm.post.time_response.integrate`), each summarised by its Poincaré section
 (:mod:`hbm.post.poincare`: period-k, quasi-periodic, chaotic-like), for report.md, the
-bifurcation diagram (:mod:`study.outputs.bifurcation`) and docs/theory.md §15.
+bifurcation diagram (:mod:`study.outputs.bifurcation`) and docs/theory.md §16.
 """
 from __future__ import annotations
 
@@ -224,7 +224,7 @@ CSV_COLUMNS = ["kind", "segment_from_rpm", "segment_to_rpm", "speed_rpm", "orbit
                "response_std_N", "turn_std_min_N", "turn_std_max_N", "max_load_N",
                "periodic", "top_order", "top_amplitude_N", "turns_left_out",
                "turns_analysed", "error", "start", "growth_rate_1_s", "section",
-               "section_samples", "rotation", "outcome", "seconds"]
+               "section_samples", "rotation", "outcome"]
 
 
 def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
@@ -238,7 +238,7 @@ def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
         tail = [a.start, f"{a.growth:.6g}"]
         r = a.response
         if r is None:
-            w.writerow(head + [""] * 10 + [a.error] + tail + ["", "", "", a.outcome, ""])
+            w.writerow(head + [""] * 10 + [a.error] + tail + ["", "", "", a.outcome])
             continue
         s = r.window_std_per_turn
         order, amp = r.lines[0] if r.lines else (float("nan"), float("nan"))
@@ -248,7 +248,7 @@ def write_attractors_csv(path: Path, found: list[Attractor]) -> Path:
                            f"{order:.6g}", f"{amp:.8g}", r.transient, r.window, ""] + tail
                    + (["", "", ""] if sec is None else
                       [sec.label, sec.samples, f"{sec.rotation:.6g}"])
-                   + [a.outcome, f"{r.seconds:.2f}"])
+                   + [a.outcome])
     path = Path(path)
     with atomic_write(path, "w") as fh:
         fh.write(buf.getvalue())
@@ -293,6 +293,7 @@ def _write_one(g: h5py.Group, a: Attractor) -> None:
         g["mean_dte"] = r.envelope.mean_dte
     if r.section is not None:
         g["section"] = r.section
+        g["section_delta"] = r.section_delta
         sec = a.section
         g.attrs.update(section_kind=sec.kind, section_period=sec.period,
                        rotation=sec.rotation, concentration=sec.concentration)

@@ -1,5 +1,5 @@
 """The bifurcation diagram of a run: Poincaré samples of the mesh load against speed
-(docs/theory.md §15), from
+(docs/theory.md §16), from
 
 - the periodic branch (``result.branch``): one sample per point, the load at ``t = 0``
   of the fundamental period evaluated from the harmonics (stable or not, per point);
@@ -29,7 +29,7 @@ import numpy as np
 
 from core.files import atomic_write
 from hbm import Point
-from hbm.post.poincare import SECTION_KINDS, orbit_section, periods_in
+from hbm.post.poincare import SECTION_KINDS, orbit_samples, periods_in
 
 logger = logging.getLogger(__name__)
 
@@ -46,10 +46,12 @@ MAX_TI_SAMPLES = 512
 class Diagram:
     """Poincaré samples of the mesh load (element 0) against speed, one row per sample.
 
-    ``rpm`` (rpm) and ``load`` (N); ``source`` a code of :data:`SOURCES`; ``branch``
-    0 for the main branch, ``j`` for the ``j``-th secondary branch, the attractor's index
-    for a time integration; ``point`` the branch point (or -1); ``stable`` 1/0 on a
-    branch, -1 for a time integration (no verdict: it is the attractor);
+    ``rpm`` (rpm), ``load`` (N) and ``delta`` (the mesh deflection Delta at the same
+    instant, m: smooth where the load is zero for lost contact); ``source`` a code of
+    :data:`SOURCES`; ``branch`` 0 for the main branch, ``j`` for the ``j``-th secondary
+    branch, the attractor's index for a time integration; ``point`` the branch point
+    (or -1); ``stable`` 1/0 on a branch, -1 for a time integration (no verdict: it is
+    the attractor);
     ``periods`` the reference periods in the sample's orbit (k of a period-k branch, 0
     for a time integration); ``section_kind`` the code (:data:`SECTION_KINDS`) of the
     integration's section (-1 on branches).
@@ -57,6 +59,7 @@ class Diagram:
 
     rpm: np.ndarray
     load: np.ndarray
+    delta: np.ndarray
     source: np.ndarray
     branch: np.ndarray
     point: np.ndarray
@@ -79,16 +82,16 @@ def _point(branch, i: int) -> Point:
 
 
 def branch_samples(problem, branch, reference, element: int = 0
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
     """Poincaré samples of every point of ``branch`` (a branch of ``problem``) on the
-    section of ``reference`` (the main problem): ``(rpm (n,), load (n, k), stable (n,),
-    k)`` with ``k`` = :func:`hbm.post.poincare.periods_in`."""
+    section of ``reference`` (the main problem): ``(rpm (n,), load (n, k) N, delta (n, k)
+    m, stable (n,), k)`` with ``k`` = :func:`hbm.post.poincare.periods_in`."""
     k = periods_in(reference, problem)
     n = len(branch)
-    load = np.empty((n, k))
+    load, delta = np.empty((n, k)), np.empty((n, k))
     for i in range(n):
-        load[i] = orbit_section(problem, _point(branch, i), k, element)
-    return (np.asarray(branch.rpm, dtype=float), load,
+        load[i], delta[i] = orbit_samples(problem, _point(branch, i), k, element)
+    return (np.asarray(branch.rpm, dtype=float), load, delta,
             np.asarray(branch.stable, dtype=bool), k)
 
 
@@ -117,12 +120,12 @@ def diagram(result, secondary: Sequence[tuple] | None = None,
     """
     pb = result.problem
     pb.require_periodic("bifurcation diagram")
-    cols: dict[str, list] = {k: [] for k in ("rpm", "load", "source", "branch", "point",
-                                             "stable", "periods", "section_kind")}
+    cols: dict[str, list] = {k: [] for k in ("rpm", "load", "delta", "source", "branch",
+                                             "point", "stable", "periods", "section_kind")}
 
-    def add(rpm, load, source, branch, point, stable, periods, kind):
+    def add(rpm, load, delta, source, branch, point, stable, periods, kind):
         n = np.size(load)
-        for key, v in (("rpm", rpm), ("load", load), ("source", source),
+        for key, v in (("rpm", rpm), ("load", load), ("delta", delta), ("source", source),
                        ("branch", branch), ("point", point), ("stable", stable),
                        ("periods", periods), ("section_kind", kind)):
             cols[key].append(np.broadcast_to(np.asarray(v), (n,)).ravel()
@@ -133,21 +136,22 @@ def diagram(result, secondary: Sequence[tuple] | None = None,
     for j, (prob, br) in enumerate(pairs):
         if br is None or not len(br):
             continue
-        rpm, load, stable, k = branch_samples(prob, br, pb)
+        rpm, load, delta, stable, k = branch_samples(prob, br, pb)
         idx = np.arange(len(br))
-        add(np.repeat(rpm, k), load.ravel(), int(j > 0), j, np.repeat(idx, k),
+        add(np.repeat(rpm, k), load.ravel(), delta.ravel(), int(j > 0), j, np.repeat(idx, k),
             np.repeat(stable.astype(np.int8), k), k, -1)
     for j, a in enumerate(result.attractors if found is None else found):
         r = a.response
         if r is None or r.section is None:
             continue
-        sec = r.section[-MAX_TI_SAMPLES:]
-        add(a.rpm, sec, 2, j, -1, -1, 0, a.section.code)
+        add(a.rpm, r.section[-MAX_TI_SAMPLES:], r.section_delta[-MAX_TI_SAMPLES:], 2, j, -1,
+            -1, 0, a.section.code)
     if not cols["rpm"]:
         empty = np.zeros(0)
-        return Diagram(empty, empty, *(np.zeros(0, dtype=int) for _ in range(6)))
+        return Diagram(empty, empty, empty, *(np.zeros(0, dtype=int) for _ in range(6)))
     cat = {k: np.concatenate(v) for k, v in cols.items()}
     return Diagram(rpm=cat["rpm"].astype(float), load=cat["load"].astype(float),
+                   delta=cat["delta"].astype(float),
                    source=cat["source"].astype(np.int8), branch=cat["branch"].astype(np.int32),
                    point=cat["point"].astype(np.int32), stable=cat["stable"].astype(np.int8),
                    periods=cat["periods"].astype(np.int32),
@@ -167,8 +171,8 @@ def write_bifurcation_group(path: Path, d: Diagram) -> Path:
             g.attrs["sources"] = ", ".join(SOURCES)
             g.attrs["section_kinds"] = ", ".join(SECTION_KINDS)
             g.attrs["element"] = 0
-            for name in ("rpm", "load", "source", "branch", "point", "stable", "periods",
-                         "section_kind"):
+            for name in ("rpm", "load", "delta", "source", "branch", "point", "stable",
+                         "periods", "section_kind"):
                 g[name] = getattr(d, name)
     logger.info("wrote /bifurcation of %s", path)
     return path
@@ -194,7 +198,7 @@ def response_lines(result, found: Sequence | None = None,
              f"`attractor_speeds_per_segment = {o.attractor_speeds_per_segment}`"
              f"{', as a slow sweep' if o.attractor_sweep else ''}); each response is "
              "classified by its Poincaré section, once per fundamental period "
-             "(docs/theory.md §15; the samples are in `/bifurcation` of results.h5 and "
+             "(docs/theory.md §16; the samples are in `/bifurcation` of results.h5 and "
              "in bifurcation.png):", "",
              "| segment (rpm) | kind | speeds | response reached |", "|---|---|---:|---|"]
     by_seg: dict = {}

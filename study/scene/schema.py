@@ -406,7 +406,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
             1, "", 1, 1000, kind="int",
             doc="speeds integrated per unstable segment: 1, its most unstable point; n > 1, "
             "the segment's points nearest n speeds spread evenly over it (the bifurcation "
-            "diagram's independent check, docs/theory.md §15)"),
+            "diagram's independent check, docs/theory.md §16)"),
         "attractor_sweep": Spec("bool", False,
                                 doc="within a segment, each speed after the lowest starts "
                                 "from the state the previous one ended in (a slow run-up) "

@@ -39,7 +39,6 @@ from fractions import Fraction
 import numpy as np
 
 from ..problem import HBMProblem, Point
-from .signals import time_series
 
 __all__ = ["CONCENTRATION", "LINES", "SECTION_KINDS", "Section", "classify_section",
            "orbit_samples", "orbit_section", "periods_in", "section_coordinates",
@@ -83,15 +82,21 @@ def orbit_samples(problem: HBMProblem, point: Point, periods: int = 1, element: 
     period): the orbit's Poincaré samples when its period holds ``periods`` reference
     periods (:func:`periods_in`).
 
-    Evaluated from the harmonics on the problem's fine grid (a multiple of ``periods``),
-    as :func:`hbm.post.signals.time_series` synthesises it.
+    Evaluated at those instants only, from the point's coefficients of Delta,
+    ``Delta(t) = Re sum_k c_k exp(i k w0 t)``, and the element's parameters at its phase
+    ``base_ratio Omega t`` (as the time integration evaluates them): no time grid, so a
+    long fundamental period (a hunting set) costs no more than a short one.
     """
+    problem.require_periodic("Poincaré samples of an orbit")
     if int(periods) != periods or periods < 1:
         raise ValueError(f"periods = {periods!r}: must be an integer >= 1")
-    periods = int(periods)
-    n = math.lcm(problem.fine_periods(None), periods)
-    ts = time_series(problem, point, samples_per_period=n, element=element)
-    return ts.load[::n // periods].copy(), ts.delta[::n // periods].copy()
+    w0 = problem.harmonics.fundamental_rad_s(point.omega)
+    t = 2 * np.pi / w0 * np.arange(int(periods)) / int(periods)
+    c = np.asarray(point.coefficients)[element]
+    delta = (np.exp(1j * w0 * np.outer(t, np.asarray(problem.kS, dtype=float))) @ c).real
+    el = problem.elements[element]
+    rate = 0.0 if el.base_ratio is None else float(el.base_ratio) * point.omega
+    return el.load(delta, el.sample(rate * t)), delta
 
 
 def orbit_section(problem: HBMProblem, point: Point, periods: int = 1, element: int = 0

@@ -205,7 +205,7 @@ def response_lines(result, found: Sequence | None = None,
     for a in found:
         by_seg.setdefault(a.segment, []).append(a)
     for seg, atts in by_seg.items():
-        words = _outcomes(atts)
+        words = _outcomes(atts, o.attractor_perturbation)
         cover = [f"period-{periods_in(result.problem, p)} branch computed at "
                  f"{float(np.min(b.rpm)):.1f}–{float(np.max(b.rpm)):.1f} rpm"
                  for p, b in sec if len(b) and np.min(b.rpm) <= seg.rpm[1]
@@ -215,13 +215,22 @@ def response_lines(result, found: Sequence | None = None,
     return lines + [""]
 
 
-def _outcomes(atts: list) -> str:
+def _outcomes(atts: list, eps: float) -> str:
     """The outcomes over a segment's speeds, one phrase: each distinct outcome with the
-    speeds it holds at (rpm); quasi-periodic ones with their rotation."""
+    speeds it holds at (rpm); quasi-periodic ones with their rotation; an orbit kept
+    with fewer e-folds of growth over the turns left out than the start disturbance
+    needs (``ln(1/eps)``; the orbit's own error, ~1e-10, without one) marked as not
+    given the time to leave it."""
+    need = np.log(1.0 / eps) if eps > 0 else np.log(1e10)
     groups: dict[str, list[str]] = {}
     for a in atts:
         tag = f"{a.rpm:.1f}"
         if a.outcome in ("quasi-periodic", "chaotic-like") and a.section is not None:
             tag += f" (rotation {a.section.rotation:.3f})"
+        if a.outcome == "orbit kept" and a.response is not None:
+            folds = a.growth * a.response.transient * 60.0 / a.rpm
+            if np.isfinite(folds) and folds < need:
+                tag += f" (only {folds:.1f} e-folds of growth in the turns left out: too " \
+                       "few to leave it)"
         groups.setdefault(a.outcome, []).append(tag)
     return "; ".join(f"**{k}** at {', '.join(v)} rpm" for k, v in groups.items())

@@ -130,3 +130,20 @@ def test_secondary_branch_gives_two_samples_per_point():
     sec = d.of(SOURCES[1])
     assert sec.sum() == 2 * len(br2) and set(d.periods[sec]) == {2}
     assert np.array_equal(d.load[sec], load2.ravel())
+
+
+def test_segment_points_spread_over_the_segment():
+    from types import SimpleNamespace
+
+    from study.outputs.attractors import segment_points
+    from study.outputs.curves import UnstableSegment
+
+    rpm = np.array([100.0, 101.0, 102.0, 103.5, 104.0, 106.0, 110.0])
+    rate = np.array([-1.0, 0.5, 2.0, 7.0, 3.0, 1.0, -1.0])
+    br = SimpleNamespace(rpm=rpm, floquet_max_real=rate)
+    seg = UnstableSegment("neimark_sacker", (101.0, 106.0), 5, 1.0, (1, 5))
+    assert segment_points(br, seg, 1) == [3]               # the largest growth rate
+    assert segment_points(br, seg, 3) == [1, 3, 5]         # nearest 101, 103.5, 106
+    assert segment_points(br, seg, 50) == [1, 2, 3, 4, 5]  # each point once
+    with pytest.raises(ValueError, match="attractor_speeds_per_segment"):
+        segment_points(br, seg, 0)

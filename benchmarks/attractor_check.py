@@ -31,10 +31,20 @@ from core.files import atomic_write
 log = logging.getLogger("attractor_check")
 
 
-def rows(run: Path) -> list[dict]:
-    """The integrated rows of ``run/attractors.csv``."""
+def rows(run: Path, speeds: list[float] | None = None) -> list[dict]:
+    """The integrated rows of ``run/attractors.csv``, one per speed (a branch that winds
+    repeats points), only those within 1e-3 rpm of ``speeds`` when given."""
     with open(run / "attractors.csv") as fh:
-        return [r for r in csv.DictReader(fh) if r["response_std_N"]]
+        out, seen = [], set()
+        for r in csv.DictReader(fh):
+            rpm = float(r["speed_rpm"])
+            if not r["response_std_N"] or rpm in seen:
+                continue
+            if speeds and min(abs(rpm - s) for s in speeds) > 1e-3:
+                continue
+            seen.add(rpm)
+            out.append(r)
+        return out
 
 
 def check(problem, unknowns: np.ndarray, branch_rpm: np.ndarray, row: dict, transient: int,
@@ -75,6 +85,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--perturbation", type=float, default=1e-4)
     ap.add_argument("--transient-factor", type=float, default=1.5)
     ap.add_argument("--max-rows", type=int, default=3)
+    ap.add_argument("--rpm", type=float, nargs="+", help="only these speeds of the CSV")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
@@ -86,7 +97,7 @@ def main(argv: list[str] | None = None) -> dict:
         branch_rpm = f["continuation/rpm"][()]
     out = args.out or RESULTS / f"attractor_check_{args.scene.stem}.json"
     records = []
-    for row in rows(args.run)[:args.max_rows]:
+    for row in rows(args.run, args.rpm)[:args.max_rows]:
         transient = int(round(args.transient_factor * int(row["turns_left_out"])))
         rec = check(problem, unknowns, branch_rpm, row, transient,
                     int(row["turns_analysed"]), args.rtol, args.perturbation)

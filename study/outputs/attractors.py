@@ -13,7 +13,7 @@ import io
 import logging
 import math
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import h5py
@@ -141,6 +141,7 @@ def attractors(result) -> list[Attractor]:
     segments = unstable_segments(br.rpm, mesh_std, br.stable, br.floquet_kind)
     budget = o.attractor_max_integrations
     found: dict[int, list[Attractor]] = {}
+    done: dict[bytes, Attractor] = {}      # a branch that winds repeats its points
     for j in _budget_order(segments):
         seg = segments[j]
         found[j] = []
@@ -148,6 +149,10 @@ def attractors(result) -> list[Attractor]:
         for i in segment_points(br, seg, o.attractor_speeds_per_segment):
             rpm, std = float(br.rpm[i]), float(mesh_std[i])
             growth = float(br.floquet_max_real[i])
+            key = np.append(br.unknowns[i], rpm).tobytes()
+            if state is None and key in done:          # the same orbit: the same response
+                found[j].append(replace(done[key], segment=seg))
+                continue
             if budget <= 0:
                 found[j].append(Attractor(seg, rpm, std, None, "the run's bound "
                                           "attractor_max_integrations = "
@@ -157,6 +162,8 @@ def attractors(result) -> list[Attractor]:
             budget -= 1
             a = _integrate_one(result, seg, i, state if o.attractor_sweep else None, prev)
             found[j].append(a)
+            if a.start == "orbit":
+                done[key] = a
             state = a.response.state if a.response is not None else None
             prev = rpm if a.response is not None else None
     return [a for j in range(len(segments)) for a in found[j]]

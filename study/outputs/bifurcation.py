@@ -204,27 +204,38 @@ def response_lines(result, found: Sequence | None = None,
     by_seg: dict = {}
     for a in found:
         by_seg.setdefault(a.segment, []).append(a)
+    left: dict[str, int] = {}
     for seg, atts in by_seg.items():
-        words = _outcomes(atts, o.attractor_perturbation)
+        if all(a.skipped for a in atts):
+            left[seg.label] = left.get(seg.label, 0) + 1
+            continue
+        words = _outcomes(atts, o.attractor_perturbation, 3 if seg.rpm[1] - seg.rpm[0] < 1
+                          else 1)
         cover = [f"period-{periods_in(result.problem, p)} branch computed at "
                  f"{float(np.min(b.rpm)):.1f}–{float(np.max(b.rpm)):.1f} rpm"
                  for p, b in sec if len(b) and np.min(b.rpm) <= seg.rpm[1]
                  and np.max(b.rpm) >= seg.rpm[0]]
-        lines.append(f"| {seg.rpm[0]:.2f}–{seg.rpm[1]:.2f} | {seg.label} | {len(atts)} | "
+        lines.append(f"| {seg.rpm[0]:.3f}–{seg.rpm[1]:.3f} | {seg.label} | {len(atts)} | "
                      + "; ".join([words] + cover) + " |")
+    if left:
+        lines += ["", f"Not integrated ({sum(left.values())} segments: "
+                  + ", ".join(f"{k} {n}" for k, n in left.items())
+                  + f"): the run's bound `attractor_max_integrations = "
+                  f"{o.attractor_max_integrations}` was reached (Neimark–Sacker segments are "
+                  "served first, then period doubling, then folds, largest std first)."]
     return lines + [""]
 
 
-def _outcomes(atts: list, eps: float) -> str:
+def _outcomes(atts: list, eps: float, digits: int = 1) -> str:
     """The outcomes over a segment's speeds, one phrase: each distinct outcome with the
-    speeds it holds at (rpm); quasi-periodic ones with their rotation; an orbit kept
-    with fewer e-folds of growth over the turns left out than the start disturbance
-    needs (``ln(1/eps)``; the orbit's own error, ~1e-10, without one) marked as not
-    given the time to leave it."""
+    speeds it holds at (rpm, ``digits`` decimals); quasi-periodic ones with their
+    rotation; an orbit kept with fewer e-folds of growth over the turns left out than
+    the start disturbance needs (``ln(1/eps)``; the orbit's own error, ~1e-10, without
+    one) marked as not given the time to leave it."""
     need = np.log(1.0 / eps) if eps > 0 else np.log(1e10)
     groups: dict[str, list[str]] = {}
     for a in atts:
-        tag = f"{a.rpm:.1f}"
+        tag = f"{a.rpm:.{digits}f}"
         if a.outcome in ("quasi-periodic", "chaotic-like") and a.section is not None:
             tag += f" (rotation {a.section.rotation:.3f})"
         if a.outcome == "orbit kept" and a.response is not None:
@@ -232,5 +243,11 @@ def _outcomes(atts: list, eps: float) -> str:
             if np.isfinite(folds) and folds < need:
                 tag += f" (only {folds:.1f} e-folds of growth in the turns left out: too " \
                        "few to leave it)"
+        if a.response is not None and a.outcome not in ("orbit kept", "not integrated"):
+            tag += f" (std {a.response.std:.4g} N, orbit {a.orbit_std:.4g} N"
+            if a.outcome == "aperiodic" and a.section is not None:
+                tag += f"; {a.section.samples} section samples: too few to tell " \
+                       "quasi-periodic from chaotic"
+            tag += ")"
         groups.setdefault(a.outcome, []).append(tag)
     return "; ".join(f"**{k}** at {', '.join(v)} rpm" for k, v in groups.items())

@@ -205,8 +205,8 @@ def write_bifurcation_files(result) -> None:
 
         result.figures.append(bifurcation_plot(
             result.bifurcation, out_path(result, "bifurcation.png"),
-            f"{result.scene.name}: bifurcation diagram (mesh load once per fundamental "
-            "period)"))
+            f"{result.scene.name}: bifurcation diagram (Δ and mesh load once per "
+            "fundamental period)"))
 
 
 def write_report_files(result) -> Path:

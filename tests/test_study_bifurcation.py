@@ -147,3 +147,30 @@ def test_segment_points_spread_over_the_segment():
     assert segment_points(br, seg, 50) == [1, 2, 3, 4, 5]  # each point once
     with pytest.raises(ValueError, match="attractor_speeds_per_segment"):
         segment_points(br, seg, 0)
+
+
+def test_outcome_words():
+    """What report.md says a response is: from its Poincaré section, its std against the
+    orbit's and whether the turns left out let a disturbance of the orbit grow."""
+    from types import SimpleNamespace
+
+    from hbm.post.poincare import Section
+    from study.outputs.attractors import Attractor
+    from study.outputs.curves import UnstableSegment
+
+    seg = UnstableSegment("neimark_sacker", (100.0, 101.0), 2, 1.0, (0, 1))
+    qp = Section("quasi-periodic", 0, 0.31, 0.9999, 1.0, 1024)
+    one = Section("periodic", 1, float("nan"), float("nan"), 1e-5, 1024)
+
+    def att(sec, std, growth, transient=100, eps=1e-6, start="orbit"):
+        r = SimpleNamespace(poincare=sec, std=std, transient=transient, periodic=None)
+        return Attractor(seg, 100.0, 1.0, r, growth=growth, perturbation=eps, start=start)
+
+    # 100 turns at 100 rpm = 60 s: growth 1 1/s gives 60 e-folds (> ln 1e6 = 13.8)
+    assert att(qp, 3.0, 1.0).outcome == "quasi-periodic"
+    assert att(qp, 1.0, 0.1).outcome == "not settled"             # 6 e-folds
+    assert att(qp, 1.0, 0.1, start="sweep from 99.0 rpm").outcome == "quasi-periodic"
+    assert att(one, 1.005, 1.0).outcome == "orbit kept"
+    assert att(one, 1.5, 1.0).outcome == "another period-1 orbit"
+    assert att(qp, 1.0, 0.1).left_orbit is False
+    assert att(qp, 1.0, 0.1).transient_folds == pytest.approx(6.0)

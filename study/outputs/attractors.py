@@ -54,6 +54,26 @@ class Attractor:
     start: str = "orbit"
     growth: float = math.nan
     skipped: bool = False
+    perturbation: float = 0.0
+
+    @property
+    def transient_folds(self) -> float:
+        """e-folds of growth of a disturbance of the start orbit over the turns left out,
+        ``growth * transient * 60 / rpm`` (NaN without a response)."""
+        if self.response is None:
+            return math.nan
+        return self.growth * self.response.transient * 60.0 / self.rpm
+
+    @property
+    def left_orbit(self) -> bool:
+        """Whether the turns left out gave a disturbance of the start orbit the time to
+        grow to the response's size: ``ln(1 / perturbation)`` e-folds (the orbit's own
+        error, ~1e-10, without a disturbance). Always True for a sweep start."""
+        if self.start != "orbit":
+            return True
+        need = math.log(1.0 / self.perturbation) if self.perturbation > 0 else math.log(1e10)
+        folds = self.transient_folds
+        return not math.isfinite(folds) or folds >= need
 
     @property
     def section(self) -> Section | None:
@@ -65,7 +85,9 @@ class Attractor:
         """What the machine does there: ``"orbit kept"`` (period-1 with the orbit's std
         within :data:`SAME_ORBIT`), ``"another period-1 orbit"`` (a jump), ``"period-k"``,
         ``"quasi-periodic"``, ``"chaotic-like"``, ``"aperiodic"`` (not periodic, too few
-        section samples to say more), ``"not integrated"`` or ``"failed"``."""
+        section samples to say more), ``"not settled"`` (not periodic, and the turns left
+        out were too few for a disturbance of the orbit to grow: :attr:`left_orbit`),
+        ``"not integrated"`` or ``"failed"``."""
         r = self.response
         if r is None:
             return "not integrated" if self.skipped else "failed"
@@ -76,6 +98,8 @@ class Attractor:
         if sec.kind == "periodic" and sec.period == 1:
             return "orbit kept" if abs(r.std / self.orbit_std - 1) <= SAME_ORBIT else \
                 "another period-1 orbit"
+        if sec.kind != "periodic" and not self.left_orbit:
+            return "not settled"
         return sec.label
 
 
@@ -182,14 +206,14 @@ def _integrate_one(result, seg: UnstableSegment, i: int, state, prev: float | No
             tr = integrate(result.problem, rpm, state, transient=o.attractor_transient_turns,
                            window=o.attractor_window_turns)
             return Attractor(seg, rpm, std, tr, start=f"sweep from {prev:.1f} rpm",
-                             growth=growth)
+                             growth=growth, perturbation=o.attractor_perturbation)
         tr = scene_time_response(result, result.problem.solve(rpm, x0=br.unknowns[i],
                                                               tol=1e-10))
     except Exception as exc:                # noqa: BLE001 - reported, the run goes on
         logger.warning("time integration at %.1f rpm (%s segment) failed: %s", rpm,
                        seg.label, exc)
         return Attractor(seg, rpm, std, None, f"{type(exc).__name__}: {exc}", growth=growth)
-    return Attractor(seg, rpm, std, tr, growth=growth)
+    return Attractor(seg, rpm, std, tr, growth=growth, perturbation=o.attractor_perturbation)
 
 
 def attractor_line(a: Attractor, lines: int = 3) -> str:

@@ -209,8 +209,7 @@ def response_lines(result, found: Sequence | None = None,
         if all(a.skipped for a in atts):
             left[seg.label] = left.get(seg.label, 0) + 1
             continue
-        words = _outcomes(atts, o.attractor_perturbation, 3 if seg.rpm[1] - seg.rpm[0] < 1
-                          else 1)
+        words = _outcomes(atts, 3 if seg.rpm[1] - seg.rpm[0] < 1 else 1)
         cover = [f"period-{periods_in(result.problem, p)} branch computed at "
                  f"{float(np.min(b.rpm)):.1f}–{float(np.max(b.rpm)):.1f} rpm"
                  for p, b in sec if len(b) and np.min(b.rpm) <= seg.rpm[1]
@@ -226,24 +225,21 @@ def response_lines(result, found: Sequence | None = None,
     return lines + [""]
 
 
-def _outcomes(atts: list, eps: float, digits: int = 1) -> str:
+def _outcomes(atts: list, digits: int = 1) -> str:
     """The outcomes over a segment's speeds, one phrase: each distinct outcome with the
     speeds it holds at (rpm, ``digits`` decimals); quasi-periodic ones with their
-    rotation; an orbit kept with fewer e-folds of growth over the turns left out than
-    the start disturbance needs (``ln(1/eps)``; the orbit's own error, ~1e-10, without
-    one) marked as not given the time to leave it."""
-    need = np.log(1.0 / eps) if eps > 0 else np.log(1e10)
+    rotation; an orbit kept or a response not settled with fewer e-folds of growth over
+    the turns left out than the start disturbance needs
+    (:attr:`~study.outputs.attractors.Attractor.left_orbit`) marked as such."""
     groups: dict[str, list[str]] = {}
     for a in atts:
         tag = f"{a.rpm:.{digits}f}"
         if a.outcome in ("quasi-periodic", "chaotic-like") and a.section is not None:
             tag += f" (rotation {a.section.rotation:.3f})"
-        if a.outcome == "orbit kept" and a.response is not None:
-            folds = a.growth * a.response.transient * 60.0 / a.rpm
-            if np.isfinite(folds) and folds < need:
-                tag += f" (only {folds:.1f} e-folds of growth in the turns left out: too " \
-                       "few to leave it)"
-        if a.response is not None and a.outcome not in ("orbit kept", "not integrated"):
+        if a.outcome in ("orbit kept", "not settled") and not a.left_orbit:
+            tag += f" (only {a.transient_folds:.1f} e-folds of growth in the turns left " \
+                   "out: too few to leave the orbit)"
+        if a.response is not None and a.outcome != "orbit kept":
             tag += f" (std {a.response.std:.4g} N, orbit {a.orbit_std:.4g} N"
             if a.outcome == "aperiodic" and a.section is not None:
                 tag += f"; {a.section.samples} section samples: too few to tell " \

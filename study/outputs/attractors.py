@@ -44,7 +44,8 @@ class Attractor:
     orbit (``start`` = ``"orbit"``) or from the state a lower speed of the segment ended
     in (``"sweep from X rpm"``). When the refinement or the integration failed, or the
     run's bound on integrations left it out (``skipped``), ``response`` is None and
-    ``error`` says why."""
+    ``error`` says why. ``perturbation``: the relative start disturbance used
+    (``[outputs] attractor_perturbation``)."""
 
     segment: UnstableSegment
     rpm: float

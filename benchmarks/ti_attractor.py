@@ -7,7 +7,8 @@ OUT/<case>/results.h5``), then the ROM is integrated in time from it
 (:func:`hbm.time_response.integrate`, DOP853, rtol 1e-9) over ``--transient``
 shaft turns and ``--window`` more. Per speed the record keeps the HBM orbit's mesh-load
 std, its stability, the std of each integrated turn of the window, and the strongest
-lines of the mesh-load spectrum over the window (resolution 1/window shaft orders):
+lines of the mesh-load spectrum over the window (resolution 1/window shaft orders),
+its Poincaré section's verdict and the Hann-windowed lines (docs/theory.md §16.3):
 an attractor is the HBM orbit when its std and lines are those of the orbit; a
 periodic attractor has lines at integer orders only and the same std every turn; a
 quasi-periodic one has lines between them (docs/theory.md §13.5, "Stability along the
@@ -96,6 +97,13 @@ def integrate(problem, rpm: float, y0, turns: int, window: int
            "std_window": round(tr.std, 4), "max_load": round(tr.max_load, 3),
            "lines": [{"order": round(o, 4), "hz": round(o * rpm / 60, 1), "N": round(a, 3)}
                      for o, a in tr.lines]}
+    sec = tr.poincare
+    if sec is not None:                 # docs/theory.md §16.3
+        rec["section"] = {"kind": sec.label, "samples": sec.samples,
+                          "rotation": round(sec.rotation, 6),
+                          "concentration": round(sec.concentration, 6)}
+        rec["windowed_lines"] = [{"order": round(o, 5), "N": round(a, 4)}
+                                 for o, a in tr.windowed_lines(6)]
     return rec, tr.state, tr.delta
 
 

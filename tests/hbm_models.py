@@ -51,3 +51,20 @@ def gear_and_stiff_mode_problem():
                           [hbm.GearMesh(g, 1, {0: 1.0, 1: 0.2}, backlash=1.0)],
                           hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.05, 0.0]}),
                           hbm.HarmonicSet.build(1, 20))
+
+
+def neimark_sacker_problem(harmonics=20):
+    """Two coupled modes through one gear mesh (one tooth, mesh frequency Omega, 30 %
+    mesh-stiffness variation, 2 % modal damping, eq. 19): coupled modes 0.881 and
+    1.966 rad/s, so the combination resonance Omega ~ w1 + w2 makes the periodic orbit
+    lose stability by a complex pair of Floquet multipliers (Neimark–Sacker) over
+    Omega = 2.77-2.92 rad/s; there the time response is quasi-periodic, with lines at
+    the orders ~0.31 and ~0.69 (w1 / Omega, w2 / Omega) beside the mesh order 1."""
+    import scipy.linalg as sla
+    m, k, g = np.eye(2), np.array([[0.0, 0.0], [0.0, 3.0]]), np.array([1.0, 0.8])
+    w2, phi = sla.eigh(k + np.outer(g, g), m)
+    c = m @ phi @ np.diag(0.04 * np.sqrt(w2)) @ phi.T @ m
+    return hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                          [hbm.GearMesh(g, 1, {0: 1.0, 1: 0.3}, backlash=1.0)],
+                          hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.02, 0.0]}),
+                          hbm.HarmonicSet.build(1, harmonics))

@@ -24,12 +24,14 @@ from scipy.integrate import solve_ivp
 
 from ..problem import HBMProblem, Point
 from ..units import RPM_TO_RAD_S
+from .poincare import Section, classify_section, section_coordinates, windowed_lines
 from .stats import MeshPeriodEnvelope
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["ModalModel", "TimeResponse", "element_load", "equations", "fundamentals_per_turn",
-           "initial_state", "integrate", "modal_model", "periods_per_turn", "state_atol"]
+           "initial_state", "integrate", "modal_model", "periods_per_turn", "perturbed",
+           "state_atol"]
 
 #: Samples per mesh period of the analysed turns.
 SAMPLES_PER_MESH_PERIOD = 64
@@ -153,6 +155,19 @@ def state_atol(mm: ModalModel, y0: np.ndarray, rtol: float) -> np.ndarray:
     return np.concatenate([np.full(m, rtol * scale_x), np.full(m, rtol * scale_v)])
 
 
+def perturbed(y: np.ndarray, m: int, size: float, seed: int = 0) -> np.ndarray:
+    """The modal state ``y`` plus a disturbance in every mode: a fixed pseudo-random
+    direction (``seed``) scaled to ``size`` times the largest amplitude of each block
+    (positions, velocities), so that it reaches every unstable direction and the run is
+    repeatable."""
+    d = np.random.default_rng(seed).standard_normal(y.size)
+    out = np.array(y, dtype=float)
+    for blk in (slice(0, m), slice(m, 2 * m)):
+        scale = max(float(np.max(np.abs(out[blk]))), 1e-300)
+        out[blk] += size * scale * d[blk] / max(float(np.max(np.abs(d[blk]))), 1e-300)
+    return out
+
+
 @dataclass
 class TimeResponse:
     """A time integration over ``transient + window`` shaft turns (:func:`integrate`).
@@ -176,6 +191,18 @@ class TimeResponse:
     delta: np.ndarray = field(repr=False)   # Delta (m) over the last turn, from its start
     #: largest mesh load and mean Delta in each mesh period of the window (Z x window)
     envelope: MeshPeriodEnvelope | None = field(default=None, repr=False)
+    #: load (N) at the start of every fundamental period of the window: the Poincaré
+    #: section of :mod:`hbm.post.poincare` (None when a turn's samples do not fall on
+    #: every fundamental period's start)
+    section: np.ndarray | None = field(default=None, repr=False)
+    #: Delta (m) at the same instants (the smooth coordinate of the section: the load
+    #: is zero whenever contact is lost, whatever the motion)
+    section_delta: np.ndarray | None = field(default=None, repr=False)
+    #: std of Delta over the window (m)
+    delta_std: float = 0.0
+    #: load (N) over the window, ``samples_per_turn`` per shaft turn
+    load: np.ndarray | None = field(default=None, repr=False)
+    samples_per_turn: int = 0
 
     @property
     def window_std_per_turn(self) -> np.ndarray:
@@ -191,6 +218,24 @@ class TimeResponse:
         spread = (s.max() - s.min()) / max(s.max(), 1e-300)
         order = self.lines[0][0] if self.lines else 0.0
         return bool(spread < 1e-3 and abs(order - round(order)) < 0.5 / self.window)
+
+    def windowed_lines(self, n_lines: int = 12) -> list[tuple[float, float]]:
+        """The window's strongest mesh-load lines as (shaft order, amplitude N), Hann
+        window and band power (:func:`hbm.post.poincare.windowed_lines`: amplitudes
+        that do not depend on where a line falls between the 1/window bins)."""
+        if self.load is None:
+            return []
+        return windowed_lines(self.load, self.samples_per_turn, n_lines)
+
+    @property
+    def poincare(self) -> Section | None:
+        """The window's Poincaré section classified
+        (:func:`hbm.post.poincare.classify_section` of (Delta, load), each relative to its
+        std over the window), None without a section."""
+        if self.section is None or self.section.size < 2:
+            return None
+        return classify_section(section_coordinates(self.section_delta, self.delta_std,
+                                                    self.section, self.std), 1.0)
 
 
 def fundamentals_per_turn(problem: HBMProblem) -> int:
@@ -225,7 +270,8 @@ def _turn(problem: HBMProblem, mm: ModalModel, element: int) -> tuple[float, np.
 
 def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
               transient: int = 30, window: int = 16, rtol: float = 1e-9,
-              n_lines: int = 12, element: int = 0) -> TimeResponse:
+              n_lines: int = 12, element: int = 0, perturbation: float = 0.0
+              ) -> TimeResponse:
     """Integrate the equations at ``rpm`` over whole shaft turns (every element), and
     analyse the load of element ``element``.
 
@@ -245,12 +291,17 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         modal amplitude of the start per block.
     n_lines
         Spectral lines kept.
+    perturbation
+        Relative size of a disturbance added to the start (:func:`perturbed`; 0: none,
+        the start as given). Started exactly on an unstable orbit, the response leaves
+        it only through the orbit's own error; a disturbance of known size makes the
+        transient needed, ``ln(1 / perturbation) / growth rate``, independent of it.
 
     Raises
     ------
     ValueError
         On a negative ``transient``, ``window`` < 1, ``rtol`` outside (0, 1), ``rpm``
-        not > 0 or a modal state of the wrong shape.
+        not > 0, ``perturbation`` outside [0, 1) or a modal state of the wrong shape.
     RuntimeError
         If ``solve_ivp`` fails.
     """
@@ -258,6 +309,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
         raise ValueError(f"transient = {transient}, window = {window}: must be >= 0 and >= 1")
     if not 0 < rtol < 1:
         raise ValueError(f"rtol = {rtol!r}: must be in (0, 1)")
+    if not 0 <= perturbation < 1:
+        raise ValueError(f"perturbation = {perturbation!r}: must be in [0, 1)")
     mm = modal_model(problem, rpm)
     T, te = _turn(problem, mm, element)
     y = initial_state(problem, start, mm) if isinstance(start, Point) else \
@@ -265,6 +318,8 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
     if y.shape != (2 * mm.n_modes,):
         raise ValueError(f"start: modal state of shape {y.shape}, the problem has "
                          f"{2 * mm.n_modes} (positions and velocities of {mm.n_modes} modes)")
+    if perturbation > 0:
+        y = perturbed(y, mm.n_modes, perturbation)
     fun, atol, m = equations(mm), state_atol(mm, y, rtol), mm.n_modes
     stds, loads, deltas, delta = [], [], [], np.zeros(te.size)
     t0 = time.perf_counter()
@@ -282,6 +337,9 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
             loads.append(load)
             deltas.append(delta)
     sig = np.concatenate(loads)
+    fpt = fundamentals_per_turn(problem)
+    every = te.size // fpt if te.size % fpt == 0 else 0
+    dsig = np.concatenate(deltas)
     spec = np.abs(np.fft.rfft(sig - sig.mean())) / sig.size * 2
     top = np.argsort(-spec)[:n_lines]
     out = TimeResponse(rpm=rpm, transient=transient, window=window,
@@ -290,8 +348,11 @@ def integrate(problem: HBMProblem, rpm: float, start: Point | np.ndarray,
                        lines=[(float(j / window), float(spec[j])) for j in top],
                        seconds=time.perf_counter() - t0, state=y, delta=delta,
                        envelope=MeshPeriodEnvelope.of(
-                           sig, np.concatenate(deltas),
-                           periods_per_turn(problem, element) * window))
+                           sig, dsig,
+                           periods_per_turn(problem, element) * window),
+                       section=sig[::every].copy() if every else None,
+                       section_delta=dsig[::every].copy() if every else None,
+                       delta_std=float(dsig.std()), load=sig, samples_per_turn=te.size)
     logger.info("time integration at %.6g rpm: %d + %d turns in %.1f s, std %.4g N "
                 "(periodic over a turn: %s)", rpm, transient, window, out.seconds, out.std,
                 out.periodic)

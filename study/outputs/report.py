@@ -171,12 +171,16 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
     per segment)."""
     if not segments:
         return []
-    how = ("below each, the time response from its most unstable orbit" if found else
+    how = ("below each, the time response from its most unstable orbit (or from "
+           "`attractor_speeds_per_segment` orbits across it) and what the machine does "
+           "there" if found else
            "to see its response, integrate in time from the orbit: `[outputs] "
            "attractor_transient_turns`")
     out = ["- unstable segments (branch order; the curve shows the periodic orbit, which the "
            f"machine leaves there; {how}; docs/theory.md §11 and §13.5):"]
-    at = {a.segment: a for a in found or []}         # segments are frozen: equal by value
+    at: dict = {}                       # segments are frozen: equal by value
+    for a in found or []:
+        at.setdefault(a.segment, []).append(a)
     for group in _winding_groups(segments):
         lo, hi = min(g.rpm[0] for g in group), max(g.rpm[1] for g in group)
         pts, top = sum(g.points for g in group), max(g.peak_std for g in group)
@@ -191,7 +195,7 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
             out.append(f"  - {lo:.1f}–{hi:.1f} rpm, where the branch winds: {pts} points in "
                        f"{len(group)} segments ({count}), std up to {top:.4g} N; "
                        + "; ".join(f"{label}: {_MEANING[k]}" for k, label in kinds.items()))
-        out += [attractor_line(at[g]) for g in group if g in at]
+        out += [attractor_line(a) for g in group for a in at.get(g, [])]
     return out
 
 
@@ -376,6 +380,10 @@ def write_report(result) -> Path:
         from study.outputs.train import mesh_report_lines
 
         lines += ["", *mesh_report_lines(result)]
+    if result.attractors:                # what the machine reaches (bifurcation diagram)
+        from study.outputs.bifurcation import response_lines
+
+        lines += ["", *response_lines(result)]
     nvh = getattr(result, "nvh", None)
     if nvh is not None and nvh.erp is not None and len(result.branch):
 

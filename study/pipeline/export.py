@@ -14,7 +14,8 @@ from study.pipeline.parallel import world
 logger = logging.getLogger(__name__)
 
 __all__ = ["write_partial", "export", "draw_figures", "write_housing", "write_rom_group",
-           "housing_fields", "write_report_files", "write_attractor_files", "record_checks"]
+           "housing_fields", "write_report_files", "write_attractor_files",
+           "write_bifurcation_files", "record_checks"]
 
 
 def _settings(result) -> dict:
@@ -193,6 +194,26 @@ def write_attractor_files(result) -> None:
     if result.attractors:
         write_attractors_csv(out_path(result, "attractors.csv"), result.attractors)
         write_attractors_group(result.results, result.attractors)
+    write_bifurcation_files(result)
+
+
+def write_bifurcation_files(result) -> None:
+    """The run's bifurcation diagram (:mod:`study.outputs.bifurcation`, after the time
+    responses): ``result.bifurcation``, ``/bifurcation`` of results.h5 and, when the
+    scene's plots ask for it, bifurcation.png. None on a torus basis (no period)."""
+    from study.outputs.bifurcation import diagram, write_bifurcation_group
+
+    if not result.problem.periodic or result.branch is None or not len(result.branch):
+        return
+    result.bifurcation = diagram(result)
+    write_bifurcation_group(result.results, result.bifurcation)
+    if "bifurcation" in result.scene.outputs.plots:
+        from study.plots.bifurcation import bifurcation_plot
+
+        result.figures.append(bifurcation_plot(
+            result.bifurcation, out_path(result, "bifurcation.png"),
+            f"{result.scene.name}: bifurcation diagram (Δ and mesh load once per "
+            "fundamental period)"))
 
 
 def write_report_files(result) -> Path:

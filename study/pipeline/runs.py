@@ -78,9 +78,12 @@ class RunResult:
     seconds : float
         Wall time of the run.
     attractors : list
-        :class:`study.outputs.attractors.Attractor` per unstable segment (``[outputs]
-        attractor_transient_turns`` > 0; computed by the export, with or without
-        report.md).
+        :class:`study.outputs.attractors.Attractor` per integrated speed of each
+        unstable segment (``[outputs] attractor_transient_turns`` > 0; computed by the
+        export, with or without report.md).
+    bifurcation
+        :class:`study.outputs.bifurcation.Diagram` of the run (computed by the export on
+        a periodic basis; None before or on a torus).
     status : dict
         Stage name -> :class:`StageStatus` (how it was served, its wall time); the
         pipeline's own dict, so it fills as the stages run (``/provenance`` of results.h5).
@@ -111,6 +114,7 @@ class RunResult:
     rom: Any = None
     nvh: Any = None
     attractors: list = field(default_factory=list)
+    bifurcation: Any = None
     status: dict = field(default_factory=dict)
     checks: list = field(default_factory=list)
     speed_uses: list = field(default_factory=list)

@@ -300,7 +300,8 @@ class Accelerometer:
 class OutputsData:
     """``[outputs]``: plots, time-series speeds (rpm), housing field speeds (rpm), per-order
     field orders, housing time-series sampling, virtual accelerometers, time integration
-    at unstable segments (turns left out, turns analysed)."""
+    at unstable segments (turns left out, turns analysed, speeds per segment, sweep, the
+    bound on integrations, start disturbance)."""
 
     plots: tuple[str, ...]
     time_series: tuple[float, ...]
@@ -312,6 +313,10 @@ class OutputsData:
     accelerometers: tuple[Accelerometer, ...] = ()
     attractor_transient_turns: int = 0
     attractor_window_turns: int = 8
+    attractor_speeds_per_segment: int = 1
+    attractor_sweep: bool = False
+    attractor_max_integrations: int = 200
+    attractor_perturbation: float = 0.0
 
 
 @dataclass(frozen=True)

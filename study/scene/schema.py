@@ -58,7 +58,7 @@ def _c(default, choices, doc=""):
 MESH_SOURCES = ("fourier", "ltca", "table")
 
 PLOT_NAMES = ("forced_response", "time_series", "spectrum", "campbell", "rom_error", "housing",
-              "order_maps", "erp", "accelerometers")
+              "order_maps", "erp", "accelerometers", "bifurcation")
 FE_SECTIONS = ("geometry", "mesh", "materials", "bearings", "drive", "rotors", "links")
 #: The free FE tables of a gearbox scene (machines.gearbox.params checks them).
 GEARBOX_SECTIONS = ("housing", "mesh", "materials")
@@ -409,6 +409,25 @@ SCHEMA: dict[str, dict[str, Spec]] = {
             "attractors.csv, results.h5)"),
         "attractor_window_turns": _f(8, "", 1, 10_000, kind="int",
                                      doc="shaft turns analysed after them"),
+        "attractor_speeds_per_segment": _f(
+            1, "", 1, 1000, kind="int",
+            doc="speeds integrated per unstable segment: 1, its most unstable point; n > 1, "
+            "the segment's points nearest n speeds spread evenly over it (the bifurcation "
+            "diagram's independent check, docs/theory.md §16)"),
+        "attractor_sweep": Spec("bool", False,
+                                doc="within a segment, each speed after the lowest starts "
+                                "from the state the previous one ended in (a slow run-up) "
+                                "instead of its own orbit"),
+        "attractor_max_integrations": _f(
+            200, "", 1, 100_000, kind="int",
+            doc="cost bound: time integrations per run; the segments are served by kind "
+            "(Neimark–Sacker, period doubling, then folds) and largest std first, the rest "
+            "are listed as not integrated"),
+        "attractor_perturbation": _f(
+            0.0, "", 0.0, 0.1,
+            doc="relative disturbance added to the start orbit (0: started exactly on it, "
+            "left only through the orbit's own error; 1e-6 makes the transient needed "
+            "ln(1e6) / growth rate)"),
         "field_orders": _f([], "", 1, 100_000, kind="ints",
                            doc="shaft orders of the per-order housing fields (FE; default: "
                            "the mesh orders kZ and the external orders of the set)"),

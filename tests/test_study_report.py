@@ -87,6 +87,16 @@ def test_a_run_without_stability_says_so():
     assert "unstable" not in _largest_line(s, False)
 
 
+class _Rpm:
+    """A branch with speeds only (what the report reads of a secondary branch)."""
+
+    def __init__(self, rpm):
+        self.rpm = np.asarray(rpm, dtype=float)
+
+    def __len__(self):
+        return len(self.rpm)
+
+
 def test_where_the_branch_winds_the_report_gives_one_line():
     """Consecutive unstable segments spanning less than 0.2 % of the speed together
     (the pump's at 2508.7-2510.3 rpm, of three kinds) are one line; the nested folds of
@@ -103,13 +113,22 @@ def test_where_the_branch_winds_the_report_gives_one_line():
     assert lines[1] == (
         "  - 2508.7–2509.4 rpm, where the branch winds: 15 points in 5 segments (period "
         "doubling 6, fold 6, Neimark–Sacker 3), std up to 91 N; period doubling: a response "
-        "at half the fundamental frequency takes over (not computed: the harmonic set holds "
-        "multiples of the fundamental only); fold: the middle part of an amplitude jump; "
+        "at half the fundamental frequency takes over (not computed: `[continuation] "
+        "period_doubling_depth = 0`, or no period-2 branch found over this range: see section "
+        "\"Period doubling\" or the log); fold: the middle part of an amplitude jump; "
         "Neimark–Sacker: a quasi-periodic response or another, coexisting periodic one "
-        "takes over (not computed)")
+        "takes over (not computed: `[outputs] attractor_transient_turns`)")
     assert lines[2].startswith("  - 1791.2–2195.0 rpm, 91 points, std up to 5377 N: fold")
     assert lines[3].startswith("  - 2089.9–3004.0 rpm, 686 points, std up to 7.788e+04 N")
     assert len(lines) == 4
+    # a period-2 branch over the period-doubling speeds is named where it was computed
+
+    sec = SimpleNamespace(name="period2_1", branch=_Rpm([2508.9, 2509.1, 2509.3]))
+    far = SimpleNamespace(name="period2_2", branch=_Rpm([4000.0, 4100.0]))
+    named = unstable_lines(pd + wide, secondary=[sec, far])[1]
+    assert "period doubling: a response at half the fundamental frequency takes over " \
+        "(computed: `period2_1`, section \"Period doubling\")" in named
+    assert "period2_2" not in named
     assert _folds_text([1452.5, 1450.6, 2195.1, 1791.0]) == "1452.5, 1450.6, 2195.1, 1791.0 rpm"
     assert _folds_text([2505.4, 2507.0, 2510.3, 2506.1, 3000.0]) == \
         "2505.4–2510.3 (4 folds), 3000.0 rpm"

@@ -90,8 +90,8 @@ def _largest_line(s: dict, stability: bool) -> str:
     return f"{line}, **an unstable orbit** ({s['max_std_kind']}): {other}"
 
 
-def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
-                     ) -> list[str]:
+def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True,
+                     secondary=None) -> list[str]:
     """Report lines on the Floquet verdicts, or that none were computed."""
     if not periodic:
         return ["- stability: **not computed on a torus** (a quasi-periodic response has no "
@@ -102,7 +102,7 @@ def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
     kinds = ", ".join(f"{kind_label(k)} {n}" for k, n in s["unstable_kinds"].items())
     return [f"- unstable points: {s['unstable_points']}" + (f" ({kinds})" if kinds else "")
             + " — Floquet exponents of the variational equation, every mode",
-            *unstable_lines(s["unstable_segments"], attractors),
+            *unstable_lines(s["unstable_segments"], attractors, secondary),
             *_unresolved(s["unresolved_rpm"]), *_near_grazing(s["grazing_rpm"]),
             *_not_computed(s["nan_exponent_rpm"]), *_amplification(s["amplification"])]
 
@@ -157,18 +157,37 @@ def _unresolved(rpm: list[float]) -> list[str]:
 #: what the machine does where the periodic orbit is unstable, per leading kind
 _MEANING = {
     "fold": "the middle part of an amplitude jump",
-    "period_doubling": "a response at half the fundamental frequency takes over (not "
-                       "computed: the harmonic set holds multiples of the fundamental only)",
+    "period_doubling": "a response at half the fundamental frequency takes over",
     "neimark_sacker": "a quasi-periodic response or another, coexisting periodic one takes "
-                      "over (not computed)",
+                      "over",
     "unclassified": "unstable, kind not recorded",
 }
 
 
-def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -> list[str]:
+def _what_computed(kind: str, lo: float, hi: float, secondary, found: bool) -> str:
+    """What the run computed of the response that takes over on ``lo``–``hi`` rpm: the
+    period-k branches (``secondary``, :class:`hbm.branching.SecondaryBranch`) over that
+    range at a period doubling, the time responses below it (``found``), or why none."""
+    if kind == "period_doubling":
+        over = [s for s in secondary or ()
+                if len(s.branch) and min(s.branch.rpm) <= hi and max(s.branch.rpm) >= lo]
+        if over:
+            return (" (computed: " + ", ".join(f"`{s.name}`" for s in over)
+                    + ", section \"Period doubling\")")
+        return (" (not computed: `[continuation] period_doubling_depth = 0`, or no period-2 "
+                "branch found over this range: see section \"Period doubling\" or the log)"
+                if not found else "")
+    if kind == "neimark_sacker" and not found:
+        return " (not computed: `[outputs] attractor_transient_turns`)"
+    return ""
+
+
+def unstable_lines(segments: list[UnstableSegment], found: list | None = None,
+                   secondary=None) -> list[str]:
     """Report lines for the unstable segments of a branch and what each kind means, with
     the time response at each where computed (``found``: :class:`study.outputs.attractors.Attractor`
-    per segment)."""
+    per segment) and the period-k branches over each period-doubling segment
+    (``secondary``: :class:`hbm.branching.SecondaryBranch`)."""
     if not segments:
         return []
     how = ("below each, the time response from its most unstable orbit (or from "
@@ -187,14 +206,18 @@ def unstable_lines(segments: list[UnstableSegment], found: list | None = None) -
         if len(group) == 1:
             u = group[0]
             out.append(f"  - {lo:.1f}–{hi:.1f} rpm, {pts} point{'' if pts == 1 else 's'}, "
-                       f"std up to {top:.4g} N: {u.label}, {_MEANING[u.kind]}")
+                       f"std up to {top:.4g} N: {u.label}, {_MEANING[u.kind]}"
+                       + _what_computed(u.kind, lo, hi, secondary, u in at))
         else:
             kinds = {g.kind: g.label for g in group}
             count = ", ".join(f"{label} {sum(g.points for g in group if g.kind == k)}"
                               for k, label in kinds.items())
             out.append(f"  - {lo:.1f}–{hi:.1f} rpm, where the branch winds: {pts} points in "
                        f"{len(group)} segments ({count}), std up to {top:.4g} N; "
-                       + "; ".join(f"{label}: {_MEANING[k]}" for k, label in kinds.items()))
+                       + "; ".join(f"{label}: {_MEANING[k]}"
+                                   + _what_computed(k, lo, hi, secondary,
+                                                    any(g in at for g in group))
+                                   for k, label in kinds.items()))
         out += [attractor_line(a) for g in group for a in at.get(g, [])]
     return out
 
@@ -359,7 +382,7 @@ def write_report(result) -> Path:
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
              *_stability_lines(s, sc.hbm.stability, result.attractors,
-                               result.problem.periodic),
+                               result.problem.periodic, getattr(result, "secondary", None)),
              "- folds (jumps) near: " + _folds_text(s["folds"]),
              "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]

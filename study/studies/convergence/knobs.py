@@ -77,7 +77,8 @@ class Knob:
 # --------------------------------------------------------------------------- conditions
 
 def _fe_only(scene: Scene) -> str | None:
-    """The mesh, n_cm and cutoff knobs need an FE machine (meshed, reduced): the pump, the gearbox."""
+    """The mesh, n_cm and cutoff knobs need an FE machine (meshed, reduced): the pump,
+    the gearbox."""
     from machines import FEMachine, machine_for
 
     return None if isinstance(machine_for(scene), FEMachine) else "FE scenes only"

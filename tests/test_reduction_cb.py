@@ -140,7 +140,8 @@ def test_check_up_to_a_frequency_compares_every_mode_below_it(chain, dense):
     """validate_to compares the full model's modes (known here from the dense coupled
     eigenproblem) up to f_check and stops just above it. The largest error up to f_check
     falls as the cut-off rises (measured on this chain: 1.8e-2, 3.5e-3, 7.4e-4 at 1.5, 2
-    and 3 f_check, about (f_check / f_cut)³): 3 f_check passes 1e-3, 2 f_check does not."""
+    and 3 f_check, about (f_check / f_cut)³): 3 f_check (rom.cutoff_factor's default) passes
+    1e-3, 2 f_check does not."""
     M, K = dense
     G = np.zeros(12)
     G[0], G[1] = 1.0, -1.0

@@ -253,7 +253,7 @@ class RomData:
     n_check: int | None = None
     factorization: str = "cholesky"
     out_of_core: bool = False
-    cutoff_factor: float = 2.0
+    cutoff_factor: float = 3.0
     check_hz: float | None = None
     auto: bool = False
 

@@ -251,7 +251,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                    "× the highest excitation frequency"),
         "cutoff_Hz": _f(None, "Hz", 0, 1e7, lo_open=True,
                         doc="keep modes below this frequency instead of n_cm"),
-        "cutoff_factor": _f(2.0, "", 1, 10,
+        "cutoff_factor": _f(3.0, "", 1, 10,
                             doc="without n_cm and cutoff_Hz: keep every mode below this "
                             "multiple of the highest excitation frequency (highest excited "
                             "mesh harmonic or shaft order at the top speed; "

@@ -181,26 +181,16 @@ def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "chole
     return eps
 
 
-#: Largest projected dimension of the Krylov–Schur solves (SLEPc ``mpd``): with hundreds
-#: of wanted pairs the solver then converges them in chunks, locking the converged ones,
-#: instead of orthogonalising against a basis of twice the wanted count (SLEPc users'
-#: manual, "EPSSetDimensions": mpd for a large nev).
-MAX_PROJECTED = 256
 #: Margin of the estimated mode count below a cut-off (:func:`_next_nev`).
 NEV_MARGIN = 1.15
-
-
-def _set_dimensions(eps: SLEPc.EPS, nev: int) -> None:
-    """``nev`` wanted pairs with the projected dimension capped at :data:`MAX_PROJECTED`."""
-    mpd = min(nev, MAX_PROJECTED)
-    eps.setDimensions(nev, PETSc.DECIDE, mpd)
 
 
 def _next_nev(lam: np.ndarray, lam_cut: float, nev: int, n_max: int) -> int:
     """Pairs to ask for when all ``lam`` (ascending, all below ``lam_cut``) are: the count
     below the cut-off extrapolated by the power law ``k ∝ f^p`` fitted to the upper half of
     the spectrum found (Weyl's law: p = 3 for a solid, 2 for a plate, 1 for a beam),
-    times :data:`NEV_MARGIN`; at least ``nev + 16``, at most ``n_max``."""
+    times :data:`NEV_MARGIN`; at least ``nev + 16``, at most ``4 nev`` (an estimate from
+    a few low modes can overshoot) and ``n_max``."""
     f = np.sqrt(np.maximum(lam, 0.0))
     k = np.arange(1, f.size + 1, dtype=float)
     half = slice(f.size // 2, None)
@@ -210,14 +200,14 @@ def _next_nev(lam: np.ndarray, lam_cut: float, nev: int, n_max: int) -> int:
         p = float(np.polyfit(np.log(f[half][ok]), np.log(k[half][ok]), 1)[0])
     p = min(max(p, 1.0), 3.0)
     est = NEV_MARGIN * f.size * (math.sqrt(lam_cut) / f[-1]) ** p
-    return int(min(n_max, max(nev + 16, math.ceil(est))))
+    return int(min(n_max, 4 * nev, max(nev + 16, math.ceil(est))))
 
 
 def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
     """Run the eigensolve; return how many of the converged pairs to keep."""
     if n_modes is not None:
         # a few extra pairs so that no copy of a repeated eigenvalue is missed
-        _set_dimensions(eps, min(int(n_modes) + max(5, int(n_modes) // 10), n_i - 1))
+        eps.setDimensions(min(int(n_modes) + max(5, int(n_modes) // 10), n_i - 1))
         eps.solve()
         nconv = eps.getConverged()
         if nconv < n_modes:
@@ -228,7 +218,7 @@ def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
     lam_cut = (2.0 * math.pi * f_cut_hz) ** 2
     nev = min(16, n_i - 1)
     while True:
-        _set_dimensions(eps, nev)
+        eps.setDimensions(nev)
         eps.solve()  # same ST, same factorisation: only the Krylov space grows
         nconv = eps.getConverged()
         if nconv < nev:

@@ -10,7 +10,6 @@ import numpy as np
 from petsc4py import PETSc
 
 from fem.eigen import shift_invert_eps
-from reduction.craig_bampton import MAX_PROJECTED
 
 log = logging.getLogger(__name__)
 
@@ -90,8 +89,7 @@ def full_coupled_frequencies(
     # Slack beyond n: a Krylov space from one start vector can miss a copy of
     # an exactly repeated eigenvalue (rigid modes); extra wanted pairs prevent it.
     n_full = Kc.getSize()[0]
-    nev = min(n + max(6, n // 5), n_full - 1)
-    eps.setDimensions(nev, PETSc.DECIDE, min(nev, MAX_PROJECTED))   # mpd: craig_bampton
+    eps.setDimensions(min(n + max(6, n // 5), n_full - 1))
     eps.setFromOptions()
     eps.solve()
     nconv = eps.getConverged()

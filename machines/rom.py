@@ -50,16 +50,22 @@ def reduce_and_store(machine: Any, model: Any, folder: Path) -> None:
     import h5py
 
     from fem import post
-    from reduction import build_rom, craig_bampton, save_rom, validate_rom
+    from reduction import build_rom, craig_bampton, save_rom, validate_rom, validate_to
 
     scene = machine.scene
     r = scene.rom
     km, xi = _km(machine), scene.damping.modal_ratio
+    if r.cutoff is None and r.n_cm is None:
+        raise ValueError("rom.n_cm = None and rom.cutoff = None: the scene loader resolves "
+                         "the cut-off (study.scene.frequency.resolve_rom)")
     kw = {"f_cut_hz": r.cutoff} if r.cutoff else {"n_modes": r.n_cm}
     cb = craig_bampton(model.M, model.K, model.gear_dofs, factor=r.factorization,
                        out_of_core=r.out_of_core, **kw)
     rom = build_rom(cb, model.G, km, xi)
-    if r.n_check > 0:
+    if r.n_check is None and r.check_hz:      # every coupled mode up to the excitation
+        rom.validation = validate_to(rom, model.M, model.K, model.gear_dofs, model.G, km,
+                                     r.check_hz)
+    elif r.n_check:
         rom.validation = validate_rom(rom, model.M, model.K, model.gear_dofs, model.G, km,
                                       min(r.n_check, rom.n_r))
     # collective: each rank writes its basis rows with their partition-independent keys

@@ -25,7 +25,13 @@ from reduction.io import load_basis, load_rom, save_rom
 from reduction.pipeline import reduce_fe_model
 from reduction.reconstruct import reconstruct
 from reduction.rom import ROM, build_rom, gear_body_dof_names
-from reduction.validate import Validation, add_mesh_coupling, validate_rom
+from reduction.validate import (
+    Validation,
+    add_mesh_coupling,
+    modes_to_check,
+    validate_rom,
+    validate_to,
+)
 
 __all__ = [
     "ROM",
@@ -51,4 +57,6 @@ __all__ = [
     "reduce_fe_model",
     "save_rom",
     "validate_rom",
+    "validate_to",
+    "modes_to_check",
 ]

@@ -181,6 +181,28 @@ def _make_eps(K_ii: PETSc.Mat, M_ii: PETSc.Mat, tol: float, factor: str = "chole
     return eps
 
 
+#: Margin of the estimated mode count below a cut-off (:func:`_next_nev`).
+NEV_MARGIN = 1.15
+
+
+def _next_nev(lam: np.ndarray, lam_cut: float, nev: int, n_max: int) -> int:
+    """Pairs to ask for when all ``lam`` (ascending, all below ``lam_cut``) are: the count
+    below the cut-off extrapolated by the power law ``k ∝ f^p`` fitted to the upper half of
+    the spectrum found (Weyl's law: p = 3 for a solid, 2 for a plate, 1 for a beam),
+    times :data:`NEV_MARGIN`; at least ``nev + 16``, at most ``4 nev`` (an estimate from
+    a few low modes can overshoot) and ``n_max``."""
+    f = np.sqrt(np.maximum(lam, 0.0))
+    k = np.arange(1, f.size + 1, dtype=float)
+    half = slice(f.size // 2, None)
+    ok = f[half] > 0
+    p = 2.0
+    if np.count_nonzero(ok) >= 4 and f[half][ok][-1] > f[half][ok][0]:
+        p = float(np.polyfit(np.log(f[half][ok]), np.log(k[half][ok]), 1)[0])
+    p = min(max(p, 1.0), 3.0)
+    est = NEV_MARGIN * f.size * (math.sqrt(lam_cut) / f[-1]) ** p
+    return int(min(n_max, 4 * nev, max(nev + 16, math.ceil(est))))
+
+
 def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
     """Run the eigensolve; return how many of the converged pairs to keep."""
     if n_modes is not None:
@@ -201,7 +223,7 @@ def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
         nconv = eps.getConverged()
         if nconv < nev:
             raise RuntimeError(f"SLEPc converged {nconv} of {nev} fixed-interface modes")
-        lam = np.array([eps.getEigenvalue(j).real for j in range(nconv)])
+        lam = np.sort([eps.getEigenvalue(j).real for j in range(nconv)])
         n_below = int(np.count_nonzero(lam <= lam_cut))
         if n_below < nconv or nev >= n_i - 1:
             if n_below == 0:
@@ -210,7 +232,7 @@ def _solve_modes(eps: SLEPc.EPS, n_i: int, n_modes, f_cut_hz) -> int:
                     f"({math.sqrt(lam.min()) / (2 * math.pi):.6g} Hz); no mode would be kept"
                 )
             return n_below
-        nev = min(2 * nev, n_i - 1)
+        nev = _next_nev(lam, lam_cut, nev, n_i - 1)
         log.debug("cut-off %.6g Hz not reached, asking for %d modes", f_cut_hz, nev)
 
 

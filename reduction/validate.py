@@ -13,6 +13,9 @@ from fem.eigen import shift_invert_eps
 
 log = logging.getLogger(__name__)
 
+#: Modes compared beyond those of the ROM below the check frequency (:func:`validate_to`).
+CHECK_MARGIN = 2
+
 
 @dataclass
 class Validation:
@@ -166,3 +169,41 @@ def validate_rom(
         n_check, v.relative_error.max(), v.validity_hz, tol,
     )
     return v
+
+
+def modes_to_check(rom_hz, f_check: float, margin: int = CHECK_MARGIN) -> int:
+    """How many of the lowest coupled modes a check up to ``f_check`` [Hz] compares: the
+    ROM's modes at or below it plus ``margin`` (at most all of them).
+
+    The k-th ROM frequency bounds the full model's k-th from above (Rayleigh–Ritz: the
+    ROM is a Galerkin projection), so the full model has at least as many modes below
+    ``f_check``; ``margin`` covers the ones the ROM puts just above it.
+    """
+    f = np.sort(np.asarray(rom_hz, dtype=float))
+    if not (math.isfinite(f_check) and f_check > 0):
+        raise ValueError(f"f_check = {f_check}: must be a finite number > 0 [Hz]")
+    if int(margin) != margin or margin < 1:
+        raise ValueError(f"margin = {margin}: must be an integer >= 1")
+    return int(min(np.count_nonzero(f <= f_check) + margin, f.size))
+
+
+def validate_to(rom, M: PETSc.Mat, K: PETSc.Mat, gear_dofs, G, km_mean, f_check: float,
+                tol: float = 1e-3) -> Validation:
+    """:func:`validate_rom` of every coupled mode up to ``f_check`` [Hz].
+
+    Compares :func:`modes_to_check` modes; when they all pass and the last full-model
+    frequency is still below ``f_check`` (the full model has more modes there than the
+    ROM puts below it), compares twice as many beyond the ROM's count, up to all ``n_r``.
+    The result's ``validity_hz`` reaches ``f_check`` exactly when every full-model mode
+    up to it is matched within ``tol``.
+    """
+    n_r = rom.frequencies_hz.size
+    margin = CHECK_MARGIN
+    while True:
+        n = modes_to_check(rom.frequencies_hz, f_check, margin)
+        v = validate_rom(rom, M, K, gear_dofs, G, km_mean, n, tol)
+        if v.validity_hz < v.full_hz[-1] or v.full_hz[-1] >= f_check or n >= n_r:
+            return v
+        margin *= 2
+        log.info("ROM check: %d modes end at %.6g Hz below %.6g Hz; comparing more",
+                 n, v.full_hz[-1], f_check)

@@ -77,8 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="no progress bars (shown only when stderr is a terminal, never with -q)")
     c = p.add_argument_group("convergence")
     c.add_argument("--knob", action="append", default=[], metavar="NAME=V1,V2,...",
-                   help="values of one knob (mesh size factors, n_cm, harmonics, sidebands, "
-                        "aft, step [rpm]); repeatable")
+                   help="values of one knob (mesh size factors, n_cm, cutoff factors, harmonics, "
+                        "sidebands, aft, step [rpm]); repeatable")
     c.add_argument("--only", action="append", default=[], metavar="NAME",
                    help="sweep only this knob (repeatable; default: all that apply)")
     c.add_argument("--tol", type=float, default=1e-2,

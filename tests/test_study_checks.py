@@ -130,17 +130,65 @@ def test_rom_validity_check_against_the_excitation():
     assert rom_limit_hz(res.rom) == 3997.0 and rom_limit_hz(None) is None
     c = _rom_check(res)
     assert not c.passed and c.value == 3997.0 and c.limit == pytest.approx(26600.0)
-    assert "does not cover" in c.text and "raise `rom.n_cm`" in c.text
+    assert "does not cover" in c.text and "raise `rom.cutoff_factor`" in c.text
     # every checked mode passes: the check stops at its last mode, raise n_check
     res.rom.validation = SimpleNamespace(full_hz=np.array([100.0, 6903.0]), validity_hz=6903.0,
                                          tol=1e-3, relative_error=np.array([1e-5, 7e-4]))
-    assert "raise `rom.n_check`" in _rom_check(res).text
+    assert "raise it" in _rom_check(res).text and "`rom.n_check` unset" in _rom_check(res).text
     res.rom.validation = SimpleNamespace(full_hz=np.array([]), validity_hz=0.0, tol=1e-3,
                                          relative_error=np.array([]))
     assert not _rom_check(res).passed and "not checked" in _rom_check(res).text
     res.rom.validation = SimpleNamespace(full_hz=np.array([3e4]), validity_hz=3e4, tol=1e-3,
                                          relative_error=np.array([1e-4]))
     assert _rom_check(res).passed
+
+
+def test_highest_excitation_counts_train_shaft_orders():
+    """A gearbox's top excitation frequency: the highest mesh harmonic, unless an
+    ``[[external.aero]]`` order of some shaft lies higher (order k of shaft s at
+    k ρ_s times the drive speed)."""
+    import tomllib
+
+    from study.scene import scene_from_dict
+
+    path = ROOT / "scenes" / "two-stage-gearbox-demo.toml"
+    raw = tomllib.loads(path.read_text())
+    f, label = highest_excitation_hz(scene_from_dict(raw, "demo"))
+    # 3 harmonics of stage 1's mesh frequency, 23 teeth on the input shaft, 4000 rpm
+    assert f == pytest.approx(3 * 23 * 4000 / 60) and "`stage1`" in label
+    raw["external"] = {"aero": [{"shaft": "output", "order": 150, "torque_Nm": [0, 0, 1.0]}]}
+    f, _ = highest_excitation_hz(scene_from_dict(raw, "demo"))
+    assert f == pytest.approx(3 * 23 * 4000 / 60)      # 150 × 437/4087 × 4000/60 Hz: lower
+    raw["external"]["aero"].append({"shaft": "input", "order": 150,
+                                    "torque_Nm": [0, 0, 1.0]})
+    f, label = highest_excitation_hz(scene_from_dict(raw, "demo"))
+    assert f == pytest.approx(150 * 4000 / 60) and label == "order 150 of shaft `input` at " \
+        "4000 rpm"
+
+
+def test_rom_range_follows_the_excitation():
+    """Without n_cm and cutoff_Hz the loader keeps every component mode below
+    cutoff_factor × the highest excitation frequency and checks every mode up to it;
+    given n_cm or cutoff_Hz it keeps them (and still checks up to the excitation)."""
+    import tomllib
+
+    from study.scene import scene_from_dict
+
+    raw = tomllib.loads((ROOT / "scenes" / "two-stage-gearbox-demo.toml").read_text())
+    raw["rom"] = {}
+    r = scene_from_dict(raw, "demo").rom
+    f = 3 * 23 * 4000 / 60
+    assert r.auto and r.n_cm is None and r.n_check is None
+    assert r.cutoff == pytest.approx(3.0 * f) and r.check_hz == pytest.approx(f)
+    raw["rom"] = {"cutoff_factor": 2.0}
+    assert scene_from_dict(raw, "demo").rom.cutoff == pytest.approx(2.0 * f)
+    raw["rom"] = {"n_cm": 40, "n_check": 12}
+    r = scene_from_dict(raw, "demo").rom
+    assert not r.auto and r.cutoff is None and r.n_cm == 40 and r.n_check == 12
+    raw["rom"] = {"cutoff_Hz": 5000.0}
+    r = scene_from_dict(raw, "demo").rom
+    assert not r.auto and r.cutoff == 5000.0 and r.check_hz == pytest.approx(f)
+    assert load_scene(SDOF).rom.check_hz is None        # nothing to reduce
 
 
 def test_spectrum_stops_at_20_khz_and_shades_beyond_the_rom(runs, monkeypatch, tmp_path):

@@ -18,8 +18,15 @@ import pytest
 
 from hbm import GrazingPoint
 from study.scene import SceneError, load_scene
-from study.studies.convergence.knobs import plan
-from study.studies.convergence.measures import curve_error, grazing_error, recommend
+from study.studies.convergence.knobs import Setting, plan
+from study.studies.convergence.measures import (
+    ConvergenceResult,
+    Row,
+    curve_error,
+    grazing_error,
+    recommend,
+)
+from study.studies.convergence.report import recommendation_text
 from study.studies.convergence.sweep import run_convergence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,6 +103,38 @@ def test_plan_defaults_and_errors():
         plan(sc, knobs={"harmonics": [8]}, only=["harmonics"])
 
 
+def _rows(errors: dict, ref) -> list:
+    """Rows of knob ``h`` with the given curve errors (value -> error), ``ref`` the
+    reference value, cost = value seconds."""
+    out = []
+    for v, e in errors.items():
+        r = Row(Setting("h", v, {"hbm.mesh_harmonics": v}), seconds=float(v),
+                curve_err=e, reference=v == ref)
+        out.append(r)
+    return out
+
+
+def test_recommend_needs_three_values_and_never_the_reference():
+    """Two values: the finest is its own reference, so even a coarser value within the
+    tolerance of it cannot be called converged; with three, the cheapest within it is
+    recommended; the reference alone never is."""
+    best, why = recommend(_rows({4: 1e-4, 8: 0.0}, 8), 1e-2)
+    assert best is None
+    assert "too few values to judge (2 ran, at least 3 needed)" in why
+    assert "h = 8, is its own reference" in why
+    rows = _rows({4: 0.2, 8: 1e-3, 16: 0.0}, 16)
+    assert recommend(rows, 1e-2) == (rows[1], "within tolerance")
+    best, why = recommend(_rows({4: 0.2, 8: 0.05, 16: 0.0}, 16), 1e-2)
+    assert best is None and why.startswith("not converged over the values tried")
+    # one failed value leaves two: too few again
+    rows = _rows({4: None, 8: 1e-3, 16: 0.0}, 16)
+    rows[0].status = "solver failure"
+    assert recommend(rows, 1e-2)[0] is None
+    res = ConvergenceResult(rows, {}, 1e-2, verdicts={"h": recommend(rows, 1e-2)[1]})
+    text = recommendation_text(res)
+    assert "- h: **no recommendation** — too few values to judge" in text
+
+
 # --------------------------------------------------------------------------- SDOF study
 
 @pytest.fixture(scope="module")
@@ -148,11 +187,14 @@ def test_sdof_recommendation_is_cheapest_within_tol(sdof_study):
     rows = res.rows
     rec = res.recommendation["harmonics"]
     assert rec.recommended and rec.within(res.tol)
-    cheaper = [r for r in rows if r.seconds is not None and r.seconds < rec.seconds]
+    cheaper = [r for r in rows if r.seconds is not None and r.seconds < rec.seconds
+               and not r.reference]          # the reference is never recommended
     assert all(not r.within(res.tol) for r in cheaper)
-    assert recommend(rows, res.tol) is rec
-    # a tolerance no setting but the reference meets gives the reference
-    assert recommend(rows, 1e-12).reference
+    assert recommend(rows, res.tol) == (rec, "within tolerance")
+    # a tolerance no setting but the reference meets: no recommendation (the reference is
+    # unchecked), and the verdict says so
+    best, why = recommend(rows, 1e-12)
+    assert best is None and "not converged" in why and "harmonics = 16" in why
 
 
 def test_sdof_cli(sdof_study):
@@ -211,7 +253,7 @@ def test_failed_settings_are_said_with_their_points(tmp_path):
         run_convergence(SDOF, tmp_path / "o", knobs={"harmonics": [4, 8]}, only=["harmonics"],
                         overrides={"continuation.max_points": 10}, cache_dir=tmp_path / "c")
     md = (tmp_path / "o" / "convergence.md").read_text()
-    assert "- harmonics: none — its reference setting failed" in md
+    assert "- harmonics: **no recommendation** — its reference setting failed" in md
     for h in (4, 8):
         assert f"- harmonics={h}: solver failure, 10 points: continuation stopped" in md
         assert f"| harmonics | {h} | n/a | 10 |" in md

@@ -87,3 +87,23 @@ def test_check_outputs_against_the_harmonic_set():
         check_outputs(scene_from_dict(raw), hs)
     raw["outputs"]["housing_frames_per_mesh_period"] = 7
     check_outputs(scene_from_dict(raw), hs)
+
+
+@pytest.mark.fem
+def test_field_orders_of_a_train_count_its_shaft_orders():
+    """A gearbox's default field orders hold its external shaft orders at the drive's
+    scale (order 2 of the intermediate shaft: 2 × 23/61 of the drive), beside the meshes'
+    harmonics."""
+    from fractions import Fraction
+
+    from study.outputs.fields import field_orders
+    from study.pipeline.model import harmonic_set
+
+    raw = _raw(ROOT / "scenes" / "two-stage-gearbox-demo.toml")
+    plain = field_orders(scene_from_dict(raw), harmonic_set(scene_from_dict(raw)))
+    raw["external"] = {"aero": [{"shaft": "intermediate", "order": 2,
+                                 "torque_Nm": [0.0, 0.0, 1.0]}]}
+    s = scene_from_dict(raw)
+    got = field_orders(s, harmonic_set(s))
+    assert Fraction(46, 61) in got and Fraction(46, 61) not in plain
+    assert 23 in got and 23 in plain                   # stage 1's mesh frequency

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from study.scene.frequency import highest_excitation_hz
 from study.scene.plausibility import (
     DYNAMIC_RATIO_USUAL,
     dynamic_ratio_warning,
@@ -76,37 +77,6 @@ def rom_limit_hz(rom) -> float | None:
     if v is None or len(v.full_hz) == 0:
         return 0.0
     return float(v.validity_hz)
-
-
-def _harmonics(ms, te) -> int:
-    """Mesh harmonics excited by a mesh stiffness and a TE series (at least 1)."""
-    return max(len(ms.amplitudes) if ms is not None else 0,
-               len(te.amplitudes) if te is not None else 0, 1)
-
-
-def highest_excitation_hz(scene) -> tuple[float, str]:
-    """(Hz, label) of the highest excitation frequency of the run: the highest excited
-    mesh harmonic k·Z (k up to the number of mesh-stiffness or TE harmonics; in a gear
-    train, of each mesh at its mesh frequency) or external shaft order, at the top speed
-    of the range (the drive shaft's)."""
-    top = scene.continuation.speed[1]
-    if getattr(scene, "is_train", False):
-        from machines import machine_for
-
-        best = (0.0, "")
-        for m, md in zip(machine_for(scene).layout.meshes, scene.meshes, strict=True):
-            k = _harmonics(md.mesh_stiffness, md.transmission_error)
-            order = k * float(m.frequency_ratio)
-            if order > best[0]:
-                best = (order, f"{k} × the mesh frequency of `{md.name}` at {top:g} rpm")
-        return best[0] * top / 60.0, best[1]
-    z = scene.gear.teeth
-    k = _harmonics(scene.mesh_stiffness, scene.transmission_error)
-    order, label = k * z, f"{k} Z" if k > 1 else "Z"
-    ext = max(scene.external.orders, default=0)
-    if ext > order:
-        order, label = ext, f"shaft order {ext}"
-    return order * top / 60.0, f"{label} at {top:g} rpm"
 
 
 def truncation_share(problem, point, element: int = 0) -> float:
@@ -168,9 +138,10 @@ def _rom_check(result) -> Check | None:
     verdict = "covers" if ok else "**does not cover**"
     # every checked mode passed: the check, not the ROM, stops at its last mode
     short = bool(np.all(np.asarray(v.relative_error) <= v.tol))
-    advice = ("raise `rom.n_check` until the check reaches it (its last mode is the limit; "
-              "then `rom.n_cm` if it fails)" if short else
-              "raise `rom.n_cm` or set `rom.cutoff_Hz`")
+    advice = ("leave `rom.n_check` unset (every mode up to the highest excitation "
+              "frequency) or raise it: the check's last mode is the limit" if short else
+              "raise `rom.cutoff_factor` (or `rom.n_cm`, `rom.cutoff_Hz` where the scene "
+              "sets them)")
     return Check("rom_validity", ok,
                  f"ROM checked valid to {lim:.0f} Hz (tol {v.tol:g}), which {verdict} the "
                  f"highest excitation frequency {f_exc:.0f} Hz ({label})"

@@ -71,15 +71,26 @@ def order_tag(order) -> str:
 
 def field_orders(scene, harmonics) -> list:
     """Shaft orders of the per-order fields: the scene's ``field_orders``, else every
-    mesh's harmonics ``k Z_e ρ_e`` and the external orders present in the harmonic set
-    (ints for whole orders, Fractions for a train's others)."""
+    mesh's harmonics ``k Z_e ρ_e`` and the external orders present in the harmonic set (a
+    train's order k of shaft s at ``k ρ_s``; ints for whole orders, Fractions for a
+    train's others)."""
     if scene.outputs.field_orders:
         return list(scene.outputs.field_orders)
     have = [o for o in harmonic_orders(harmonics) if o > 0]
     meshes = _mesh_ratios(scene)
-    ext = set(scene.external.orders)
+    ext = {Fraction(o) for o in _external_orders(scene)}
     return [_plain(o) for o in have
             if any((o / f).denominator == 1 for f in meshes) or o in ext]
+
+
+def _external_orders(scene) -> list:
+    """The external excitation's orders of the reference shaft: the scene's
+    ``external.orders`` for a pair, ``k ρ_s`` for order k of shaft s of a train."""
+    if not getattr(scene, "is_train", False):
+        return list(scene.external.orders)
+    from machines import machine_for
+
+    return list(machine_for(scene).layout.order_frequencies().values())
 
 
 def _max_order(harmonics) -> Fraction:

@@ -238,13 +238,24 @@ class LumpedData:
 
 @dataclass(frozen=True)
 class RomData:
-    """``[rom]``: number of fixed-interface modes or a cut-off frequency (Hz)."""
+    """``[rom]``: number of fixed-interface modes or a cut-off frequency (Hz), and the
+    Fig. 9 check.
 
-    n_cm: int
+    ``n_cm`` None and ``cutoff`` None select every mode below ``cutoff_factor`` times the
+    highest excitation frequency; the loader (:func:`study.scene.frequency.resolve_rom`)
+    writes that cut-off into ``cutoff`` (and ``auto`` True) and the highest excitation
+    frequency into ``check_hz``. ``n_check`` None compares every coupled mode up to
+    ``check_hz``.
+    """
+
+    n_cm: int | None
     cutoff: float | None
-    n_check: int = 30
+    n_check: int | None = None
     factorization: str = "cholesky"
     out_of_core: bool = False
+    cutoff_factor: float = 3.0
+    check_hz: float | None = None
+    auto: bool = False
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,7 @@ from study.scene.excitation import (
     source_series,
     uses_other_source,
 )
+from study.scene.frequency import resolve_rom
 from study.scene.overrides import apply_overrides
 from study.scene.plausibility import check_plausibility, check_required_sections
 from study.scene.schema import (
@@ -676,7 +677,7 @@ def _scene_from_dict(raw: dict, name: str, text: str, base: Path | None = None) 
                   source, shafts, gears, meshes, drive, loads)
     if train:
         scene = _with_train_meshes(scene, subtables, base)
-    return check_plausibility(_check_machine(scene))
+    return check_plausibility(resolve_rom(_check_machine(scene)))
 
 
 def parse_scene(text: str, name: str = "scene") -> Scene:

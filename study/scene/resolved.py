@@ -155,21 +155,27 @@ def resolved_table(scene: Scene, fe_params: Any = None) -> dict:
 
 def derived_quantities(scene: Scene) -> dict:
     """What the loader computed from the inputs (SI): static load, the mesh stiffness and
-    transmission error series used (estimated or given), module, contact ratio."""
+    transmission error series used (estimated or given), module, contact ratio; for an FE
+    scene the highest excitation frequency and the component-mode cut-off derived from it
+    (``rom``, :func:`study.scene.frequency.resolve_rom`)."""
     def series(s) -> dict:
         return {"mean": s.mean, "amplitudes": list(s.amplitudes), "phases": list(s.phases),
                 "estimated": s.estimated}
     te = series(scene.transmission_error)
     te["kind"] = scene.transmission_error.kind
+    r = scene.rom
+    rom = {} if r.check_hz is None else {"rom": {
+        "highest_excitation_Hz": r.check_hz, "cutoff_Hz": r.cutoff, "n_cm": r.n_cm,
+        "cutoff_from_factor": r.auto}}
     if getattr(scene, "is_train", False):
-        return {"meshes": [{"name": m.name, "backlash_m": m.backlash,
+        return {**rom, "meshes": [{"name": m.name, "backlash_m": m.backlash,
                             "mesh_stiffness_N_per_m": series(m.mesh_stiffness)
                             if m.mesh_stiffness is not None else None,
                             "transmission_error_m": series(m.transmission_error)
                             if m.transmission_error is not None else None}
                            for m in scene.meshes],
                 "speed_rpm": list(scene.continuation.speed), "phases_unit": "rad"}
-    return {"static_load_N": scene.static_load, "module_m": scene.gear.module,
+    return {**rom, "static_load_N": scene.static_load, "module_m": scene.gear.module,
             "pitch_radius_m": scene.gear.pitch_radius,
             "contact_ratio": scene.gear.contact_ratio,
             "mesh_stiffness_N_per_m": series(scene.mesh_stiffness),

@@ -246,11 +246,19 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                                 doc="disk density for the default inertias"),
     },
     "rom": {
-        "n_cm": _f(250, "", 1, 5000, kind="int", doc="fixed-interface modes kept"),
+        "n_cm": _f(None, "", 1, 5000, kind="int",
+                   doc="fixed-interface modes kept; default: every mode below cutoff_factor "
+                   "× the highest excitation frequency"),
         "cutoff_Hz": _f(None, "Hz", 0, 1e7, lo_open=True,
                         doc="keep modes below this frequency instead of n_cm"),
-        "n_check": _f(30, "", 0, 5000, kind="int",
-                      doc="coupled modes compared with the full model (Fig. 9); 0: skip"),
+        "cutoff_factor": _f(3.0, "", 1, 10,
+                            doc="without n_cm and cutoff_Hz: keep every mode below this "
+                            "multiple of the highest excitation frequency (highest excited "
+                            "mesh harmonic or shaft order at the top speed; "
+                            "docs/reduction.md)"),
+        "n_check": _f(None, "", 0, 5000, kind="int",
+                      doc="coupled modes compared with the full model (Fig. 9); default: every "
+                      "mode up to the highest excitation frequency; 0: skip"),
         "factorization": _c("cholesky", ("lu", "cholesky"),
                             "MUMPS factorisation of K_ii in the Craig–Bampton eigen-solve: "
                             "`cholesky` (LDLᵀ, K_ii is symmetric positive definite) gives the "

@@ -77,14 +77,23 @@ class Knob:
 # --------------------------------------------------------------------------- conditions
 
 def _fe_only(scene: Scene) -> str | None:
-    """The mesh and n_cm knobs need an FE machine (meshed, reduced): the pump, the gearbox."""
+    """The mesh, n_cm and cutoff knobs need an FE machine (meshed, reduced): the pump,
+    the gearbox."""
     from machines import FEMachine, machine_for
 
     return None if isinstance(machine_for(scene), FEMachine) else "FE scenes only"
 
 
-def _no_cutoff(scene: Scene) -> str | None:
-    return "the scene selects modes by rom.cutoff_Hz" if scene.rom.cutoff else None
+def _given_n_cm(scene: Scene) -> str | None:
+    if scene.rom.n_cm is not None and not scene.rom.cutoff:
+        return None
+    return ("the scene selects modes by rom.cutoff_factor (knob cutoff)" if scene.rom.auto
+            else "the scene selects modes by rom.cutoff_Hz")
+
+
+def _auto_cutoff(scene: Scene) -> str | None:
+    return None if scene.rom.auto else ("the scene gives rom.n_cm or rom.cutoff_Hz (knob "
+                                        "n_cm, or none)")
 
 
 def _no_explicit_harmonics(scene: Scene) -> str | None:
@@ -126,6 +135,11 @@ def _aft_ladder(scene: Scene) -> list:
     return [n // 2, n, 2 * n]
 
 
+def _cutoff_ladder(scene: Scene) -> list:
+    f = scene.rom.cutoff_factor
+    return sorted({max(1.0, 0.75 * f), f, 1.5 * f})
+
+
 def _step_ladder(scene: Scene) -> list:
     m = scene.continuation.max_step
     span = scene.continuation.speed[1] - scene.continuation.speed[0]
@@ -146,6 +160,12 @@ def _mesh_overrides(scene: Scene, value) -> dict:
     if not value > 0:
         raise SceneError(f"--knob mesh={value}: the mesh size factor must be > 0")
     return {"mesh.size": float(value) * _mesh_size(scene)}
+
+
+def _cutoff_overrides(scene: Scene, value) -> dict:
+    if not 1.0 <= float(value) <= 10.0:
+        raise SceneError(f"--knob cutoff={value}: the cut-off factor must be in [1, 10]")
+    return {"rom.cutoff_factor": float(value)}
 
 
 def _step_overrides(scene: Scene, value) -> dict:
@@ -171,7 +191,9 @@ KNOBS: tuple[Knob, ...] = (
          requires=(_fe_only,)),
     Knob("n_cm", "rom.n_cm", "-", _halve_double(lambda s: s.rom.n_cm, 1, 5000),
          _integer("rom.n_cm", "n_cm"), stages=("fe", "rom", "hbm"),
-         requires=(_fe_only, _no_cutoff)),
+         requires=(_fe_only, _given_n_cm)),
+    Knob("cutoff", "rom.cutoff_factor", "× the highest excitation frequency", _cutoff_ladder,
+         _cutoff_overrides, stages=("fe", "rom", "hbm"), requires=(_fe_only, _auto_cutoff)),
     Knob("harmonics", "hbm.mesh_harmonics", "-",
          _halve_double(lambda s: s.hbm.mesh_harmonics, 1, 200),
          _integer("hbm.mesh_harmonics", "harmonics"), requires=(_no_explicit_harmonics,)),

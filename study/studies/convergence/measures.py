@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 
 from study.scene.data import Scene
-from study.studies.convergence.knobs import Setting
+from study.studies.convergence.knobs import Setting, fmt_value
 
 __all__ = ["FIG11_BAND", "MATCH_WINDOW", "SPEED_SLACK", "GrazingMatch", "Row",
            "ConvergenceResult", "curve_error", "grazing_error", "rom_frequency_error",
-           "validity_hz", "recommend"]
+           "validity_hz", "recommend", "MIN_VALUES"]
 
 FIG11_BAND = 0.01        # grazing speeds within ±1 % (Fig. 11)
 MATCH_WINDOW = 0.05      # grazings further apart than 5 % are not matched
@@ -108,6 +108,8 @@ class ConvergenceResult:
     recommendation: dict[str, Row]
     tol: float
     files: list[Path] = field(default_factory=list)
+    #: knob -> why it has no recommendation (:func:`recommend`)
+    verdicts: dict[str, str] = field(default_factory=dict)
 
     def overrides(self) -> dict:
         """Scene overrides of the recommended values (all knobs combined)."""
@@ -241,11 +243,35 @@ def validity_hz(scene: Scene, rom) -> float:
     return scene.hbm.mesh_harmonics * top * scene.continuation.speed[1] / 60.0
 
 
-def recommend(rows: list[Row], tol: float) -> Row | None:
-    """Cheapest row (known cost) whose errors are all within ``tol``; else the reference."""
-    good = [r for r in rows if r.within(tol) and r.seconds is not None]
-    if good:
-        return min(good, key=lambda r: (r.seconds, r.reference))
-    return next((r for r in rows if r.reference), None)
+#: Fewest values of a knob that must have run for a verdict: the reference (the finest)
+#: and two coarser ones. With two, the finest is its own reference and unchecked: a
+#: coarser value agreeing with it shows no trend towards a limit (the classic three-grid
+#: argument of Richardson extrapolation).
+MIN_VALUES = 3
 
 
+def recommend(rows: list[Row], tol: float) -> tuple[Row | None, str]:
+    """The recommended row of one knob and the verdict behind it.
+
+    Returns ``(row, "within tolerance")`` for the cheapest row (known cost) other than
+    the reference whose errors are all within ``tol``; ``(None, why)`` when the rows
+    cannot support a recommendation: the reference failed, fewer than
+    :data:`MIN_VALUES` values ran, or no value but the reference is within ``tol`` (the
+    reference is never recommended: nothing finer checks it).
+    """
+    ok = [r for r in rows if r.status == "ok"]
+    ref = next((r for r in ok if r.reference), None)
+    if ref is None:
+        return None, "its reference setting failed, so no errors were computed"
+    name, v = ref.setting.knob, fmt_value(ref.setting.value)
+    if len(ok) < MIN_VALUES:
+        return None, (f"too few values to judge ({len(ok)} ran, at least {MIN_VALUES} "
+                      f"needed): the finest, {name} = {v}, is its own reference and "
+                      "nothing checks it, so no value can be called converged; add values "
+                      "(`--knob`)")
+    good = [r for r in ok if not r.reference and r.within(tol) and r.seconds is not None]
+    if not good:
+        return None, (f"not converged over the values tried: no value but the reference "
+                      f"{name} = {v} is within {tol:g} of it, and the reference itself is "
+                      "unchecked; add finer values (`--knob`)")
+    return min(good, key=lambda r: r.seconds), "within tolerance"

@@ -10,7 +10,7 @@ from pathlib import Path
 from core.files import atomic_write
 from study.scene.data import Scene
 from study.studies.convergence.knobs import fmt_value
-from study.studies.convergence.measures import ConvergenceResult, Row
+from study.studies.convergence.measures import MIN_VALUES, ConvergenceResult, Row
 
 logger = logging.getLogger(__name__)
 
@@ -95,17 +95,18 @@ def table_markdown(result: ConvergenceResult) -> str:
 
 def recommendation_text(result: ConvergenceResult) -> str:
     """The recommended value of each knob, and the same as scene overrides."""
-    lines = [f"Recommendation (tolerance {result.tol:g}: cheapest value of each knob "
-             "whose errors are all within it):", ""]
-    for knob, r in result.recommendation.items():
-        why = "within tolerance" if r.within(result.tol) else \
-            "no other value within tolerance: the reference"
-        lines.append(f"- {knob} = {fmt_value(r.setting.value)} (cost {cost_text(r)}, max error "
-                     f"{(r.max_err or 0.0):.2e}; {why})")
+    lines = [f"Recommendation (tolerance {result.tol:g}: cheapest value of each knob, other "
+             f"than its reference, whose errors are all within it; at least {MIN_VALUES} "
+             "values per knob):", ""]
     for knob in dict.fromkeys(r.setting.knob for r in result.rows):
-        if knob not in result.recommendation:
-            lines.append(f"- {knob}: none — its reference setting failed, so no errors "
-                         "were computed (below)")
+        r = result.recommendation.get(knob)
+        if r is None:
+            why = result.verdicts.get(knob, "its reference setting failed, so no errors "
+                                             "were computed")
+            lines.append(f"- {knob}: **no recommendation** — {why}")
+            continue
+        lines.append(f"- {knob} = {fmt_value(r.setting.value)} (cost {cost_text(r)}, max error "
+                     f"{(r.max_err or 0.0):.2e} against the reference)")
     failed = [r for r in result.rows if r.status != "ok"]
     if failed:
         lines += ["", "Failed settings (their points are in `runs/<setting>/results.h5`):", ""]

@@ -7,7 +7,9 @@ knob at a time around the scene's own settings, every other value fixed:
 knob        scene value changed                         default values             ref.
 ==========  ==========================================  =========================  =====
 mesh        ``mesh.size`` = factor × preset size (FE)   factors 1.5, 1, 0.75       min
-n_cm        ``rom.n_cm`` (FE, not with ``cutoff_Hz``)   ×0.5, ×1, ×2               max
+n_cm        ``rom.n_cm`` (FE, the scene gives it)       ×0.5, ×1, ×2               max
+cutoff      ``rom.cutoff_factor`` (FE, without n_cm     ×0.75 (>= 1), ×1, ×1.5     max
+            and cutoff_Hz: the default)
 harmonics   ``hbm.mesh_harmonics``                      ×0.5, ×1, ×2               max
 sidebands   ``hbm.sideband_order`` (external orders)    s−1, s, s+1 (>= 0)         max
 aft         ``hbm.aft_samples`` (0 = automatic)         ×0.5, ×1, ×2 of the value  max
@@ -53,7 +55,7 @@ housing_err
 
 The recommendation of a knob is its cheapest value whose errors are all within
 ``tol`` (no unmatched grazing). Costs are the wall times of the stages the knob
-changes (mesh: mesh+fe+rom+hbm; n_cm: fe+rom+hbm; others: hbm), measured when the
+changes (mesh: mesh+fe+rom+hbm; n_cm, cutoff: fe+rom+hbm; others: hbm), measured when the
 stage ran; the stage times of cached entries are kept in ``<cache>/timings.json`` and in
 each entry's manifest (:meth:`study.pipeline.cache.StageCache.seconds`).
 """
@@ -198,17 +200,22 @@ def _base_scene(scene: str | Path | Scene, overrides: dict | None) -> Scene:
 
 
 def _recommend_all(rows: list[Row], base: Scene, tol: float,
-                   slack: float) -> dict[str, Row]:
-    """Compare the rows of each knob with its reference; the recommended row per knob."""
+                   slack: float) -> tuple[dict[str, Row], dict[str, str]]:
+    """Compare the rows of each knob with its reference; the recommended row per knob and,
+    for a knob without one, why (:func:`recommend`)."""
     rec: dict[str, Row] = {}
+    verdicts: dict[str, str] = {}
     for name in dict.fromkeys(r.setting.knob for r in rows):
         kr = [r for r in rows if r.setting.knob == name]
         _compare(kr, base, slack)
-        best = recommend(kr, tol)
-        if best is not None:
-            best.recommended = True
-            rec[name] = best
-    return rec
+        best, why = recommend(kr, tol)
+        if best is None:
+            verdicts[name] = why
+            logger.warning("knob %s: no recommendation: %s", name, why)
+            continue
+        best.recommended = True
+        rec[name] = best
+    return rec, verdicts
 
 
 def run_convergence(scene: str | Path | Scene, out: str | Path, *,
@@ -262,8 +269,8 @@ def run_convergence(scene: str | Path | Scene, out: str | Path, *,
                 len(settings), ", ".join(dict.fromkeys(s.knob for s, _ in settings)), cache)
     rows = [_run_one(st, sc, out / "runs" / st.label.replace("=", "-"), cache, timings,
                      refresh, progress) for st, sc in settings]
-    rec = _recommend_all(rows, base, tol, speed_slack)
-    result = ConvergenceResult(rows, rec, tol)
+    rec, verdicts = _recommend_all(rows, base, tol, speed_slack)
+    result = ConvergenceResult(rows, rec, tol, verdicts=verdicts)
     result.files = write_outputs(result, out, base)
     for name, r in rec.items():
         logger.info("recommended %s = %s (cost %s, max error %.3g <= tol %g)", name,

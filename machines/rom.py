@@ -21,9 +21,22 @@ import numpy as np
 logger = logging.getLogger(__name__)
 
 __all__ = ["RomData", "NODES_FILE", "ROM_FILE", "reduce_and_store", "load_rom_data",
-           "read_node_rows"]
+           "read_node_rows", "rom_stage_inputs"]
 
 ROM_FILE = "rom.h5"
+
+
+def rom_stage_inputs(r) -> dict:
+    """The ``[rom]`` values the rom stage builds from (its cache key): the number of
+    component modes or the resolved cut-off, the factorisation, and the check, whose
+    frequency ``check_hz`` counts only when it sets the check (``n_check`` not given).
+    ``cutoff_factor`` reaches the stage through the resolved cut-off; a run whose speed
+    range moves ``check_hz`` keeps a cached ROM whose check it does not change."""
+    keys = ("n_cm", "cutoff", "n_check", "factorization", "out_of_core")
+    out = {k: getattr(r, k) for k in keys}
+    if r.n_check is None:
+        out["check_hz"] = r.check_hz
+    return out
 #: Basis rows of the load nodes: ``rows`` (int), ``basis_rows`` (rows x n_r), attributes
 #: ``nodes`` (JSON: node -> its 6 reduced indices, -1 for a fixed DOF) and ``n_fe``.
 NODES_FILE = "nodes.h5"

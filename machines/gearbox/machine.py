@@ -34,6 +34,7 @@ from machines.gearbox.params import (
     gearbox_parameters,
 )
 from machines.registry import register
+from machines.rom import rom_stage_inputs
 from machines.train.layout import TrainLayout
 
 __all__ = ["Gearbox", "gear_node"]
@@ -164,7 +165,7 @@ class Gearbox(FEMachine):
                     "links": [self.params.options.bore_link, self.params.options.journal_link,
                               self.params.options.hub_link]}
         if stage == "rom":
-            return {"rom": dataclasses.asdict(s.rom)}
+            return {"rom": rom_stage_inputs(s.rom)}
         raise ValueError(f"stage = {stage!r}: the gearbox's stages are {self.stages}")
 
     def stage_code(self, stage: str) -> tuple[str, ...]:

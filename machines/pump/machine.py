@@ -9,7 +9,6 @@ free FE sections reach them through :func:`machines.pump.params.fe_parameters`.
 """
 from __future__ import annotations
 
-import dataclasses
 from fractions import Fraction
 from functools import cached_property
 from pathlib import Path
@@ -23,6 +22,7 @@ from machines.base import GearBody, GearMeshSpec, Part, Shaft
 from machines.fe import FEMachine, load_mesh, write_mesh_info
 from machines.pump.params import FEParams, fe_parameters
 from machines.registry import register
+from machines.rom import rom_stage_inputs
 
 __all__ = ["Pump", "SHAFTS", "N_STATIONS", "LOAD_NODES", "PARTS"]
 
@@ -116,7 +116,7 @@ class Pump(FEMachine):
                              "helix_angle": s.gear.helix_angle,
                              "face_width": s.gear.face_width}}
         if stage == "rom":
-            return {"rom": dataclasses.asdict(s.rom)}
+            return {"rom": rom_stage_inputs(s.rom)}
         raise ValueError(f"stage = {stage!r}: the pump's stages are {self.stages}")
 
     def stage_code(self, stage: str) -> tuple[str, ...]:

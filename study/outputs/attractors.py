@@ -12,7 +12,6 @@ import csv
 import io
 import logging
 import math
-import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from core.files import atomic_write
 from hbm.post.poincare import Section
 from hbm.post.time_response import TimeResponse, integrate
 from study.outputs.curves import UnstableSegment, unstable_segments
+from study.outputs.results import replace_group
 
 logger = logging.getLogger(__name__)
 
@@ -293,15 +293,10 @@ def write_attractors_group(path: Path, found: list[Attractor]) -> Path:
     per :class:`Attractor`, docs/results-format.md). Atomic: a copy of the file is
     updated, then renamed over it, so everything else in it is kept as it was."""
     path = Path(path)
-    with atomic_write(path) as tmp:
-        shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "a") as f:
-            if "attractors" in f:
-                del f["attractors"]
-            g = f.create_group("attractors")
-            g.attrs["count"] = len(found)
-            for i, a in enumerate(found):
-                _write_one(g.create_group(str(i)), a)
+    with replace_group(path, "attractors") as g:
+        g.attrs["count"] = len(found)
+        for i, a in enumerate(found):
+            _write_one(g.create_group(str(i)), a)
     logger.info("wrote /attractors of %s", path)
     return path
 

@@ -19,17 +19,15 @@ report.md (:func:`response_lines`).
 from __future__ import annotations
 
 import logging
-import shutil
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 
-from core.files import atomic_write
 from hbm import Point
 from hbm.post.poincare import SECTION_KINDS, orbit_samples, periods_in
+from study.outputs.results import replace_group
 
 logger = logging.getLogger(__name__)
 
@@ -162,18 +160,13 @@ def write_bifurcation_group(path: Path, d: Diagram) -> Path:
     """Replace ``/bifurcation`` of an existing ``results.h5`` by ``d`` (atomic: a copy
     of the file is updated, then renamed over it; everything else is kept)."""
     path = Path(path)
-    with atomic_write(path) as tmp:
-        shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "a") as f:
-            if "bifurcation" in f:
-                del f["bifurcation"]
-            g = f.create_group("bifurcation")
-            g.attrs["sources"] = ", ".join(SOURCES)
-            g.attrs["section_kinds"] = ", ".join(SECTION_KINDS)
-            g.attrs["element"] = 0
-            for name in ("rpm", "load", "delta", "source", "branch", "point", "stable",
-                         "periods", "section_kind"):
-                g[name] = getattr(d, name)
+    with replace_group(path, "bifurcation") as g:
+        g.attrs["sources"] = ", ".join(SOURCES)
+        g.attrs["section_kinds"] = ", ".join(SECTION_KINDS)
+        g.attrs["element"] = 0
+        for name in ("rpm", "load", "delta", "source", "branch", "point", "stable",
+                     "periods", "section_kind"):
+            g[name] = getattr(d, name)
     logger.info("wrote /bifurcation of %s", path)
     return path
 

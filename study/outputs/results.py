@@ -19,7 +19,9 @@ from __future__ import annotations
 import json
 import logging
 import platform
-from collections.abc import Callable
+import shutil
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -30,7 +32,21 @@ from core.files import atomic_write
 logger = logging.getLogger(__name__)
 
 __all__ = ["FORMAT_VERSION", "write_results", "read_branch", "stored_key", "Checkpointer",
-           "versions"]
+           "versions", "replace_group"]
+
+@contextmanager
+def replace_group(path: str | Path, name: str) -> Iterator[h5py.Group]:
+    """Replace the group ``name`` of an existing ``results.h5`` by an empty one, given to
+    the ``with`` block to fill. Atomic: a copy of the file is updated, then renamed over
+    it, so everything else in it is kept as it was and a failure leaves the file whole."""
+    path = Path(path)
+    with atomic_write(path) as tmp:
+        shutil.copyfile(path, tmp)
+        with h5py.File(tmp, "a") as f:
+            if name in f:
+                del f[name]
+            yield f.create_group(name)
+
 
 #: Version of the results.h5 layout (attribute ``/format_version``).
 FORMAT_VERSION = 1

@@ -22,7 +22,8 @@ SCENE = Path(__file__).resolve().parents[2] / "scenes" / "pump-paper.toml"
 #: [rom] comment), checked on its 50 lowest modes as then (a check up to 26.6 kHz on this
 #: mesh costs minutes and depends on each case's excitation, so each case rebuilt the ROM)
 RANGE = {"rom.n_cm": 200, "rom.n_check": 50, "hbm.stability": False,
-         "continuation.speed_rpm": [900.0, 3300.0], "outputs.plots": [], "outputs.housing_field_rpm": [], "outputs.report": False}
+         "continuation.speed_rpm": [900.0, 3300.0], "outputs.plots": [],
+         "outputs.housing_field_rpm": [], "outputs.report": False}
 
 
 @pytest.fixture(scope="module")

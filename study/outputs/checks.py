@@ -251,10 +251,9 @@ def check_lines(checks: list) -> list[str]:
     return out + [""]
 
 
-def write_checks_group(f, checks: list) -> None:
-    """``/checks`` of results.h5: per check attributes ``<name>_passed``, ``<name>_text``,
-    ``<name>_value``, ``<name>_limit``; ``n_failed``."""
-    g = f.create_group("checks")
+def write_checks_group(g, checks: list) -> None:
+    """Fill ``/checks`` of results.h5 (``g``, the empty group): per check attributes
+    ``<name>_passed``, ``<name>_text``, ``<name>_value``, ``<name>_limit``; ``n_failed``."""
     g.attrs["n_failed"] = sum(not c.passed for c in checks)
     for c in checks:
         g.attrs[f"{c.name}_passed"] = bool(c.passed)

@@ -9,6 +9,7 @@ from study.outputs import fields
 from study.outputs.checks import run_checks, write_checks_group
 from study.outputs.nvh import compute_nvh, write_curves_csv, write_nvh_group
 from study.outputs.points import point_at_speed
+from study.outputs.results import replace_group
 from study.pipeline.parallel import world
 
 logger = logging.getLogger(__name__)
@@ -82,14 +83,10 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
 
 def record_checks(result) -> None:
     """Write ``/checks`` of the run (:mod:`study.outputs.checks`) into the finished
-    results.h5, in place (computed after the file, by the plots and fields that ask for
-    solutions at given speeds)."""
-    import h5py
-
-    with h5py.File(result.results, "r+") as f:
-        if "checks" in f:
-            del f["checks"]
-        write_checks_group(f, result.checks)
+    results.h5 (computed after the file, by the plots and fields that ask for solutions
+    at given speeds); atomic: a failure leaves the file as it was."""
+    with replace_group(result.results, "checks") as g:
+        write_checks_group(g, result.checks)
 
 
 def write_housing(result) -> list[Path]:

@@ -6,19 +6,36 @@ the datasets of the main branch (``continuation``, ``grazing``, ``folds``, by
 :func:`study.outputs.results.write_branch`: its unknowns are those of the doubled
 problem, its statistics over the doubled period) and attributes naming its parent, its
 period, the fundamental of its harmonic set, where it was switched from and where it met
-its parent again (docs/results-format.md, "/branches").
+its parent again (docs/results-format.md, "/branches"), and the branch's NVH
+(``/branches/<name>/nvh``: mesh load and, with a radiating housing, ERP and the
+accelerometers per order of its own harmonic set, the half orders included). The same
+group, read back (:func:`read_branches`), is what ``geardyn report`` and the stage cache
+of ``branches`` rebuild the branches from; ``curves_branches.csv`` holds their curves
+(:func:`write_branch_curves_csv`).
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import logging
 from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
+from core.files import atomic_write
 from hbm.stability import KINDS
 
+logger = logging.getLogger(__name__)
+
 __all__ = ["AttractingLevels", "BranchRow", "attracting_levels", "branch_rows", "report_lines",
-           "write_branches_group"]
+           "write_branches_group", "read_branches", "secondary_nvh", "subharmonic_mask",
+           "write_branch_curves_csv", "erp_lines", "CURVES_FILE"]
+
+#: The curves of the secondary branches, beside curves.csv (docs/results-format.md).
+CURVES_FILE = "curves_branches.csv"
 
 
 @dataclass(frozen=True)
@@ -73,14 +90,21 @@ def branch_rows(secondary) -> list[BranchRow]:
     return rows
 
 
-def write_branches_group(f, secondary) -> None:
-    """``/branches/<name>`` of every secondary branch (see the module docstring)."""
+def write_branches_group(f, secondary, nvh: dict | None = None,
+                         seconds: float | None = None) -> None:
+    """``/branches/<name>`` of every secondary branch (see the module docstring): with
+    ``nvh`` (name -> :class:`study.outputs.nvh.NVH`, :func:`secondary_nvh`) its
+    ``nvh/`` group, with ``seconds`` what the stage cost (``branches.attrs["seconds"]``,
+    the report's "N branches in X s")."""
+    from study.outputs.nvh import write_nvh_group
     from study.outputs.results import write_branch
 
     if not secondary:
         return
     top = f.create_group("branches")
     top.attrs["names"] = [s.name for s in secondary]
+    if seconds is not None:
+        top.attrs["seconds"] = float(seconds)
     for s in secondary:
         g = top.create_group(s.name)
         write_branch(g, s.branch)
@@ -90,12 +114,132 @@ def write_branches_group(f, secondary) -> None:
         g.attrs["ratio"] = str(hs.ratio)
         g.attrs["fundamental"] = hs.fundamental
         g.attrs["doubling_rpm"] = s.doubling.rpm
+        g.attrs["doubling_omega"] = s.doubling.omega
         g.attrs["doubling_floquet_rpm"] = s.doubling.floquet_rpm
         g.attrs["doubling_bracket"] = s.doubling.index
+        g.attrs["doubling_tau"] = s.doubling.tau
         g.attrs["rejoin_rpm"] = s.rejoin_rpm
         g.attrs["epsilon"] = s.epsilon
         g["doubling_vector"] = s.doubling.vector
         g["doubling_unknowns"] = s.doubling.unknowns
+        if nvh and s.name in nvh:
+            write_nvh_group(g, nvh[s.name])
+            g["nvh/subharmonic"] = subharmonic_mask(s)
+
+
+def _text(x) -> str:
+    return x.decode() if isinstance(x, bytes) else str(x)
+
+
+def read_branches(f, problem) -> tuple[list, float | None]:
+    """The secondary branches written by :func:`write_branches_group` into the open HDF5
+    file (or group) ``f``, each with its doubled problem rebuilt from its parent's
+    (:func:`hbm.branching.doubled_problem`, as the stage built it), and the stage's cost
+    (``seconds``, None when not recorded); ``([], None)`` without ``/branches``.
+
+    Raises ValueError when a branch does not belong to ``problem`` (another harmonic set:
+    its fundamental or number of unknowns differs)."""
+    from hbm.branching import DoublingPoint, SecondaryBranch, doubled_problem
+    from study.outputs.results import branch_from_group
+
+    if "branches" not in f:
+        return [], None
+    top = f["branches"]
+    problems = {"main": problem}
+    name0 = problem.elements[0].name if len(problem.elements) == 1 else None
+    out = []
+    for name in (_text(x) for x in top.attrs["names"]):
+        g = top[name]
+        parent = _text(g.attrs["parent"])
+        child = doubled_problem(problems[parent])
+        if str(child.harmonics.ratio) != _text(g.attrs["ratio"]):
+            raise ValueError(f"/branches/{name}: fundamental {_text(g.attrs['ratio'])} x "
+                             f"Omega, the scene's doubled set has {child.harmonics.ratio}")
+        br = branch_from_group(g, name0)
+        if br.unknowns.shape[1] != child.n_unknowns:
+            raise ValueError(f"/branches/{name}: {br.unknowns.shape[1]} unknowns per point, "
+                             f"the scene's doubled problem has {child.n_unknowns}")
+        a = g.attrs
+        d = DoublingPoint(float(a["doubling_rpm"]), float(a["doubling_omega"]),
+                          g["doubling_unknowns"][()], g["doubling_vector"][()],
+                          int(a["doubling_bracket"]), float(a["doubling_floquet_rpm"]),
+                          float(a["doubling_tau"]))
+        out.append(SecondaryBranch(name, int(a["period"]), child, br, parent, d,
+                                   float(a["rejoin_rpm"]), float(a["epsilon"])))
+        problems[name] = child
+    seconds = top.attrs.get("seconds")
+    return out, None if seconds is None else float(seconds)
+
+
+def subharmonic_mask(s) -> np.ndarray:
+    """Mask of the harmonics of secondary branch ``s`` that no period-1 response has: the
+    indices of its set that are not multiples of its period (a period-2 branch: the odd
+    ones, the half orders ``Z/2``, ``3Z/2``, ``Z±1/2``, ...; period 4: the quarter and
+    half orders)."""
+    return np.asarray(s.problem.harmonics.indices, dtype=int) % int(s.period) != 0
+
+
+def secondary_nvh(result) -> dict:
+    """:class:`study.outputs.nvh.NVH` of every secondary branch of ``result`` (name -> NVH),
+    computed as the main branch's (:func:`study.outputs.nvh.compute_nvh`) on the branch's
+    own problem: the mesh load per harmonic of its doubled set and, for a machine with a
+    radiating part, the housing's ERP and accelerometers from the same recovery
+    ``q̃_k = s.problem.recover(point)`` and the cached radiation data of the run's ROM (the
+    FE model is not rebuilt); the frequency of index ``k`` is ``k ω₀/period``."""
+    from study.outputs.nvh import compute_nvh
+
+    out = {}
+    for s in getattr(result, "secondary", None) or ():
+        view = SimpleNamespace(problem=s.problem, branch=s.branch, scene=result.scene,
+                               rom=result.rom)
+        out[s.name] = compute_nvh(view)
+    return out
+
+
+def write_branch_curves_csv(path: Path, secondary, nvh: dict) -> Path | None:
+    """``curves_branches.csv``: the columns of ``curves.csv`` for every point of every
+    secondary branch, led by ``branch``, ``parent``, ``period`` (rows grouped by branch in
+    the order found, points in branch order) and followed by the content the main branch
+    cannot have: ``fundamental_order`` (the branch's lowest line, shaft orders: ``Z/2``
+    = 38 for 76 teeth), ``fundamental_amplitude_N`` (the mesh load's amplitude there),
+    ``subharmonic_rms_N`` (RMS of the mesh load over the lines that are not multiples of
+    the main fundamental, :func:`subharmonic_mask`) and ``erp_subharmonic_dB_re_1pW``
+    (their ERP; empty without a radiating housing). Atomic; a stale file is removed
+    when there is no secondary branch (returns None)."""
+    from study.outputs.acoustics import power_db
+    from study.outputs.nvh import CONTACT_NAMES
+
+    path = Path(path)
+    if not secondary:
+        if path.exists():
+            path.unlink()
+        return None
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["branch", "parent", "period", "point", "speed_rpm", "mesh_load_std_N",
+                "mesh_load_max_N", "mesh_load_peak_to_peak_N", "erp_dB_re_1pW",
+                "contact_class", "contact", "stable", "fundamental_order",
+                "fundamental_amplitude_N", "subharmonic_rms_N", "erp_subharmonic_dB_re_1pW"])
+    for s in secondary:
+        n, br, mesh = nvh[s.name], s.branch, s.branch.element(0)
+        sub = subharmonic_mask(s)
+        first = int(np.flatnonzero(np.asarray(n.harmonics) == 1)[0])
+        rms = np.sqrt(0.5 * np.sum(n.mesh_load_amplitude[:, sub] ** 2, axis=1))
+        db = n.erp_total_db
+        sub_db = None if n.erp is None else power_db(n.erp[:, sub].sum(axis=1))
+        for i in range(len(br)):
+            cls = int(mesh.contact[i])
+            w.writerow([s.name, s.parent, s.period, i, f"{br.rpm[i]:.6f}",
+                        f"{mesh.mesh_load_std[i]:.8g}", f"{mesh.mesh_load_max[i]:.8g}",
+                        f"{n.mesh_load_ptp[i]:.8g}", "" if db is None else f"{db[i]:.4f}",
+                        cls, CONTACT_NAMES[cls], int(bool(br.stable[i])),
+                        f"{float(n.orders[first]):.8g}",
+                        f"{n.mesh_load_amplitude[i, first]:.8g}", f"{rms[i]:.8g}",
+                        "" if sub_db is None else f"{sub_db[i]:.4f}"])
+    with atomic_write(path, "w") as fh:
+        fh.write(buf.getvalue())
+    logger.info("wrote %s", path)
+    return path
 
 
 def _span(a: float, b: float) -> str:
@@ -155,38 +299,6 @@ def report_lines(secondary, brackets: int | None = None, depth: int = 1,
     return out
 
 
-def _amplitudes(problem, branch, rows) -> np.ndarray:
-    """|f̃_k| of the mesh load (element 0) at the harmonics of ``problem`` for the points
-    ``rows`` of ``branch``, over one period of the problem (N)."""
-    from hbm import time_series
-
-    idx = np.asarray(problem.harmonics.indices, dtype=int)
-    out = np.zeros((len(rows), idx.size))
-    for r, i in enumerate(rows):
-        f = time_series(problem, problem.point(branch.unknowns[i], branch.omega[i])).load
-        c = np.fft.rfft(f) / f.size
-        c[1:] *= 2.0
-        out[r] = np.abs(c[idx])
-    return out
-
-
-def _erp(result, problem, branch, rows) -> np.ndarray | None:
-    """ERP per harmonic (W) of the housing at the points ``rows`` (None without one)."""
-    from study.outputs.acoustics import erp_harmonics
-
-    rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
-    if rad is None:
-        return None
-    ac = result.scene.acoustics
-    idx = np.asarray(problem.harmonics.indices, dtype=int)
-    out = np.zeros((len(rows), idx.size))
-    for r, i in enumerate(rows):
-        qk = problem.recover(problem.point(branch.unknowns[i], branch.omega[i]))
-        w0 = problem.harmonics.fundamental_rad_s(branch.omega[i])
-        out[r] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
-    return out
-
-
 @dataclass
 class AttractingLevels:
     """Per order, the levels of the responses the machine settles on along the speed: the
@@ -203,9 +315,8 @@ class AttractingLevels:
 
 
 def attracting_levels(result) -> AttractingLevels | None:
-    """:class:`AttractingLevels` of a run with secondary branches (None without)."""
-    from study.outputs.nvh import orders_of
-
+    """:class:`AttractingLevels` of a run with secondary branches (None without): the
+    levels of their NVH (``result.secondary_nvh``, :func:`secondary_nvh`)."""
     secondary = getattr(result, "secondary", None)
     nvh = getattr(result, "nvh", None)
     if not secondary or nvh is None or len(result.problem.elements) > 1:
@@ -220,9 +331,9 @@ def attracting_levels(result) -> AttractingLevels | None:
         rows = np.flatnonzero(s.branch.stable.astype(bool))
         if rows.size == 0:
             continue
-        parts.append((s.branch.rpm[rows], orders_of(s.problem.harmonics), s.period,
-                      _amplitudes(s.problem, s.branch, rows),
-                      _erp(result, s.problem, s.branch, rows)))
+        sn = result.secondary_nvh[s.name]
+        parts.append((s.branch.rpm[rows], np.asarray(sn.orders, dtype=float), s.period,
+                      sn.mesh_load_amplitude[rows], None if sn.erp is None else sn.erp[rows]))
     orders = np.unique(np.concatenate([p[1] for p in parts]))
     # only the orders with a level somewhere (a main order above every stable point's
     # set, e.g., would be an empty row)
@@ -243,3 +354,55 @@ def attracting_levels(result) -> AttractingLevels | None:
     keep = ~np.all(np.isnan(amp), axis=0)
     return AttractingLevels(rpm[order], orders[keep], period[order], amp[order][:, keep],
                             None if erp is None else erp[order][:, keep])
+
+
+def erp_lines(result, segments) -> list[str]:
+    """report.md "Noise" lines: per period-doubling segment of the main branch
+    (``segments``, :class:`study.outputs.curves.UnstableSegment` in branch order), what its
+    unstable orbit radiates (largest total ERP over the segment's points) against every
+    secondary branch over the segment: the largest ERP of its stable points there, the
+    part at the orders a period-1 response cannot have (:func:`subharmonic_mask`) and its
+    loudest such order. Empty without a radiating housing or secondary branches."""
+    from study.outputs.acoustics import power_db
+
+    nvh, sec = getattr(result, "nvh", None), getattr(result, "secondary", None) or ()
+    snvh = getattr(result, "secondary_nvh", None) or {}
+    if nvh is None or nvh.erp_total is None or not sec:
+        return []
+    z = result.scene.gear.teeth
+    out = []
+    for u in segments:
+        if u.kind != "period_doubling" or u.index is None:
+            continue
+        lo, hi = u.rpm
+        i0, i1 = u.index
+        main = float(np.max(nvh.erp_total_db[i0:i1 + 1]))
+        parts = []
+        for s in sec:
+            n = snvh.get(s.name)
+            if n is None or n.erp_total is None:
+                continue
+            rpm = s.branch.rpm
+            over = (rpm >= lo) & (rpm <= hi)
+            if not over.any():
+                continue
+            ok = np.flatnonzero(over & s.branch.stable.astype(bool))
+            if ok.size == 0:
+                parts.append(f"`{s.name}` (period {s.period}) has no stable point there")
+                continue
+            j = ok[int(np.argmax(n.erp_total[ok]))]
+            sub = subharmonic_mask(s)
+            top = np.flatnonzero(sub)[int(np.argmax(n.erp[j, sub]))]
+            db = float(n.erp_total_db[j])
+            parts.append(
+                f"`{s.name}` (period {s.period}, stable at {ok.size} of its points there) up "
+                f"to {db:.1f} dB ({db - main:+.1f} dB) at {rpm[j]:.1f} rpm, "
+                f"{float(power_db(n.erp[j, sub].sum())):.1f} dB of it at the orders of "
+                f"period {s.period} (loudest {n.order_name(top, z)}, "
+                f"{float(n.erp_db[j, top]):.1f} dB)")
+        if parts:
+            out.append(f"- period doubling {lo:.1f}–{hi:.1f} rpm: the main branch's orbit, "
+                       f"unstable there, radiates up to {main:.1f} dB re 1 pW; the response "
+                       "that takes over: " + "; ".join(parts) + " (per order: "
+                       "`/branches/<name>/nvh`, curves: `curves_branches.csv`)")
+    return out

@@ -395,10 +395,9 @@ def write_report(result) -> Path:
         from hbm.branching import doubling_brackets
         from study.outputs.branches import report_lines
 
-        st = (getattr(result, "status", None) or {}).get("branches")
         lines += ["", *report_lines(result.secondary, len(doubling_brackets(result.branch)),
                                     depth=sc.continuation.period_doubling_depth,
-                                    seconds=getattr(st, "seconds", None))]
+                                    seconds=getattr(result, "branches_seconds", None))]
     if sc.is_train:
         from study.outputs.train import mesh_report_lines
 
@@ -420,6 +419,10 @@ def write_report(result) -> Path:
                   f"{br.rpm[i]:.1f} rpm, dominated by order "
                   f"{nvh.order_name(j, sc.gear.teeth)} ({nvh.erp_db[i, j]:.1f} dB)",
                   "- curves per point: `curves.csv`; per order: `/nvh` in results.h5"]
+        if getattr(result, "secondary", None):
+            from study.outputs.branches import erp_lines
+
+            lines += erp_lines(result, s["unstable_segments"])
         if nvh.accel_velocity is not None:
             lv = velocity_level_db(nvh.accel_velocity)
             lines += [f"- accelerometer `{n}`: velocity level up to {lv[a].max():.1f} dB re "

@@ -31,8 +31,8 @@ from core.files import atomic_write
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "stored_key", "Checkpointer",
-           "versions", "replace_group"]
+__all__ = ["FORMAT_VERSION", "write_results", "read_branch", "branch_from_group",
+           "stored_key", "Checkpointer", "versions", "replace_group"]
 
 @contextmanager
 def replace_group(path: str | Path, name: str) -> Iterator[h5py.Group]:
@@ -260,8 +260,6 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
     ``key_name``, by default the hbm stage key), or
     cannot be read; the reason is logged.
     """
-    from hbm import Branch, GrazingPoint
-
     p = Path(path)
     if not p.exists():
         return None
@@ -273,37 +271,7 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
                     f["scene"].attrs.get(key_name, "") != expected_key:
                 logger.debug("%s: %s differs; not read", p, key_name)   # the caller says why
                 return None
-            c = f["continuation"]
-            fields = _branch_array_fields()
-            arrays = {k: c[k][()] for k in fields if k in c}
-            missing = set(fields) - set(arrays) - {"reversals", "leaps", "loop", "loops",
-                                                   "floquet_amplification",
-                                                   "stability_grazing"}
-            missing |= {"rpm", "omega", "unknowns", "coefficients"} - set(c)
-            if missing:
-                raise KeyError(f"continuation datasets missing: {sorted(missing)}")
-            names = [str(x.decode() if isinstance(x, bytes) else x)
-                     for x in c.attrs.get("elements", [])]
-            single = len(names) <= 1
-            # the per-element table: every other dataset, its element axis restored
-            stats = {k: (c[k][()][:, None] if single and c[k].ndim >= 1 and len(c[k]) else
-                         c[k][()]) for k in c if k not in fields and k != "harmonics"}
-            elements = f["grazing/element"][()] if "grazing/element" in f else \
-                [0] * len(f["grazing/rpm"])
-            grazing = [GrazingPoint(float(r), k.decode() if isinstance(k, bytes) else str(k),
-                                    s.decode() if isinstance(s, bytes) else str(s), int(e))
-                       for r, k, s, e in zip(f["grazing/rpm"][()], f["grazing/kind"][()],
-                                             f["grazing/side"][()], elements, strict=True)]
-            br = Branch(harmonics=tuple(int(i) for i in c["harmonics"][()]),
-                        condensation=str(c.attrs["condensation"]),
-                        rpm_start=float(c.attrs["rpm_start"]), rpm_end=float(c.attrs["rpm_end"]),
-                        omega_scale=float(c.attrs["omega_scale"]), **arrays, stats=stats,
-                        element_names=tuple(names) or (_element_name(f),),
-                        element_statistics=tuple(tuple(x) for x in json.loads(
-                            c.attrs.get("element_statistics", "[]"))), grazing=grazing,
-                        folds=[float(x) for x in f["folds/rpm"][()]],
-                        status=str(c.attrs["status"]), message=str(c.attrs["message"]),
-                        next_step=float(c.attrs["next_step"]))
+            br = branch_from_group(f)
     except (OSError, KeyError, ValueError, TypeError) as exc:
         logger.warning("cannot resume from %s (%s); starting over", p, exc)
         return None
@@ -311,6 +279,45 @@ def read_branch(path: str | Path, problem=None, expected_key: str | None = None,
         logger.warning("%s does not match this problem; starting over", p)
         return None
     return br
+
+
+def branch_from_group(g: h5py.Group, element_name: str | None = None):
+    """The :class:`hbm.Branch` written by :func:`write_branch` into ``g`` (the file's root,
+    or a ``/branches/<name>`` group): its ``continuation/``, ``grazing/`` and ``folds/``.
+    ``element_name``: the one element's label (default: from the file, which does not
+    store it for one element). Raises KeyError when a documented dataset is missing."""
+    from hbm import Branch, GrazingPoint
+
+    c = g["continuation"]
+    fields = _branch_array_fields()
+    arrays = {k: c[k][()] for k in fields if k in c}
+    missing = set(fields) - set(arrays) - {"reversals", "leaps", "loop", "loops",
+                                           "floquet_amplification", "stability_grazing"}
+    missing |= {"rpm", "omega", "unknowns", "coefficients"} - set(c)
+    if missing:
+        raise KeyError(f"continuation datasets missing: {sorted(missing)}")
+    names = [str(x.decode() if isinstance(x, bytes) else x)
+             for x in c.attrs.get("elements", [])]
+    single = len(names) <= 1
+    # the per-element table: every other dataset, its element axis restored
+    stats = {k: (c[k][()][:, None] if single and c[k].ndim >= 1 and len(c[k]) else
+                 c[k][()]) for k in c if k not in fields and k != "harmonics"}
+    elements = g["grazing/element"][()] if "grazing/element" in g else \
+        [0] * len(g["grazing/rpm"])
+    grazing = [GrazingPoint(float(r), k.decode() if isinstance(k, bytes) else str(k),
+                            s.decode() if isinstance(s, bytes) else str(s), int(e))
+               for r, k, s, e in zip(g["grazing/rpm"][()], g["grazing/kind"][()],
+                                     g["grazing/side"][()], elements, strict=True)]
+    return Branch(harmonics=tuple(int(i) for i in c["harmonics"][()]),
+                  condensation=str(c.attrs["condensation"]),
+                  rpm_start=float(c.attrs["rpm_start"]), rpm_end=float(c.attrs["rpm_end"]),
+                  omega_scale=float(c.attrs["omega_scale"]), **arrays, stats=stats,
+                  element_names=tuple(names) or (element_name or _element_name(g.file),),
+                  element_statistics=tuple(tuple(x) for x in json.loads(
+                      c.attrs.get("element_statistics", "[]"))), grazing=grazing,
+                  folds=[float(x) for x in g["folds/rpm"][()]],
+                  status=str(c.attrs["status"]), message=str(c.attrs["message"]),
+                  next_step=float(c.attrs["next_step"]))
 
 
 def _element_name(f: h5py.File) -> str:

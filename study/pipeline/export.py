@@ -48,7 +48,8 @@ def _extra(result):
             write_group(f, mesh)
         if secondary:
             from study.outputs.branches import write_branches_group
-            write_branches_group(f, secondary)
+            write_branches_group(f, secondary, getattr(result, "secondary_nvh", None),
+                                 getattr(result, "branches_seconds", None))
     return extra
 
 
@@ -62,17 +63,23 @@ def write_partial(result, branch) -> None:
 
 
 def export(result, figures: bool = True, housing: bool = True) -> None:
-    """Write the final results.h5 (with ``/nvh``) and ``curves.csv``, then the housing
+    """Write the final results.h5 (with ``/nvh``, and the secondary branches' NVH in
+    ``/branches/<name>/nvh``), ``curves.csv`` and ``curves_branches.csv``, then the housing
     fields, plots and report.md the scene asks for (``housing=False``: no housing
     fields, e.g. for an incomplete curve).
 
     Under mpirun (:mod:`study.pipeline.parallel`) rank 0 writes every file."""
+    from study.outputs.branches import CURVES_FILE, secondary_nvh, write_branch_curves_csv
+
     comm = world()
     result.nvh = compute_nvh(result)
+    result.secondary_nvh = secondary_nvh(result)
     comm.root_call(write_partial, result, result.branch)
     logger.info("wrote %s", result.results)
     comm.root_call(write_curves_csv, Path(result.out) / "curves.csv", result.branch,
                    result.nvh)
+    comm.root_call(write_branch_curves_csv, Path(result.out) / CURVES_FILE,
+                   result.secondary, result.secondary_nvh)
     renders = write_housing(result) if housing else []
     if figures:
         comm.root_call(_figures, result, renders)   # plots, renderings, checks, report.md

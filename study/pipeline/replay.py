@@ -1,7 +1,9 @@
 """``geardyn report``: the export stage again from a finished run's ``results.h5``.
 
 The branch is read back (it must belong to the scene's inputs: the hbm stage key is
-compared), the HBM problem and, for FE scenes, the ROM come from the stage cache, and
+compared), and so are the secondary branches of ``/branches`` with their doubled problems
+(:func:`study.outputs.branches.read_branches`; the branches stage key is compared), the
+HBM problem and, for FE scenes, the ROM come from the stage cache, and
 the plots, housing fields and ``report.md`` are written as the export stage writes them
 (:mod:`study.pipeline.export`), and the checks computed for them replace ``/checks`` of
 ``results.h5`` (the report's banner and the file say the same); the continuation does
@@ -11,11 +13,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from study.outputs.branches import read_branches, secondary_nvh
 from study.outputs.nvh import compute_nvh
-from study.outputs.results import read_branch
+from study.outputs.results import read_branch, stored_key
 from study.pipeline.export import draw_figures, record_checks, write_housing, write_report_files
 from study.pipeline.parallel import mark_collective
-from study.pipeline.runs import RunResult
+from study.pipeline.runs import RunResult, StageStatus
 from study.pipeline.stages import Pipeline
 from study.scene.errors import SceneError
 from study.scene.load import load_scene
@@ -43,6 +46,10 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
                                          "with them first"))
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
+    res.secondary, res.branches_seconds = _secondary(pipe, path, problem)
+    if res.secondary:
+        res.status["branches"] = StageStatus("from results.h5")
+        res.stages["branches"] = res.status["branches"].text
     if scene.mesh_source is not None:           # the ltca stage's arrays (cached)
         res.mesh_excitation = pipe.comm.root_call(pipe.run_mesh_excitation)
     # the housing fields from the cached ROM (rank 0 writes); their renderings, if asked,
@@ -51,8 +58,27 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
 
     def draw() -> None:
         res.nvh = compute_nvh(res)  # per-order levels and ERP for the NVH plots (seconds)
+        res.secondary_nvh = secondary_nvh(res)
         draw_figures(res, renders)
         write_report_files(res)
         record_checks(res)          # /checks of results.h5 as report.md's banner states them
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res
+
+
+def _secondary(pipe: Pipeline, path: Path, problem) -> tuple[list, float | None]:
+    """The secondary branches of ``/branches`` in ``path`` and their stage's cost; the
+    file's branches stage key must be the scene's (the same main curve and period-doubling
+    settings), else SceneError; none when the run switched at no period doubling."""
+    import h5py
+
+    stored = stored_key(path, "stage_key_branches")
+    if not stored:                    # the stage was skipped: nothing was switched at
+        return [], None
+    if stored != pipe.branches_key():
+        raise mark_collective(SceneError(
+            f"{path}: its period-2 branches were computed with other "
+            "`[continuation] period_doubling_*` settings (or code version) than the scene's; "
+            "run `geardyn run` with them first"))
+    with h5py.File(path, "r") as f:
+        return read_branches(f, problem)

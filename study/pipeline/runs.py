@@ -100,6 +100,12 @@ class RunResult:
         (``[continuation] period_doubling_depth``; the stage ``branches``): each with its
         doubled ``problem`` (fundamental ``problem.harmonics.ratio`` Omega) and its
         :class:`hbm.Branch`; empty when the stage was off or found no period doubling.
+    secondary_nvh : dict
+        Branch name -> :class:`study.outputs.nvh.NVH` of each secondary branch (computed
+        by the export, :func:`study.outputs.branches.secondary_nvh`).
+    branches_seconds : float or None
+        What computing the secondary branches cost (s): this run's stage, or the run that
+        filled the cache entry or wrote the results.h5 it was read from (None: unknown).
     """
 
     out: Path
@@ -120,3 +126,5 @@ class RunResult:
     speed_uses: list = field(default_factory=list)
     mesh_excitation: Any = None
     secondary: list = field(default_factory=list)
+    secondary_nvh: dict = field(default_factory=dict)
+    branches_seconds: float | None = None

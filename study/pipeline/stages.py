@@ -18,6 +18,9 @@ ltca      (``source = "ltca"`` only) the LTCA's inputs (macro- and micro-geometr
 hbm       rom key (FE) or the lumped machine's linear key (``[lumped]`` + gear),
           mesh stiffness, TE, load, backlash, external, damping, ``[hbm]``,
           ``[continuation]``
+branches  hbm key, ``[continuation] period_doubling_depth`` and
+          ``period_doubling_max_points`` (cached only when the main curve is the hbm
+          stage's cache entry: not after a ``--resume`` with other steps)
 export    never cached (writes ``results.h5``, plots and ``report.md``)
 ========  =====================================================================
 
@@ -130,6 +133,9 @@ class Pipeline:
         self.keys: dict[str, str] = {}
         self.machine = machine_for(scene)
         self._fe_model = None
+        # the main branch is the hbm stage's cache entry (read from it or stored in it): the
+        # branches stage, keyed on the hbm key, may then be cached too
+        self._main_cached = False
 
     # ------------------------------------------------------------------ helpers
     def _log_stage(self, name: str, st: StageStatus, log: bool = True) -> None:
@@ -307,6 +313,7 @@ class Pipeline:
             br = read_branch(hit / "branch.h5", problem)
             if br is not None and br.status == "completed":
                 self._log_stage("hbm", StageStatus("cached", from_cache=True))
+                self._main_cached = True
                 return br, "cached"
         c = self.scene.continuation
         lo, hi = c.speed
@@ -373,10 +380,23 @@ class Pipeline:
             if resume is None or same:  # a resumed entry's cost is unknown (None)
                 self.cache.store("hbm", key, produce, {"points": len(br)},
                                  elapsed=dt if resume is None else None)
+                self._main_cached = True
         return br, how
 
     # ------------------------------------------------------------------ branches
-    def run_branches(self, problem, branch) -> list:
+    def branches_key(self) -> str:
+        """Key of the branches stage: the hbm key (the main curve and its problem) and the
+        settings of the switching (``period_doubling_depth``, ``period_doubling_max_points``,
+        :data:`MAX_SECONDARY`), with the code of hbm and of the ``/branches`` files."""
+        c = self.scene.continuation
+        return stage_key("branches", {"hbm": self.keys.get("hbm") or self.hbm_key(),
+                                      "period_doubling_depth": c.period_doubling_depth,
+                                      "period_doubling_max_points":
+                                          c.period_doubling_max_points,
+                                      "max_secondary": MAX_SECONDARY},
+                         source_hash("hbm", "study.outputs.branches", "study.outputs.results"))
+
+    def run_branches(self, problem, branch) -> tuple[list, float | None]:
         """Stage ``branches``: switch at the period doublings of the main branch to the
         branches of twice the period, to ``[continuation] period_doubling_depth``
         (:func:`hbm.branching.period_doubling_branches`). Skipped at once when off, without
@@ -387,8 +407,12 @@ class Pipeline:
         about what the main curve did (a period-2 point 1.5-2.4x a period-1 point,
         benchmarks/bench_period2.py), plus locating the doublings; in the near-grazing
         tangles of the converged pump a period-2 point cost ~20 s on the loaded machine
-        (docs/hbm.md "Period doubling"). Not cached: it runs
-        with the export (the main curve is cached)."""
+        (docs/hbm.md "Period doubling"). Cached by :meth:`branches_key` (``branches.h5``,
+        the ``/branches`` group, read back by :func:`study.outputs.branches.read_branches`)
+        when the main curve is the hbm stage's cache entry.
+
+        Returns the :class:`hbm.branching.SecondaryBranch` list and what computing it cost
+        (s; a cached entry's recorded cost, None when skipped or unknown)."""
         from hbm.branching import doubling_brackets, period_doubling_branches
 
         c = self.scene.continuation
@@ -399,7 +423,14 @@ class Pipeline:
                else "")
         if why:
             self._log_stage("branches", StageStatus("skipped", why))
-            return []
+            return [], None
+        key = self.keys["branches"] = self.branches_key()
+        hit = self.cache.lookup("branches", key) if self._main_cached else None
+        if hit is not None:
+            got = _read_cached_branches(hit / "branches.h5", problem)
+            if got is not None:
+                self._log_stage("branches", StageStatus("cached", from_cache=True))
+                return got
         t = time.perf_counter()
         budget = c.period_doubling_max_points or max(200, len(branch))
         found = period_doubling_branches(
@@ -407,11 +438,20 @@ class Pipeline:
             step_rpm=(c.step, c.min_step, c.max_step), tol=c.tolerance,
             max_points=min(c.max_points, budget), max_branches=MAX_SECONDARY,
             max_total_points=budget)
-        self._log_stage("branches", StageStatus("ran", seconds=time.perf_counter() - t))
+        dt = time.perf_counter() - t
+        self._log_stage("branches", StageStatus("ran", seconds=dt))
         logger.info("branches: %d of period 2 or more (%s)", len(found),
                     ", ".join(f"{s.name} {s.branch.rpm.min():.1f}-{s.branch.rpm.max():.1f} rpm"
                               for s in found) or "none")
-        return found
+        if self._main_cached:
+            def produce(tmp: Path) -> None:
+                import h5py
+
+                from study.outputs.branches import write_branches_group
+                with h5py.File(tmp / "branches.h5", "w") as f:
+                    write_branches_group(f, found, seconds=dt)
+            self.cache.store("branches", key, produce, {"branches": len(found)}, elapsed=dt)
+        return found, dt
 
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
@@ -478,7 +518,8 @@ class Pipeline:
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
                 "point, or, after a walk back or a closed loop it could not leave, from the "
                 "point before the speeds where it was caught)", result))
-        result.secondary = self.comm.root_call(self.run_branches, problem, branch)
+        result.secondary, result.branches_seconds = self.comm.root_call(
+            self.run_branches, problem, branch)
         t = time.perf_counter()
         # listed in report.md, written during export
         self._log_stage("export", StageStatus("ran"), log=False)
@@ -492,6 +533,22 @@ class Pipeline:
         logger.info("done in %.2f s; ran: %s; from cache: %s", result.seconds,
                     ", ".join(ran) or "-", ", ".join(cached) or "-")
         return result
+
+
+def _read_cached_branches(path: Path, problem) -> tuple[list, float | None] | None:
+    """The secondary branches of a branches cache entry and what they cost to compute
+    (None, logged, when it cannot be read back for ``problem``: the stage then runs
+    again)."""
+    import h5py
+
+    from study.outputs.branches import read_branches
+
+    try:
+        with h5py.File(path, "r") as f:
+            return read_branches(f, problem)
+    except (OSError, KeyError, ValueError) as exc:
+        logger.warning("cache entry %s cannot be read back (%s): running the stage", path, exc)
+        return None
 
 
 def _partial_curves(result) -> None:

@@ -212,13 +212,14 @@ def test_period2_nvh_is_the_linear_housing_recovery(run):
     j = int(np.argmax(p2.sum(axis=1)))
     half_db = float(power_db(p2[j, 0::2].sum()))     # k = 1, 3, 5, ...: the half orders
     m = re.search(r"radiates up to (-?[\d.]+) dB re 1 pW.*`period2_1` \(period 2, stable at "
-                  r"(\d+) of its points there\) up to (-?[\d.]+) dB \(([+-][\d.]+) dB\) at "
-                  r"([\d.]+) rpm, (-?[\d.]+) dB of it at the orders of period 2 \(loudest "
+                  r"(\d+) of its points there\) up to (-?[\d.]+) dB \(([+-][\d.]+) dB against "
+                  r"it\) at ([\d.]+) rpm, (-?[\d.]+) dB of it at the orders of period 2 \(loudest "
                   r"(\S+), ", lines[0])
     assert m, lines[0]
     assert float(m[1]) == pytest.approx(main_db, abs=0.051)
     assert int(m[2]) == on.size
     assert float(m[3]) == pytest.approx(float(power_db(p2[j].sum())), abs=0.051)
+    assert float(m[4]) == pytest.approx(float(m[3]) - float(m[1]), abs=0.11)
     assert float(m[5]) == pytest.approx(s.branch.rpm[on[j]], abs=0.051)
     assert float(m[6]) == pytest.approx(half_db, abs=0.051)
     k = 1 + 2 * int(np.argmax(p2[j, 0::2]))

@@ -396,7 +396,7 @@ def erp_lines(result, segments) -> list[str]:
             db = float(n.erp_total_db[j])
             parts.append(
                 f"`{s.name}` (period {s.period}, stable at {ok.size} of its points there) up "
-                f"to {db:.1f} dB ({db - main:+.1f} dB) at {rpm[j]:.1f} rpm, "
+                f"to {db:.1f} dB ({db - main:+.1f} dB against it) at {rpm[j]:.1f} rpm, "
                 f"{float(power_db(n.erp[j, sub].sum())):.1f} dB of it at the orders of "
                 f"period {s.period} (loudest {n.order_name(top, z)}, "
                 f"{float(n.erp_db[j, top]):.1f} dB)")

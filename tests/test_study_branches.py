@@ -268,6 +268,10 @@ def test_replay_reads_the_branches_back(run, tmp_path):
     with h5py.File(out / "results.h5", "r") as f:
         for k, v in bif.items():
             np.testing.assert_array_equal(f["bifurcation"][k][()], v, err_msg=k)
+    # other period-doubling settings: the file's branches are not the scene's
+    with pytest.raises(study.SceneError, match="period_doubling"):
+        report_from_results(SDOF, out, {**RANGE, "continuation.period_doubling_max_points": 40},
+                            cache=str(tmp_path / "cache"))
 
 
 def _datasets(path: Path, group: str) -> dict:

@@ -68,3 +68,22 @@ def neimark_sacker_problem(harmonics=20):
                           [hbm.GearMesh(g, 1, {0: 1.0, 1: 0.3}, backlash=1.0)],
                           hbm.Excitation(2, constant={0: [0.1, 0.0], 1: [0.02, 0.0]}),
                           hbm.HarmonicSet.build(1, harmonics))
+
+
+def orbit_departure(pb, pt, periods: int = 40) -> float:
+    """Distance (energy norm of the modal state, relative) after ``periods`` periods of
+    the time integration (scipy DOP853, rtol 1e-10, modal equations of
+    hbm.post.time_response) started on the HBM state of ``pt``, from that state: ~0 on a
+    stable orbit, O(1) when the integration leaves for another attractor."""
+    from scipy.integrate import solve_ivp
+
+    from hbm.post.time_response import equations, initial_state, modal_model
+
+    mm = modal_model(pb, pt.rpm)
+    fun = equations(mm)
+    w = np.concatenate([np.sqrt(mm.w2), np.ones(mm.n_modes)])
+    y0 = initial_state(pb, pt, mm)
+    scale = np.linalg.norm(y0 * w)
+    sol = solve_ivp(fun, (0.0, periods * mm.period), y0, method="DOP853", rtol=1e-10,
+                    atol=1e-14 * scale / w)
+    return float(np.linalg.norm((sol.y[:, -1] - y0) * w) / scale)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
+from hbm.post.tangles import Tangle, find_tangles
 from hbm.stability import KINDS
 from study.outputs.acoustics import velocity_level_db
 from study.outputs.attractors import attractor_line
@@ -18,6 +19,7 @@ from study.outputs.curves import (
     kind_name,
     unstable_segments,
 )
+from study.outputs.verdict_checks import verdict_check_lines
 
 __all__ = ["summary", "write_report"]
 
@@ -43,12 +45,25 @@ def summary(result) -> dict:
         "nan_exponent_rpm": [float(r) for r in br.rpm[np.isnan(br.floquet_max_real)
                                                        & (br.floquet_kind > 0)]],
         "amplification": _largest_amplification(br),
+        "tangles": branch_tangles(br),
         "unstable_segments": unstable_segments(br.rpm, mesh.mesh_load_std, br.stable,
                                                br.floquet_kind),
         "intervals": contact_intervals(br),
         "max_std_kind": "" if br.stable[i] else kind_label(kind_name(int(br.floquet_kind[i]))),
         "max_stable": _largest_stable(br),
     }
+
+
+def branch_tangles(br) -> list[Tangle]:
+    """The near-grazing tangles of a branch (:func:`hbm.post.tangles.find_tangles`), with
+    the contact-loss intervals per fundamental period summed over the elements (their
+    ``ipp`` sequences)."""
+    ipp = br.stats.get("ipp")
+    losses = None
+    if ipp is not None and np.size(ipp):
+        a = np.asarray(ipp).reshape(len(br), -1)
+        losses = np.where(a >= 0, a, 0).sum(axis=1).astype(float)
+    return find_tangles(br.rpm, br.stable, losses)
 
 
 #: Transient amplification over one period above which report.md names it.
@@ -91,7 +106,7 @@ def _largest_line(s: dict, stability: bool) -> str:
 
 
 def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True,
-                     secondary=None) -> list[str]:
+                     secondary=None, checks=None, mesh_harmonics: int = 0) -> list[str]:
     """Report lines on the Floquet verdicts, or that none were computed."""
     if not periodic:
         return ["- stability: **not computed on a torus** (a quasi-periodic response has no "
@@ -104,7 +119,27 @@ def _stability_lines(s: dict, stability: bool, attractors, periodic: bool = True
             + " — Floquet exponents of the variational equation, every mode",
             *unstable_lines(s["unstable_segments"], attractors, secondary),
             *_unresolved(s["unresolved_rpm"]), *_near_grazing(s["grazing_rpm"]),
-            *_not_computed(s["nan_exponent_rpm"]), *_amplification(s["amplification"])]
+            *_not_computed(s["nan_exponent_rpm"]), *_amplification(s["amplification"]),
+            *tangle_lines(s.get("tangles", [])), *verdict_check_lines(checks, mesh_harmonics)]
+
+
+def tangle_lines(tangles: list[Tangle]) -> list[str]:
+    """Report lines for the near-grazing tangles of a branch."""
+    if not tangles:
+        return []
+    out = [f"- **{len(tangles)} near-grazing tangle{'' if len(tangles) == 1 else 's'}**: "
+           "the branch folds three times or more within 0.1 % of the speed, on the steep "
+           "flank or at the top of a resonance where the contact pattern changes (on a flank "
+           "one mesh cycle at a time). Its pieces are solutions of the harmonic balance, "
+           "each with its verdict, and the stable points in and next to it are checked on a "
+           "richer harmonic set (below); the machine crosses a tangle as one jump "
+           "(docs/theory.md §11, near-grazing tangles):"]
+    for t in tangles:
+        change = (f", contact-loss intervals per period change by {t.contact_changes}"
+                  if t.contact_changes else ", no change of the contact-loss count")
+        out.append(f"  - {t.rpm_min:.3f}–{t.rpm_max:.3f} rpm: {t.n_folds} folds over "
+                   f"{t.last - t.first + 1} points, {t.n_stable} of them stable{change}")
+    return out
 
 
 def _rpm_list(rpm: list[float]) -> str:
@@ -382,7 +417,9 @@ def write_report(result) -> Path:
              "- points per class: " + ", ".join(f"{_CLASS[c]} {n}" for c, n in
                                                  s["classes"].items()),
              *_stability_lines(s, sc.hbm.stability, result.attractors,
-                               result.problem.periodic, getattr(result, "secondary", None)),
+                               result.problem.periodic, getattr(result, "secondary", None),
+                               getattr(result, "verdict_checks", None),
+                               sc.hbm.mesh_harmonics),
              "- folds (jumps) near: " + _folds_text(s["folds"]),
              "", "### Grazing bifurcations", "",
              "| rpm | kind | flank |", "|---:|---|---|"]

@@ -35,7 +35,8 @@ def _extra(result):
     nvh = getattr(result, "nvh", None)
     mesh = getattr(result, "mesh_excitation", None)
     secondary = getattr(result, "secondary", None)
-    if result.rom is None and nvh is None and mesh is None and not secondary:
+    checks = getattr(result, "verdict_checks", None)
+    if result.rom is None and nvh is None and mesh is None and not secondary and checks is None:
         return None
 
     def extra(f) -> None:
@@ -46,6 +47,8 @@ def _extra(result):
         if mesh is not None:
             from study.outputs.mesh_excitation import write_group
             write_group(f, mesh)
+        if checks is not None:
+            checks.write_group(f)
         if secondary:
             from study.outputs.branches import write_branches_group
             write_branches_group(f, secondary, getattr(result, "secondary_nvh", None),

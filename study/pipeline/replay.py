@@ -47,6 +47,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
     res = RunResult(Path(out), Path(out) / "results.h5", br, problem, scene,
                     {"hbm": "from results.h5"}, pipe.keys, rom=rom)
     res.secondary, res.branches_seconds = _secondary(pipe, path, problem)
+    res.verdict_checks = _verdict_checks(path)
     if res.secondary:
         res.status["branches"] = StageStatus("from results.h5")
         res.stages["branches"] = res.status["branches"].text
@@ -64,6 +65,17 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
         record_checks(res)          # /checks of results.h5 as report.md's banner states them
     pipe.comm.root_call(draw)                       # rank 0 writes the files
     return res
+
+
+def _verdict_checks(path: Path):
+    """The run's verdict checks on a richer harmonic set (``/verdict_checks``), None
+    when it made none."""
+    import h5py
+
+    from study.outputs.verdict_checks import read_verdict_checks
+
+    with h5py.File(path, "r") as f:
+        return read_verdict_checks(f)
 
 
 def _secondary(pipe: Pipeline, path: Path, problem) -> tuple[list, float | None]:

@@ -95,6 +95,9 @@ class RunResult:
     mesh_excitation
         :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
         source (None: both ``fourier``).
+    verdict_checks
+        :class:`study.outputs.verdict_checks.VerdictChecks`: the verdicts in doubt checked
+        on a richer harmonic set (None: none checked).
     secondary
         :class:`hbm.branching.SecondaryBranch` per branch switched to at a period doubling
         (``[continuation] period_doubling_depth``; the stage ``branches``): each with its
@@ -126,5 +129,6 @@ class RunResult:
     speed_uses: list = field(default_factory=list)
     mesh_excitation: Any = None
     secondary: list = field(default_factory=list)
+    verdict_checks: Any = None
     secondary_nvh: dict = field(default_factory=dict)
     branches_seconds: float | None = None

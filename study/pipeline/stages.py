@@ -453,6 +453,58 @@ class Pipeline:
             self.cache.store("branches", key, produce, {"branches": len(found)}, elapsed=dt)
         return found, dt
 
+    # ------------------------------------------------------------------ verdicts
+    def run_verdict_checks(self, problem, rom, branch):
+        """The verdicts in doubt checked on a richer harmonic set
+        (:func:`hbm.stability.recheck.recheck_verdicts`): the stable points in and next
+        to the near-grazing tangles, and the points whose verdict is already flagged.
+        Where the richer set's orbit is the same orbit resolved better its verdict
+        replaces the point's (``stable``, ``floquet_kind``, ``floquet_max_real``); where
+        Newton finds no orbit near it the point is not stable (the orbit is an artefact
+        of the set). Returns :class:`study.outputs.verdict_checks.VerdictChecks`, None
+        when skipped (no stability, a train, an explicit harmonic list,
+        nothing to check); a few seconds per point, not cached (the branch is)."""
+        from hbm.stability.recheck import (
+            recheck_candidates,
+            recheck_verdicts,
+            richer_mesh_harmonics,
+        )
+        from study.outputs.report import branch_tangles
+        from study.pipeline.model import build_problem
+
+        s = self.scene
+        why = ("no stability" if not s.hbm.stability else
+               "a gear train" if s.is_train else
+               "explicit harmonic list" if s.hbm.harmonics is not None else
+               "not periodic" if not problem.periodic else "")
+        idx = np.zeros(0, dtype=np.int64)
+        if not why:
+            idx = recheck_candidates(branch.stable, branch.stability_consistent,
+                                     branch.stability_grazing, branch_tangles(branch))
+            why = "no verdict in doubt" if idx.size == 0 else ""
+        if why:
+            logger.info("verdict checks on a richer harmonic set: skipped (%s)", why)
+            return None
+        t = time.perf_counter()
+        n = richer_mesh_harmonics(s.hbm.mesh_harmonics)
+        rich = dataclasses.replace(s, hbm=dataclasses.replace(s.hbm, mesh_harmonics=n,
+                                                              aft_samples=0))
+        m = self.machine
+        linear = m.linear_model(rom) if isinstance(m, FEMachine) else m.linear_model()
+        richer = build_problem(rich, m, linear)
+        checks = recheck_verdicts(problem, richer, branch.rpm, branch.unknowns, idx,
+                                  tol=s.continuation.tolerance)
+        from study.outputs.verdict_checks import VerdictChecks
+
+        out = VerdictChecks(n, richer.n_unknowns, checks,
+                            np.asarray(branch.stable, dtype=bool)[idx].copy(),
+                            np.asarray(branch.floquet_max_real, dtype=float)[idx].copy(),
+                            time.perf_counter() - t)
+        out.apply(branch)
+        logger.info("verdict checks on %d mesh harmonics: %d points in %.1f s, %d changed",
+                    n, len(checks), out.seconds, out.n_changed)
+        return out
+
     # ------------------------------------------------------------------ all
     def run(self, *, until: str = "export") -> RunResult:
         """Run the stages up to ``until`` (``mesh``, ``rom``, ``hbm`` or ``export``)."""
@@ -518,6 +570,8 @@ class Pipeline:
                 f"that differs only in {', '.join(RESUMABLE_CONTROLS)} continues from its last "
                 "point, or, after a walk back or a closed loop it could not leave, from the "
                 "point before the speeds where it was caught)", result))
+        result.verdict_checks = self.comm.root_call(self.run_verdict_checks, problem, rom,
+                                                    branch)
         result.secondary, result.branches_seconds = self.comm.root_call(
             self.run_branches, problem, branch)
         t = time.perf_counter()

@@ -29,7 +29,8 @@ import numpy as np
 logger = logging.getLogger(__name__)
 
 __all__ = ["SET_KINDS", "Basis", "HarmonicSet", "RealLayout", "as_ratio", "combination_offsets",
-           "common_fundamental", "complex_mul", "default_n_time", "mul_rows", "real_blocks"]
+           "common_fundamental", "complex_mul", "default_n_time", "embed_coefficients",
+           "index_positions", "mul_rows", "real_blocks"]
 
 # How HarmonicSet.build fills the sidebands (docs/convergence.md, "Harmonic sets")
 SET_KINDS = ("combinations", "bands", "contiguous")
@@ -600,3 +601,36 @@ def real_blocks(z: np.ndarray, nr: int) -> np.ndarray:
     j4[:, im, :, re[1:]] = z[1:].imag
     j4[:, im, :, im] = z[1:].real
     return j4.reshape(m * nr, m * nr)
+
+
+def index_positions(source: HarmonicSet, target: HarmonicSet) -> np.ndarray:
+    """Position in ``target.indices`` of each index of ``source``: where each of its
+    frequencies lies in ``target``, whose fundamental must divide ``source``'s (the same
+    fundamental with more harmonics, or a submultiple such as a period-2 set).
+
+    Raises
+    ------
+    ValueError
+        If ``target``'s fundamental does not divide ``source``'s, or a frequency of
+        ``source`` is not in ``target``.
+    """
+    q = source.ratio / target.ratio
+    if q.denominator != 1:
+        raise ValueError(f"harmonic sets: the fundamental {target.ratio} does not divide "
+                         f"{source.ratio}")
+    where = {k: i for i, k in enumerate(target.indices)}
+    try:
+        return np.array([where[int(q) * k] for k in source.indices])
+    except KeyError as exc:
+        raise ValueError(f"harmonic sets: index {exc} of the source set is not in the "
+                         "target set") from exc
+
+
+def embed_coefficients(x: np.ndarray, source: HarmonicSet, target: HarmonicSet) -> np.ndarray:
+    """Real-layout coefficients ``(..., source.n_real)`` of signals on ``source`` as
+    coefficients on ``target`` ``(..., target.n_real)``: each moved to the index of its
+    frequency (:func:`index_positions`), the others 0. Units are those of ``x``."""
+    c = source.to_complex(np.asarray(x, dtype=float))
+    out = np.zeros(c.shape[:-1] + (target.n_harmonics,), dtype=complex)
+    out[..., index_positions(source, target)] = c
+    return target.to_real(out)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..basis import HarmonicSet
+from ..basis import HarmonicSet, embed_coefficients
 from ..problem import HBMProblem
 
 __all__ = ["doubled_problem", "doubled_set", "embed", "odd_mask"]
@@ -46,28 +46,12 @@ def doubled_problem(problem: HBMProblem, linear_solver: str = "auto") -> HBMProb
                       linear_solver=linear_solver, aft=problem.aft)
 
 
-def _positions(parent: HarmonicSet, child: HarmonicSet) -> np.ndarray:
-    """Position in ``child.indices`` of each index of ``parent`` (its frequency there)."""
-    q = parent.ratio / child.ratio
-    if q.denominator != 1:
-        raise ValueError(f"embed: the fundamental {child.ratio} does not divide {parent.ratio}")
-    where = {k: i for i, k in enumerate(child.indices)}
-    try:
-        return np.array([where[int(q) * k] for k in parent.indices])
-    except KeyError as exc:
-        raise ValueError(f"embed: index {exc} of the parent set is not in the child set") \
-            from exc
-
-
 def embed(parent: HBMProblem, child: HBMProblem, unknowns: np.ndarray) -> np.ndarray:
     """Unknowns of ``parent`` (real layout, signal-major: every condensation stores one
     ``n_real`` block per signal) as unknowns of ``child``, whose fundamental divides
     ``parent``'s: each coefficient moved to the index of its frequency, the others 0."""
     u = np.asarray(unknowns, dtype=float).reshape(-1, parent.harmonics.n_real)
-    c = parent.harmonics.to_complex(u)
-    out = np.zeros((u.shape[0], child.harmonics.n_harmonics), dtype=complex)
-    out[:, _positions(parent.harmonics, child.harmonics)] = c
-    v = child.harmonics.to_real(out).ravel()
+    v = embed_coefficients(u, parent.harmonics, child.harmonics).ravel()
     if v.size != child.n_unknowns:
         raise ValueError(f"embed: {v.size} unknowns for a child problem of "
                          f"{child.n_unknowns}")

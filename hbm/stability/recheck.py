@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..basis import embed_coefficients, index_positions
 from ..newton import ConvergenceError, newton
 from ..problem import HBMProblem, Point
 from ..units import RPM_TO_RAD_S
@@ -33,7 +34,7 @@ from .verdict import stability
 logger = logging.getLogger(__name__)
 
 __all__ = ["MAX_CHANGE", "NEIGHBOURS", "VerdictCheck", "recheck_candidates",
-           "recheck_verdicts", "richer_mesh_harmonics", "transfer_unknowns"]
+           "recheck_verdicts", "richer_mesh_harmonics"]
 
 #: Largest relative change of the orbit's coefficients for the richer solution to count
 #: as the same orbit resolved better (beyond it Newton went to another sheet).
@@ -97,44 +98,15 @@ class VerdictCheck:
     same_orbit: bool
 
 
-def transfer_unknowns(u: np.ndarray, source: HBMProblem, target: HBMProblem) -> np.ndarray:
-    """Unknowns of ``source`` laid out for ``target``: each signal's coefficient of a
-    harmonic both sets hold copied, the others zero (same condensation and elements).
-
-    Raises
-    ------
-    ValueError
-        If the two problems do not share the mean and their signal counts differ.
-    """
-    hs = [tuple(int(x) for x in np.ravel(k)) for k in source.harmonics.indices]
-    ht = [tuple(int(x) for x in np.ravel(k)) for k in target.harmonics.indices]
-    ns, nt = source.nr, target.nr
-    if u.size % ns or target.n_unknowns % nt or u.size // ns != target.n_unknowns // nt:
-        raise ValueError(f"transfer_unknowns: {u.size} unknowns of {ns} per signal cannot "
-                         f"map onto {target.n_unknowns} of {nt} per signal")
-    where = {k: j for j, k in enumerate(ht)}
-    a = np.asarray(u, dtype=float).reshape(-1, ns)
-    out = np.zeros((a.shape[0], nt))
-    for j, k in enumerate(hs):
-        m = where.get(k)
-        if m is None:
-            continue
-        if j == 0 or m == 0:
-            if j == m == 0:
-                out[:, 0] = a[:, 0]
-            continue
-        out[:, 2 * m - 1:2 * m + 1] = a[:, 2 * j - 1:2 * j + 1]
-    return out.ravel()
-
-
 def _change(u_source: np.ndarray, u_target: np.ndarray, source: HBMProblem,
             target: HBMProblem) -> float:
-    """Relative L2 change of the deflections' coefficients on the shared harmonics."""
-    back = transfer_unknowns(u_target, target, source)       # richer -> source layout
-    ds = source.delta_real(u_source)
-    db = source.delta_real(back)
-    scale = float(np.linalg.norm(ds[:, 1:]))
-    return float(np.linalg.norm(db - ds) / scale) if scale > 0 else float("nan")
+    """Relative L2 change of the deflections' coefficients on the harmonics of ``source``
+    (all of them in ``target``), against the non-constant part of ``u_source``'s."""
+    cs = source.harmonics.to_complex(source.delta_real(u_source))
+    ct = target.harmonics.to_complex(target.delta_real(u_target))
+    ct = ct[:, index_positions(source.harmonics, target.harmonics)]
+    scale = float(np.linalg.norm(cs[:, 1:]))
+    return float(np.linalg.norm(ct - cs) / scale) if scale > 0 else float("nan")
 
 
 def recheck_verdicts(problem: HBMProblem, richer: HBMProblem, rpm: np.ndarray,
@@ -163,7 +135,8 @@ def recheck_verdicts(problem: HBMProblem, richer: HBMProblem, rpm: np.ndarray,
         i = int(i)
         u = np.asarray(unknowns[i], dtype=float)
         omega = float(rpm[i]) * RPM_TO_RAD_S
-        x0 = transfer_unknowns(u, problem, richer)
+        x0 = embed_coefficients(u.reshape(-1, problem.nr), problem.harmonics,
+                                richer.harmonics).ravel()
         try:
             xh, it, res = newton(lambda x, j=True, w=omega: richer.scaled(x, w, j),
                                  x0 / richer.x_scale, tol, max_iter, line_search=True)

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["REL_WIDTH", "MIN_FOLDS", "Tangle", "find_tangles", "turning_points"]
+__all__ = ["REL_WIDTH", "MIN_FOLDS", "Tangle", "branch_tangles", "find_tangles",
+           "turning_points"]
 
 #: Largest speed spread of a tangle's folds, relative to their mean speed.
 REL_WIDTH = 1e-3
@@ -131,3 +132,15 @@ def find_tangles(rpm: np.ndarray, stable: np.ndarray, losses: np.ndarray | None 
         else:
             k += 1
     return out
+
+
+def branch_tangles(branch) -> list[Tangle]:
+    """The near-grazing tangles of a :class:`hbm.Branch` (:func:`find_tangles`), with the
+    contact-loss intervals per fundamental period summed over its elements (their ``ipp``
+    sequences; padding entries -1 count 0)."""
+    ipp = branch.stats.get("ipp")
+    losses = None
+    if ipp is not None and np.size(ipp):
+        a = np.asarray(ipp).reshape(len(branch), -1)
+        losses = np.where(a >= 0, a, 0).sum(axis=1).astype(float)
+    return find_tangles(branch.rpm, branch.stable, losses)

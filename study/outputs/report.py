@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from hbm.post.tangles import Tangle, find_tangles
+from hbm.post.tangles import Tangle, branch_tangles
 from hbm.stability import KINDS
 from study.outputs.acoustics import velocity_level_db
 from study.outputs.attractors import attractor_line
@@ -52,18 +52,6 @@ def summary(result) -> dict:
         "max_std_kind": "" if br.stable[i] else kind_label(kind_name(int(br.floquet_kind[i]))),
         "max_stable": _largest_stable(br),
     }
-
-
-def branch_tangles(br) -> list[Tangle]:
-    """The near-grazing tangles of a branch (:func:`hbm.post.tangles.find_tangles`), with
-    the contact-loss intervals per fundamental period summed over the elements (their
-    ``ipp`` sequences)."""
-    ipp = br.stats.get("ipp")
-    losses = None
-    if ipp is not None and np.size(ipp):
-        a = np.asarray(ipp).reshape(len(br), -1)
-        losses = np.where(a >= 0, a, 0).sum(axis=1).astype(float)
-    return find_tangles(br.rpm, br.stable, losses)
 
 
 #: Transient amplification over one period above which report.md names it.

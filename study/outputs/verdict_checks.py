@@ -3,7 +3,7 @@
 :mod:`hbm.stability.recheck`)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -26,8 +26,8 @@ class VerdictChecks:
         The richer set (mesh harmonics) and its unknowns.
     checks
         One :class:`hbm.stability.recheck.VerdictCheck` per rechecked point.
-    stable_before, max_real_before
-        The points' verdicts and largest real parts on the run's own set.
+    stable_before, max_real_before, kind_before
+        The points' verdicts, largest real parts (1/s) and kind codes on the run's own set.
     seconds
         What the checks cost (s).
     """
@@ -37,8 +37,22 @@ class VerdictChecks:
     checks: list[VerdictCheck]
     stable_before: np.ndarray
     max_real_before: np.ndarray
+    kind_before: np.ndarray
     seconds: float
-    kind_before: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    @classmethod
+    def apply_to(cls, branch, mesh_harmonics: int, n_unknowns: int,
+                 checks: list[VerdictCheck], seconds: float) -> VerdictChecks:
+        """Record the checked points' verdicts on the run's own set, then write the checked
+        ones into the branch (``stable``, ``floquet_kind``, ``floquet_max_real``; the
+        exponent is NaN where no orbit was found)."""
+        idx = np.array([c.index for c in checks], dtype=np.int64)
+        out = cls(mesh_harmonics, n_unknowns, checks,
+                  np.asarray(branch.stable, dtype=bool)[idx].copy(),
+                  np.asarray(branch.floquet_max_real, dtype=float)[idx].copy(),
+                  np.asarray(branch.floquet_kind)[idx].copy(), seconds)
+        out._write_into(branch)
+        return out
 
     @property
     def stable_after(self) -> np.ndarray:
@@ -51,11 +65,7 @@ class VerdictChecks:
         """Points whose stability changed."""
         return int(np.sum(self.stable_after != self.stable_before))
 
-    def apply(self, branch) -> None:
-        """Write the checked verdicts into the branch (``stable``, ``floquet_kind``,
-        ``floquet_max_real``; the exponent is NaN where no orbit was found)."""
-        idx = np.array([c.index for c in self.checks], dtype=np.int64)
-        self.kind_before = np.asarray(branch.floquet_kind)[idx].copy()
+    def _write_into(self, branch) -> None:
         for c, ok in zip(self.checks, self.stable_after, strict=True):
             branch.stable[c.index] = ok
             if c.same_orbit:
@@ -94,8 +104,8 @@ def read_verdict_checks(f) -> VerdictChecks | None:
                                            g["max_real"][:], g["change"][:],
                                            g["same_orbit"][:], strict=True)]
     return VerdictChecks(int(g.attrs["mesh_harmonics"]), int(g.attrs["n_unknowns"]), checks,
-                         g["stable_before"][:], g["max_real_before"][:],
-                         float(g.attrs["seconds"]), g["kind_before"][:])
+                         g["stable_before"][:], g["max_real_before"][:], g["kind_before"][:],
+                         float(g.attrs["seconds"]))
 
 
 def _rpms(r: list[float]) -> str:

@@ -464,12 +464,12 @@ class Pipeline:
         of the set). Returns :class:`study.outputs.verdict_checks.VerdictChecks`, None
         when skipped (no stability, a train, an explicit harmonic list,
         nothing to check); a few seconds per point, not cached (the branch is)."""
+        from hbm.post.tangles import branch_tangles
         from hbm.stability.recheck import (
             recheck_candidates,
             recheck_verdicts,
             richer_mesh_harmonics,
         )
-        from study.outputs.report import branch_tangles
         from study.pipeline.model import build_problem
 
         s = self.scene
@@ -496,11 +496,8 @@ class Pipeline:
                                   tol=s.continuation.tolerance)
         from study.outputs.verdict_checks import VerdictChecks
 
-        out = VerdictChecks(n, richer.n_unknowns, checks,
-                            np.asarray(branch.stable, dtype=bool)[idx].copy(),
-                            np.asarray(branch.floquet_max_real, dtype=float)[idx].copy(),
-                            time.perf_counter() - t)
-        out.apply(branch)
+        out = VerdictChecks.apply_to(branch, n, richer.n_unknowns, checks,
+                                     time.perf_counter() - t)
         logger.info("verdict checks on %d mesh harmonics: %d points in %.1f s, %d changed",
                     n, len(checks), out.seconds, out.n_changed)
         return out

@@ -89,3 +89,19 @@ def scene_overrides(items: list[str]) -> dict[str, Any]:
         raise SceneError(f"--set {items}: one value per key here ({len(variants)} "
                          "combinations given)")
     return variants[0]
+
+
+def finished_run(scene_path: Path, sets: list[str], run: Path, cache: Path):
+    """A finished run read back: the scene with the run's ``--set`` items, its HBM problem
+    from the run's stage cache (the ROM is not rebuilt), and the main branch of
+    ``run/results.h5``, as a :class:`study.pipeline.runs.RunResult` (``rom`` None)."""
+    import study
+    from study.outputs.results import read_branch
+    from study.pipeline import Pipeline
+    from study.pipeline.runs import RunResult
+
+    scene = study.load_scene(scene_path, scene_overrides(sets))
+    problem, _ = Pipeline(scene, Path(run).parent / "benchmark-scratch", cache_dir=cache,
+                          progress=False).problem()
+    path = Path(run) / "results.h5"
+    return RunResult(Path(run), path, read_branch(path, problem), problem, scene, {}, {})

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import scene_overrides, write_json
+from benchmarks.common import finished_run, write_json
 
 log = logging.getLogger("unstable_ti")
 
@@ -56,12 +56,8 @@ def stable_orbits_at(rpm: np.ndarray, std: np.ndarray, stable: np.ndarray,
 
 
 def main(argv: list[str] | None = None) -> dict:
-    import study
     from hbm.post.time_response import integrate
     from study.outputs.points import point_at
-    from study.outputs.results import read_branch
-    from study.pipeline import Pipeline
-    from study.pipeline.runs import RunResult
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", type=Path, required=True)
@@ -79,12 +75,8 @@ def main(argv: list[str] | None = None) -> dict:
     if args.turns < 2 or not 1 <= args.settled < args.turns or args.max_runs < 1:
         raise ValueError("--turns >= 2, 1 <= --settled < --turns, --max-runs >= 1")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    scene = study.load_scene(args.scene, scene_overrides(args.sets))
-    problem, _ = Pipeline(scene, args.run.parent / "unstable-ti", cache_dir=args.cache,
-                          progress=False).problem()
-    path = args.run / "results.h5"
-    br = read_branch(path, problem)
-    res = RunResult(args.run, path, br, problem, scene, {}, {})
+    res = finished_run(args.scene, args.sets, args.run, args.cache)
+    br, problem, path = res.branch, res.problem, res.results
     std = br.element(0).mesh_load_std
     stable = np.asarray(br.stable, dtype=bool)
     # the period-k branches of the run (/branches): their stable orbits count too

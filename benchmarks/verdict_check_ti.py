@@ -25,18 +25,14 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from benchmarks.common import scene_overrides, write_json
+from benchmarks.common import finished_run, write_json
 
 log = logging.getLogger("verdict_check_ti")
 
 
 def main(argv: list[str] | None = None) -> dict:
-    import study
     from hbm.post.time_response import integrate
     from study.outputs.points import point_at
-    from study.outputs.results import read_branch
-    from study.pipeline import Pipeline
-    from study.pipeline.runs import RunResult
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", type=Path, required=True)
@@ -54,20 +50,16 @@ def main(argv: list[str] | None = None) -> dict:
     if args.turns < 1 or not 0 < args.stay < 1 or args.max_points < 1:
         raise ValueError("--turns >= 1, 0 < --stay < 1 and --max-points >= 1")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    scene = study.load_scene(args.scene, scene_overrides(args.sets))
-    problem, _ = Pipeline(scene, args.run.parent / "verdict-check", cache_dir=args.cache,
-                          progress=False).problem()
-    path = args.run / "results.h5"
     # the run's own orbits: /continuation holds the checked verdicts, /verdict_checks both
-    br = read_branch(path, problem)
-    with h5py.File(path, "r") as f:
+    res = finished_run(args.scene, args.sets, args.run, args.cache)
+    br, problem = res.branch, res.problem
+    with h5py.File(res.results, "r") as f:
         g = f["verdict_checks"]
         rows = {k: g[k][:] for k in ("index", "rpm", "stable_before", "stable", "same_orbit",
                                       "max_real_before", "max_real", "change")}
         richer = int(g.attrs["mesh_harmonics"])
     changed = rows["stable_before"] != rows["stable"]
     order = np.concatenate([np.flatnonzero(changed), np.flatnonzero(~changed)])[:args.max_points]
-    res = RunResult(args.run, path, br, problem, scene, {}, {})
     std = br.element(0).mesh_load_std
     records = []
     for j in order:

@@ -3,16 +3,10 @@ at a speed (exact on a constructed branch), and the whole script on a short run 
 SDOF pair: from the middle of a jump the integration leaves the unstable orbit."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from benchmarks import unstable_ti
-from study.pipeline import Pipeline
-from study.scene.load import load_scene
-
-SCENE = Path(__file__).resolve().parents[2] / "scenes" / "gear-pair-sdof.toml"
 
 
 def test_runs_and_stable_orbits_of_a_constructed_branch():
@@ -28,15 +22,11 @@ def test_runs_and_stable_orbits_of_a_constructed_branch():
     assert unstable_ti.stable_orbits_at(rpm, std, stable, 8.75) == pytest.approx([3.75, 9.75])
 
 
-def test_the_script_on_a_short_run(tmp_path):
-    over = {"hbm.mesh_harmonics": 3, "continuation.speed_rpm": [1700.0, 2200.0],
-            "outputs.plots": []}
-    out, cache = tmp_path / "out", tmp_path / "cache"
-    Pipeline(load_scene(SCENE, over), out, cache_dir=cache, progress=False).run()
-    got = unstable_ti.main(["--scene", str(SCENE), "--set", "hbm.mesh_harmonics=3",
-                            "--run", str(out), "--cache", str(cache), "--turns", "4",
-                            "--settled", "1", "--max-runs", "1",
-                            "--out", str(tmp_path / "u.json")])
+def test_the_script_on_a_short_run(sdof3_run, tmp_path):
+    scene, sets, out, cache = sdof3_run
+    got = unstable_ti.main(["--scene", str(scene), "--set", *sets, "--run", str(out),
+                            "--cache", str(cache), "--turns", "4", "--settled", "1",
+                            "--max-runs", "1", "--out", str(tmp_path / "u.json")])
     recs = got["records"]
     assert 1 <= len(recs) <= 3
     for r in recs:

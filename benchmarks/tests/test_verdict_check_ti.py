@@ -5,23 +5,14 @@ checked point is integrated, and a stable verdict on an orbit the richer set con
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from benchmarks import verdict_check_ti
-from study.pipeline import Pipeline
-from study.scene.load import load_scene
-
-SCENE = Path(__file__).resolve().parents[2] / "scenes" / "gear-pair-sdof.toml"
 
 
-def test_checked_verdicts_against_the_integration(tmp_path):
-    over = {"hbm.mesh_harmonics": 3, "continuation.speed_rpm": [1700.0, 2200.0],
-            "outputs.plots": []}
-    out, cache = tmp_path / "out", tmp_path / "cache"
-    Pipeline(load_scene(SCENE, over), out, cache_dir=cache, progress=False).run()
-    got = verdict_check_ti.main(["--scene", str(SCENE), "--set", "hbm.mesh_harmonics=3",
-                                 "--run", str(out), "--cache",
-                                 str(cache), "--turns", "2", "--max-points", "3",
+def test_checked_verdicts_against_the_integration(sdof3_run, tmp_path):
+    scene, sets, out, cache = sdof3_run
+    got = verdict_check_ti.main(["--scene", str(scene), "--set", *sets, "--run", str(out),
+                                 "--cache", str(cache), "--turns", "2", "--max-points", "3",
                                  "--out", str(tmp_path / "v.json")])
     recs = got["records"]
     assert len(recs) == 3

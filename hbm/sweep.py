@@ -6,6 +6,7 @@ functions, the stability of every point in-line or in a worker process)."""
 from __future__ import annotations
 
 import logging
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -15,7 +16,7 @@ from .continuation import Branch, EventFunction, Measurement, continue_branch
 from .continuation.tracer import RETRY_STEPS
 from .post.stats import element_statistics
 from .problem import HBMProblem
-from .stability.process import StabilityProcess, wanted
+from .stability.process import StabilityProcess, wanted, warm_stride
 from .stability.verdict import Verdict
 from .stability.verdict import stability as point_stability
 
@@ -32,11 +33,13 @@ class PointMonitor:
     the complex coefficients of its deflection, into the branch's per-element table
     (each ``(n_elements, ...)``; a statistic an element kind does not have is NaN, or -1
     for an integer; per-period sequences padded with -1); the stability
-    (:func:`hbm.stability.stability`), warm-started from the previous point, with the
-    fold parity from the tangent when the Newton matrices are matrix-free (T.9a,
-    docs/theory.md). With a worker process (:mod:`hbm.stability.process`, started by
-    :meth:`start`) the stability is measured there in the same order with the same warm
-    starts, bitwise the same values, and collected by :meth:`collect`.
+    (:func:`hbm.stability.stability`), warm-started from the point measured
+    :func:`~hbm.stability.process.warm_stride` points before (the previous one, or two
+    before for a matrix-free problem), with the fold parity from the tangent when the
+    Newton matrices are matrix-free (T.9a, docs/theory.md). With worker processes
+    (:mod:`hbm.stability.process`, as many as the stride, started by :meth:`start`) the
+    stability is measured there with the same warm starts, bitwise the same values, and
+    collected by :meth:`collect`.
 
     The event test functions are every element's :attr:`~hbm.elements.Element.tests`,
     scaled by the element's length scale.
@@ -56,7 +59,8 @@ class PointMonitor:
         self.stability = stability
         self._process = wanted(problem, stability, process)
         self.worker: StabilityProcess | None = None
-        self.basis = None
+        self.stride = warm_stride(problem)
+        self.bases: deque = deque(maxlen=self.stride)   # of the last points measured
         # matrix-free: det T(0) (T.9) from the tangent, sign det J = sign det J_0 when the
         # speed component keeps the sign it had at the first point (T.9a, docs/theory.md)
         self.parity_ref: list = []
@@ -86,7 +90,7 @@ class PointMonitor:
 
     def start(self) -> None:
         if self._process and self.worker is None:
-            self.worker = StabilityProcess(self.problem)
+            self.worker = StabilityProcess(self.problem, workers=self.stride)
 
     def stop(self) -> None:
         if self.worker is not None:
@@ -108,9 +112,10 @@ class PointMonitor:
                                self.parity(pt, tangent))
             return Measurement(False, float("nan"), 0, True, stats, ticket)
         if self.stability:
-            stab = point_stability(problem, pt, start=self.basis,
+            start = self.bases[0] if len(self.bases) == self.stride else None
+            stab = point_stability(problem, pt, start=start,
                                    parity=self.parity(pt, tangent))
-            self.basis = stab.basis
+            self.bases.append(stab.basis)
             v = Verdict.of(stab)
             return Measurement(v.stable, v.max_real, v.code, v.consistent, stats,
                                amplification=v.amplification, grazing=v.grazing)
@@ -129,14 +134,18 @@ class PointMonitor:
         el = pb.elements[ev.element]
         return el.measure(delta, samples[ev.element], pb.steps[ev.element] or 1)[ev.statistic]
 
-    def collect(self, wait: bool) -> list[tuple[Any, dict[str, Any]]]:
+    @property
+    def pending(self) -> int:
+        return 0 if self.worker is None else self.worker.pending
+
+    def collect(self, wait: bool, keep: int = 0) -> list[tuple[Any, dict[str, Any]]]:
         if self.worker is None:
             return []
         return [(ticket, {"stable": v.stable, "floquet_max_real": v.max_real,
                           "floquet_kind": v.code, "stability_consistent": v.consistent,
                           "floquet_amplification": v.amplification,
                           "stability_grazing": v.grazing})
-                for ticket, v in self.worker.collect(wait)]
+                for ticket, v in self.worker.collect(wait, keep)]
 
     # ------------------------------------------------------------------ helpers
     def parity(self, pt, tangent: np.ndarray) -> bool | None:

@@ -200,3 +200,41 @@ def test_exponents_of_zero_multipliers_are_minus_infinity_without_warnings():
     assert lam[1] == pytest.approx(np.log(0.3 + 0.4j) / period, rel=1e-14)
     assert lam[2] == pytest.approx(np.log(0.4) / period, rel=1e-14)
     assert lam[3].real == -np.inf and lam[3].imag == 0.0
+
+
+def _twenty_modes():
+    m, c, k, g = random_modal_system(n=20, seed=3, zeta=0.03, kbar=2e3, n_gear=8)
+    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 600}, backlash=1e-3)],
+                        hbm.Excitation(20, constant={0: 2.0 * g, 1: 1.0 * g}),
+                        hbm.HarmonicSet.build(1, 10))
+    return pb, pb.solve(0.15 * np.sqrt(pb.w2).min() / RPM)
+
+
+def test_a_wider_start_basis_keeps_its_block_size():
+    """A neighbour's basis wider than ``columns`` (its multipliers needed it) starts the
+    subspace iteration at that width: same exponents, no narrow attempt first."""
+    pb, pt = _twenty_modes()
+    wide = monodromy_exponents(pb, pt, columns=8, rtol=1.0, max_refine=0)
+    assert 4 < wide.columns < 40 and wide.basis.shape == (40, wide.columns)
+    again = monodromy_exponents(pb, pt, columns=4, rtol=1.0, max_refine=0, start=wide.basis)
+    assert again.columns == wide.columns
+    assert again.max_real == pytest.approx(wide.max_real, rel=1e-9)
+
+
+def test_the_amplification_bound_from_the_last_sweep(monkeypatch):
+    """Beyond FULL_AMPLIFICATION_STATES the amplification is the map's on the dominant
+    subspace; taken from the subspace iteration's last block and its image it equals the
+    one from a further application of the map to the converged basis."""
+    from hbm.stability import monodromy as mono
+
+    monkeypatch.setattr(mono, "FULL_AMPLIFICATION_STATES", 10)
+    pb, pt = _twenty_modes()
+    res = monodromy_exponents(pb, pt, columns=4, rtol=1.0, max_refine=0)
+    assert res.basis is not None and not res.amplification_exact
+    period = 2 * np.pi / pb.harmonics.fundamental_rad_s(pt.omega)
+    step = mono.period_map(pb, mono.orbit_deltas(pb, pt.unknowns, res.n_steps), period)
+    again, exact = mono.period_amplification(pb, step, basis=res.basis)
+    assert not exact and res.amplification == pytest.approx(again, rel=1e-6)
+    whole, exact = mono.period_amplification(pb, step, phi=step(np.eye(40)))
+    assert exact and res.amplification <= whole * (1 + 1e-12)        # a lower bound

@@ -5,6 +5,7 @@ loops (issue 39 item 5: the per-point bookkeeping must not grow with the branch)
 
 import numpy as np
 import pytest
+from hbm_models import sdof_problem
 
 import hbm
 from hbm.continuation import revisits
@@ -177,3 +178,36 @@ def test_running_branches_are_the_lists_stacked_and_never_change():
             assert view or out.flags.writeable      # a final branch owns its arrays
             handed.append((out, out.copy()))
         assert all(np.array_equal(a, b) for a, b in handed)
+
+
+def test_a_prefix_branch_is_the_truncated_one():
+    """Recorder.branch(upto=n) (a point handed out once its verdict came, later than it was
+    reached): the first n points with the folds, grazing points and loops found on them,
+    as the same recorder truncated to n points gives; points waiting for a verdict are
+    refused."""
+    pb = sdof_problem(harmonics=10, fa=0.05)
+    r0, r1 = 0.3 / RPM_TO_RAD_S, 1.6 / RPM_TO_RAD_S
+    br = hbm.trace(pb, r0, r1, stability=False)
+    assert len(br.folds) == 2 and len(br.grazing) == 2 and len(br) > 40
+    meta = PointMonitor(pb, False).branch_meta()
+    rec = Recorder(meta, pb.x_scale, r0, r1, br.omega_scale, br)
+    n_all = len(br)
+    for n in (1, 17, 28, 29, 45, n_all - 1, n_all):
+        part = rec.branch("running", "", 0.01, upto=n)
+        cut = Recorder(meta, pb.x_scale, r0, r1, br.omega_scale, br)
+        cut.truncate(n)
+        ref = cut.branch("running", "", 0.01)
+        assert len(part) == n
+        for k in POINT_FIELDS:
+            assert np.array_equal(getattr(part, k), getattr(ref, k), equal_nan=True), (n, k)
+        assert (part.folds, part.fold_index, part.loops) == (ref.folds, ref.fold_index,
+                                                              ref.loops)
+        assert [g.rpm for g in part.grazing] == [g.rpm for g in ref.grazing]
+    rec.add(ticket="later", stats={k: v[-1] for k, v in br.stats.items()},
+            **{k: getattr(br, k)[-1] for k in POINT_FIELDS})
+    assert rec.settled_prefix() == n_all
+    with pytest.raises(ValueError, match="hold their verdicts"):
+        rec.branch("running", "", 0.01, upto=n_all + 1)
+    rec.fill("later", stable=True)
+    assert rec.settled_prefix() == n_all + 1
+    assert len(rec.branch("running", "", 0.01, upto=n_all + 1)) == n_all + 1

@@ -76,3 +76,52 @@ def test_a_failure_in_the_worker_is_raised(monkeypatch):
         assert worker.pending == 0
     finally:
         worker.close()
+
+
+def test_a_matrix_free_problem_has_two_workers_and_the_stride_two():
+    # the bitwise test above then covers two workers against in-line with stride 2
+    assert stability_process.warm_stride(_pair()) == 2
+    pb = _pair()
+    worker = stability_process.StabilityProcess(pb, workers=2)
+    try:
+        assert len(worker._procs) == 2
+    finally:
+        worker.close()
+
+
+def test_collect_waits_down_to_keep_in_submission_order():
+    inline = hbm.trace(_pair(), 0.3 / Z / RPM, 0.06 / RPM, max_points=12, stability=True,
+                       stability_process=False)
+    pb = _pair()
+    worker = stability_process.StabilityProcess(pb, workers=2)
+    try:
+        for i in range(6):
+            worker.submit(("t", i), inline.unknowns[i], inline.omega[i], 1, 0.0, None)
+        got = worker.collect(wait=True, keep=2)        # and any other already there
+        assert [t for t, _ in got] == [("t", i) for i in range(len(got))]
+        assert len(got) >= 4 and worker.pending == 6 - len(got)
+        got += worker.collect(wait=True)
+        assert [t for t, _ in got] == [("t", i) for i in range(6)] and worker.pending == 0
+    finally:
+        worker.close()
+
+
+def test_slow_workers_hand_out_every_point_in_order_with_its_verdicts(monkeypatch):
+    """Verdicts that come many points late (a costly monodromy): each point's branch is
+    handed out once, in order, as in-line, while the corrector went on."""
+    import time
+
+    seen_inline: list = []
+    inline = _trace(False, seen_inline)
+    measure = stability_process.point_stability
+
+    def slow(*args, **kwargs):
+        time.sleep(0.05)
+        return measure(*args, **kwargs)
+    monkeypatch.setattr(stability_process, "point_stability", slow)   # forked: inherited
+    seen: list = []
+    proc = _trace(True, seen)
+    assert np.array_equal(inline.floquet_max_real, proc.floquet_max_real)
+    assert [s[0] for s in seen] == [s[0] for s in seen_inline]
+    for a, b in zip(seen_inline, seen, strict=True):
+        assert np.array_equal(a[1], b[1]) and np.array_equal(a[2], b[2]) and a[3] == b[3]

@@ -251,6 +251,11 @@ class Recorder:
         # process (None: measured), and the hook that collects them
         self.tickets: list = []
         self.settle = None
+        self._settled = 0       # points before it all hold their verdicts
+        # a number per recorded point, never reused (a point rolled back and another
+        # recorded at its index differ): identifies points handed out later
+        self.serials: list[int] = []
+        self._next_serial = 0
         # scaled states y = (u / x_scale, Omega / omega_scale) of the points, rows of a
         # buffer grown by doubling (the events read the whole branch at every point)
         self._x_scale = x_scale
@@ -289,6 +294,8 @@ class Recorder:
             self.fold_index = [-(10 ** 9)] * len(self.folds)
         self.n_grazing = [len(self.grazing)] * len(self.lists["rpm"])
         self.tickets = [None] * len(self.lists["rpm"])
+        self.serials = list(range(len(self.tickets)))
+        self._next_serial = len(self.tickets)
         for i in range(len(self.tickets)):
             self._put_state(i)
 
@@ -310,6 +317,8 @@ class Recorder:
             self.lists[k].append(stats[k])
         self.n_grazing.append(len(self.grazing))
         self.tickets.append(ticket)
+        self.serials.append(self._next_serial)
+        self._next_serial += 1
         self._put_state(len(self) - 1)
 
     def set(self, key: str, i: int, value) -> None:
@@ -344,7 +353,7 @@ class Recorder:
     def fill(self, ticket, **values) -> None:
         """Set the values of the point waiting for ``ticket`` (gone after a roll-back:
         nothing to do)."""
-        for i in range(len(self.tickets) - 1, -1, -1):
+        for i in range(len(self.tickets) - 1, self._settled - 1, -1):
             if self.tickets[i] == ticket:
                 for k, v in values.items():
                     self.set(k, i, v)
@@ -357,6 +366,8 @@ class Recorder:
             del self.lists[k][n:]
             self._rows[k].invalidate(n)
         del self.tickets[n:]
+        del self.serials[n:]
+        self._settled = min(self._settled, n)
         self.segments.truncate(n)
         keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
         self.folds = [self.folds[i] for i in keep]
@@ -365,26 +376,48 @@ class Recorder:
         del self.n_grazing[n:]
         self.loops = [lp for lp in self.loops if lp[0] < n]
 
+    def settled_prefix(self) -> int:
+        """How many points from the first hold their stability verdicts (amortised
+        ``O(1)``: the count only moves forward, but for a roll-back)."""
+        while self._settled < len(self) and self.tickets[self._settled] is None:
+            self._settled += 1
+        return self._settled
+
+    def holds(self, i: int, serial: int) -> bool:
+        """Whether point ``i`` is still the point recorded with ``serial``."""
+        return i < len(self) and self.serials[i] == serial
+
     def branch(self, status: str, message: str, next_step: float,
-               counters: dict | None = None) -> Branch:
-        """The branch so far (every stability verdict collected first); ``counters``
-        replaces the retry counters (a branch handed out later than it was reached).
+               counters: dict | None = None, upto: int | None = None) -> Branch:
+        """The branch so far (every stability verdict collected first), or its first
+        ``upto`` points (which must hold their verdicts, :meth:`settled_prefix`: none is
+        waited for), with the folds, grazing points and loops found on them;
+        ``counters`` replaces the retry counters (a branch handed out later than it was
+        reached).
 
         A ``"running"`` branch (the one handed to ``on_point`` after every point) holds
         read-only views of arrays the recorder grows, ``O(1)`` per point amortised;
         any other status gets arrays of its own."""
-        if self.settle is not None:
-            self.settle()
+        if upto is None:
+            if self.settle is not None:
+                self.settle()
+        elif not 0 < upto <= self.settled_prefix():
+            raise ValueError(f"upto = {upto}: points 1..{self.settled_prefix()} hold "
+                             "their verdicts")
         counters = self.counters if counters is None else counters
         view = status == "running"
-        arrays = {k: self._rows[k].stacked(self.lists[k], k in self.stat_names, view)
+        n = len(self) if upto is None else upto
+        arrays = {k: self._rows[k].stacked(self.lists[k], k in self.stat_names, view, n)
                   for k in (*POINT_FIELDS, *self.stat_names)}
         stats = {k: arrays.pop(k) for k in self.stat_names}
+        folds = [(f, i) for f, i in zip(self.folds, self.fold_index, strict=True)
+                 if upto is None or i + 1 < n]
         return Branch(**self.meta, **arrays, stats=stats, element_names=self.element_names,
                       element_statistics=self.element_statistics,
-                      loops=[tuple(lp) for lp in self.loops],
-                      grazing=list(self.grazing), folds=list(self.folds),
-                      fold_index=list(self.fold_index),
+                      loops=[tuple(lp) for lp in self.loops if upto is None or lp[0] < n],
+                      grazing=list(self.grazing if upto is None
+                                   else self.grazing[:self.n_grazing[n - 1]]),
+                      folds=[f for f, _ in folds], fold_index=[i for _, i in folds],
                       step_cuts=counters["step_cuts"],
                       secant_retries=counters["secant_retries"],
                       corner_steps=counters["corner_steps"],
@@ -413,10 +446,13 @@ class _Rows:
         """Row ``i`` and the rows after it no longer hold the list's items."""
         self.valid = min(self.valid, i)
 
-    def stacked(self, values: list, padded: bool, view: bool) -> np.ndarray:
-        """The list as one array: a read-only view of the buffer (``view``) or a copy.
-        ``padded``: per-element statistics (:func:`_stacked`)."""
+    def stacked(self, values: list, padded: bool, view: bool, upto: int | None = None
+                ) -> np.ndarray:
+        """The list (its first ``upto`` items) as one array: a read-only view of the
+        buffer (``view``: only those rows count as handed out) or a copy. ``padded``:
+        per-element statistics (:func:`_stacked`)."""
         n, m = len(values), self.valid
+        k = n if upto is None else upto
         if n == 0:
             return np.zeros((0,))
         if n > m:
@@ -426,7 +462,7 @@ class _Rows:
                 (buf.dtype, buf.shape[1:])
             if any(a.dtype != dtype or a.shape != shape for a in new):
                 self.buf, self.valid, self.shared = None, 0, 0
-                return _stacked(values) if padded else np.array(values)
+                return (_stacked(values) if padded else np.array(values))[:k]
             if buf is None or n > buf.shape[0] or m < self.shared:
                 # new, full, or rows handed out would change: the rows kept move
                 grown = np.empty((max(16, 2 * n), *shape), dtype)
@@ -437,9 +473,9 @@ class _Rows:
             buf[m:n] = new
             self.valid = n
         if not view:
-            return self.buf[:n].copy()
-        self.shared = max(self.shared, n)
-        out = self.buf[:n]
+            return self.buf[:k].copy()
+        self.shared = max(self.shared, k)
+        out = self.buf[:k]
         out.flags.writeable = False
         return out
 

@@ -78,9 +78,10 @@ class TraceContext:
             rec.settle = lambda: self.settle(rec, wait=True)
             self.settle(rec, wait=False)
 
-    def settle(self, rec: Recorder, wait: bool = True) -> None:
-        """Fill in the stabilities the monitor measured so far (all pending if ``wait``)."""
-        for ticket, values in self.monitor.collect(wait):
+    def settle(self, rec: Recorder, wait: bool = True, keep: int = 0) -> None:
+        """Fill in the stabilities the monitor measured so far; if ``wait``, waiting
+        until at most ``keep`` are pending."""
+        for ticket, values in self.monitor.collect(wait, keep):
             rec.fill(ticket, **values)
 
 

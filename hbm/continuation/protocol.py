@@ -98,10 +98,13 @@ class Monitor(Protocol):
         The event test functions, each a statistic of one element.
     asynchronous
         True when stabilities arrive later (:meth:`collect`), measured in another process.
+    pending
+        Stabilities sent away and not collected yet (0 for a synchronous monitor).
     """
 
     events: tuple[EventFunction, ...]
     asynchronous: bool
+    pending: int
 
     def branch_meta(self) -> dict[str, Any]:
         """What the branch records about the problem: ``harmonics`` (indices),
@@ -117,9 +120,9 @@ class Monitor(Protocol):
     def test_value(self, index: int, unknowns: np.ndarray) -> float:
         """Value of event function ``index`` at the unknowns (a point being located)."""
 
-    def collect(self, wait: bool) -> list[tuple[Any, dict[str, Any]]]:
-        """Stabilities measured since the last call, ``(ticket, fields)``, in order; all
-        pending ones if ``wait``."""
+    def collect(self, wait: bool, keep: int = 0) -> list[tuple[Any, dict[str, Any]]]:
+        """Stabilities measured since the last call, ``(ticket, fields)``, in order; if
+        ``wait``, waiting until at most ``keep`` are pending."""
 
     def auxiliary(self) -> Monitor:
         """A monitor for an auxiliary trace (the approach to the first point): the same

@@ -36,6 +36,7 @@ back over the branch in :mod:`hbm.continuation.revisits`.
 from __future__ import annotations
 
 import logging
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import SimpleNamespace
@@ -60,6 +61,10 @@ logger = logging.getLogger("hbm.continuation")
 __all__ = ["MAX_REVERSALS", "RETRY_STEPS", "continue_branch"]
 
 MAX_REVERSALS = 8       # roll-backs without progress before the trace gives up
+# accepted points whose on_point call may wait for their stability verdicts (an
+# asynchronous monitor) before the tracer waits for them: room for the workers to
+# measure a few costly points while the corrector goes on
+MAX_LAG = 8
 # progress: the branch has grown by more than this many points past its length at the
 # furthest reversal so far (a pump curve at converged settings turns at dozens of folds)
 REVERSAL_PROGRESS = 5
@@ -251,7 +256,9 @@ def continue_branch(model: ContinuationModel, monitor: Monitor, rpm_start: float
         Total number of points (including resumed ones).
     on_point
         Called with the branch so far after every accepted point (checkpoint); with an
-        asynchronous monitor, for each point once the next one is corrected.
+        asynchronous monitor, for each point (with the branch up to it) once its
+        stability verdict has come, at most :data:`MAX_LAG` points later; a point
+        rolled back before that is not handed out.
     resume
         A previous Branch of the same problem and bounds: continue from its
         last point, tangent and step, giving the same curve as one run.
@@ -339,25 +346,21 @@ def _run(ctx: TraceContext, rec: Recorder, bounds: SpeedRange, resume: Branch | 
             on_point(rec.branch("running", "", ds))
 
     status, message = "running", ""
-    # with a stability process the branch of a point is handed to on_point once the next
-    # point is corrected (its verdict computed meanwhile): (step, counters) until then
-    deferred = None
-    asynchronous = ctx.monitor.asynchronous
-
-    def flush():
-        nonlocal deferred
-        if deferred is not None:
-            on_point(rec.branch("running", "", deferred[0], deferred[1]))
-            deferred = None
+    # with stability workers a point's branch is handed to on_point once its verdict has
+    # come (:class:`_Deferred`), while the corrector goes on
+    deferred = _Deferred(ctx, rec, on_point) if ctx.monitor.asynchronous and on_point \
+        else None
 
     while status == "running":
         if len(rec) >= max_points:
-            flush()
+            if deferred is not None:
+                deferred.flush(wait=True)
             status, message = "max_points", f"stopped after max_points = {max_points} points"
             break
         # PREDICT and CORRECT
         advanced = _advance(ctx, rec, ds)
-        flush()
+        if deferred is not None:
+            deferred.flush()
         ds = advanced.ds
         if advanced.point is None:
             status, message = "step_failed", advanced.message
@@ -365,10 +368,12 @@ def _run(ctx: TraceContext, rec: Recorder, bounds: SpeedRange, resume: Branch | 
         # ACCEPT
         status, message, ds = _accept(ctx, rec, advanced, bounds, ds)
         if status == "running" and on_point:
-            if asynchronous:
-                deferred = (ds, dict(rec.counters))
+            if deferred is not None:
+                deferred.add(ds)
             else:
                 on_point(rec.branch("running", "", ds))
+    if deferred is not None:
+        deferred.flush(wait=True)
     if status != "completed":
         logger.warning("continuation stopped: %s", message)
     else:
@@ -377,6 +382,43 @@ def _run(ctx: TraceContext, rec: Recorder, bounds: SpeedRange, resume: Branch | 
     if on_point:
         on_point(branch)
     return branch
+
+
+class _Deferred:
+    """The ``on_point`` calls of an asynchronous monitor: each accepted point's branch
+    (its first points, with the step and counters it had) is handed out, in order, once
+    the verdicts of the point and of every point before it have come; a point rolled
+    back before that is not handed out. More than :data:`MAX_LAG` points waiting make
+    the tracer wait for the verdicts, one at a time (the workers stay busy)."""
+
+    def __init__(self, ctx: TraceContext, rec: Recorder, on_point: Callable) -> None:
+        self.ctx, self.rec, self.on_point = ctx, rec, on_point
+        self.queue: deque = deque()         # (index, serial, step, counters)
+
+    def add(self, ds: float) -> None:
+        """The point just accepted (the last of the recorder), with the step after it."""
+        i = len(self.rec) - 1
+        self.queue.append((i, self.rec.serials[i], ds, dict(self.rec.counters)))
+        self.flush()
+
+    def flush(self, wait: bool = False) -> None:
+        """Hand out every point whose verdicts have come (waiting for all if ``wait``)."""
+        ctx, rec, queue = self.ctx, self.rec, self.queue
+        ctx.settle(rec, wait=False)
+        while queue:
+            i, serial, ds, counters = queue[0]
+            if not rec.holds(i, serial):              # rolled back meanwhile
+                queue.popleft()
+                continue
+            if rec.settled_prefix() > i:
+                queue.popleft()
+                self.on_point(rec.branch("running", "", ds, counters, upto=i + 1))
+                continue
+            if not (wait or len(queue) > MAX_LAG):
+                break
+            if ctx.monitor.pending == 0:
+                raise RuntimeError(f"point {i}: no stability verdict pending nor received")
+            ctx.settle(rec, wait=True, keep=ctx.monitor.pending - 1)   # one more verdict
 
 
 def _resumed_step(resume: Branch, step: float, min_step: float, max_step: float) -> float:

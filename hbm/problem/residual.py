@@ -260,20 +260,26 @@ class HBMProblem:
         """F_k(Omega) = F_c,k + Omega^2 F_u,k and its Omega-derivative, (nS, n) complex."""
         return self.Fc + omega ** 2 * self.Fu, 2.0 * omega * self.Fu
 
-    def modal_inverse(self, omega: float, derivative: bool = True
+    def modal_inverse(self, omega: float, derivative: bool = True,
+                      columns: slice | np.ndarray | None = None
                       ) -> tuple[np.ndarray, np.ndarray | None]:
         """Modal receptances ``1 / (w_j^2 - (k w0)^2 + i k w0 c_j)`` and their
         Omega-derivatives (None unless ``derivative``), (n_modes, nS) complex (eq. 18-19).
 
+        ``columns``: only these harmonic indices (a slice or an index array), the same
+        numbers as those columns of the whole array (every entry is computed on its own).
         The static term of a rigid-body mode no element restrains is set to 0.
         Meaningful when :attr:`modal` (C diagonal in the eq. (17) modes).
         """
         w, kd = self.harmonic_frequencies(omega)
+        ks = self.kS
+        if columns is not None:
+            w, kd, ks = w[columns], kd[columns], ks[columns]
         den = np.empty((self.w2.size, w.size), dtype=complex)
         den.real = self.w2[:, None] - (w ** 2)[None, :]
         den.imag = w[None, :] * self.cj[:, None]
         # static columns: index 0 (and, on a torus, combinations of zero frequency)
-        zero = np.ix_(self.rigid, np.flatnonzero(self.kS == 0))
+        zero = np.ix_(self.rigid, np.flatnonzero(ks == 0))
         den[zero] = 1.0
         mag2 = den.real * den.real  # 1/den = conj(den)/|den|^2: half NumPy's complex division
         mag2 += den.imag * den.imag
@@ -483,6 +489,17 @@ class HBMProblem:
             if omega is None:
                 raise ValueError("recover: omega is required with raw unknowns")
         return self.scheme.recover(u, omega)
+
+    def modal_coordinates(self, point: Point) -> np.ndarray | None:
+        """The point's coordinates in the eq. (17) modes, ``recover(point) = phi @ eta``
+        (n_modes, n_harmonics) complex, when the condensation sums modally (``"loa"`` with
+        a modal damping); else None. A quadratic form of every DOF, such as a radiated
+        power ``q^H W q``, is then ``eta^H (phi^T W phi) eta``: one product per point
+        instead of two."""
+        scheme = self.scheme
+        if not (self.modal and hasattr(scheme, "modal_coordinates")):
+            return None
+        return scheme.modal_coordinates(point.unknowns, point.omega)
 
     def fine_grid(self, n_time: int) -> tuple[Synthesis, tuple]:
         """Synthesis operator (``synth @ x_real``) and every element's parameters on a grid

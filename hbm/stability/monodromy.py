@@ -257,16 +257,19 @@ def period_map(problem: HBMProblem, deltas: np.ndarray, period: float):
     return cls(problem, step_stiffness(problem, deltas), period)
 
 
-def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int):
+def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int, last: list | None = None):
     """Dominant eigenvalues of ``step`` by subspace iteration from the columns of x.
 
-    Returns (dominant half of the Ritz values, converged?, next orthonormal basis).
+    Returns (dominant half of the Ritz values, converged?, next orthonormal basis);
+    ``last`` (a list) receives the orthonormal block and its image of the last sweep.
     """
     x, _ = np.linalg.qr(x)
     top = max(1, x.shape[1] // 2)
     mu = np.zeros(top, dtype=complex)
     for _ in range(max_sweeps):
         y = step(x)
+        if last is not None:
+            last[:] = [x, y]
         mu, w = np.linalg.eig(x.T @ y)
         order = np.argsort(-np.abs(mu))[:top]
         mu, w = mu[order], w[:, order]
@@ -278,10 +281,12 @@ def _ritz(step, x: np.ndarray, tol: float, max_sweeps: int):
     return mu, False, x
 
 
-def dominant_multipliers(step, size: int, columns: int, tol: float, start, rng, full=None):
+def dominant_multipliers(step, size: int, columns: int, tol: float, start, rng, full=None,
+                         last=None):
     """Dominant multipliers of one period map: subspace iteration (from ``start`` when
     it has the right shape, else random), the full eig when the block reaches ``size``
-    (the monodromy then put in ``full[0]`` when a list is given).
+    (the monodromy then put in ``full[0]`` when a list is given; ``last``, a list,
+    receives the block and its image of the last sweep, see :func:`_ritz`).
 
     Returns (multipliers, block size, basis of the dominant subspace or None).
     """
@@ -289,7 +294,7 @@ def dominant_multipliers(step, size: int, columns: int, tol: float, start, rng, 
     while p < size:
         x0 = start if start is not None and start.shape == (size, p) else \
             rng.standard_normal((size, p))
-        mu, ok, basis = _ritz(step, x0, tol, max_sweeps=6)
+        mu, ok, basis = _ritz(step, x0, tol, max_sweeps=6, last=last)
         if ok:
             return mu, p, basis
         p, start = 2 * p, None
@@ -323,27 +328,31 @@ def energy_weights(problem: HBMProblem) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def period_amplification(problem: HBMProblem, step, phi: np.ndarray | None = None,
-                         basis: np.ndarray | None = None) -> tuple[float, bool]:
+                         basis: np.ndarray | None = None,
+                         image: tuple[np.ndarray, np.ndarray] | None = None
+                         ) -> tuple[float, bool]:
     """Largest singular value of the period map in the energy norm (:func:`energy_weights`).
 
     ``phi``: the whole monodromy (exact); else, up to :data:`FULL_AMPLIFICATION_STATES`
     states, the whole monodromy is formed (one application of the period map to the
     identity: 0.1-0.2 s on the shipped 112-mode pump, against 0.7-0.9 s for its
     exponents); beyond, ``basis``: the dominant subspace, on which the map is applied once
-    (a lower bound of the whole map's: 0.50 against 3.22 on the pump at 1384.67 rpm).
+    (a lower bound of the whole map's: 0.50 against 3.22 on the pump at 1384.67 rpm), or
+    ``image``: an orthonormal block ``x`` and ``step(x)`` already computed (the last
+    sweep of the subspace iteration, whose span is the dominant subspace to its
+    tolerance), which spares that application of the period map.
     Returns (value, exact).
     """
     w, t = energy_weights(problem)
     if phi is None and w.size <= FULL_AMPLIFICATION_STATES:
         phi = step(np.eye(w.size))
-    if phi is None and basis is None:
+    if phi is None and basis is None and image is None:
         return float("nan"), False
     if phi is not None:
         a = phi if t is None else t @ phi @ np.linalg.inv(t)
         a = w[:, None] * a / w[None, :]
         return float(np.linalg.svd(a, compute_uv=False)[0]), True
-    x = basis
-    y = step(x)
+    x, y = image if image is not None else (basis, step(basis))
     bx = w[:, None] * (x if t is None else t @ x)
     by = w[:, None] * (y if t is None else t @ y)
     q, r = np.linalg.qr(bx)
@@ -444,7 +453,8 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     start
         A basis to start the subspace iteration from (``MonodromyResult.basis`` of a
         neighbouring point on the branch: the iteration then converges in a sweep or
-        two); ignored when its shape does not fit.
+        two), with its block size when wider than ``columns``; ignored when its shape
+        does not fit.
 
     Returns
     -------
@@ -464,17 +474,23 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
     rng = np.random.default_rng(12345)
     size = 2 * (int(np.sum(~problem.rigid)) if problem.modal else problem.n_dof)
     cols = size if size <= 2 * columns else columns
+    if start is not None and start.ndim == 2 and start.shape[0] == size and \
+            cols < start.shape[1] < size:
+        # the neighbour needed a wider block (clustered multipliers, e.g. at high speed):
+        # start there, from its basis, rather than fail with the narrow one first
+        cols = start.shape[1]
     prev = None
     levels: list[float] = []          # largest real parts with n/8, n/4 (then n/2, ...)
     overflowed = 0
     refine = 0
     while refine <= max_refine:
         full: list = []
+        last: list = []
         try:
             with np.errstate(over="ignore", invalid="ignore"):
                 step = period_map(problem, orbit_deltas(problem, point.unknowns, n), period)
                 mu, cols_n, basis = dominant_multipliers(step, size, cols, ritz_tol, start,
-                                                         rng, full)
+                                                         rng, full, last)
                 lam = floquet_from_multipliers(mu, period)
                 if prev is None:
                     prev = _leading(problem, point, n // 2, period, size, basis)
@@ -513,7 +529,7 @@ def monodromy_exponents(problem: HBMProblem, point: Point, n_steps: int | None =
                     "estimate is not reliable)")
             with np.errstate(over="ignore", invalid="ignore"):
                 amp, exact = period_amplification(problem, step, full[0] if full else None,
-                                                  basis)
+                                                  basis, tuple(last) if last else None)
             return MonodromyResult(lam, mx, err, n, cols, basis, amp, exact)
         levels.append(prev)
         prev, start = mx, basis

@@ -14,8 +14,11 @@ Run (one heavy run at a time; ~4 min per pair on the pump)::
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_redesign \\
         --baseline <revision> [--repeats 3] [--scene scenes/pump.toml] [--name redesign]
 
-``--export-only`` keeps each version's hbm cache: every counted run is then the export
-stage alone (a finer ratio of the export, a few minutes; no hbm time).
+``--cache-from DIR`` links the mesh and ROM entries of an existing stage cache into both
+versions' caches instead of the warm-up runs (the first counted run of each version
+then also compiles its bytecode). ``--export-only`` keeps each version's hbm cache:
+every counted run is then the export stage alone (a finer ratio of the export, a few
+minutes; no hbm time).
 
 Writes ``benchmarks/results/<name>.json`` (rendered into BENCHMARKS.md by
 ``benchmarks.report``). Also checks that both versions wrote the same ``results.h5``
@@ -72,6 +75,16 @@ def run_scene(tree: Path, scene: str, out: Path, cache: Path) -> dict[str, float
     return times
 
 
+def link_stages(source: Path, cache: Path, stages: tuple[str, ...]) -> None:
+    """Hard-link the entries of ``stages`` of the cache ``source`` into ``cache`` (no
+    copy of the ROM's gigabytes; the entries are only read)."""
+    for stage in stages:
+        if (source / stage).is_dir() and not (cache / stage).exists():
+            cache.mkdir(parents=True, exist_ok=True)
+            subprocess.run(["cp", "-al", str(source / stage), str(cache / stage)],
+                           check=True)
+
+
 def drop_hbm(cache: Path) -> None:
     """Remove the hbm stage's entries of a cache (the ROM stays)."""
     shutil.rmtree(cache / "hbm", ignore_errors=True)
@@ -110,6 +123,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="keep each version's hbm cache: every counted run is the export "
                          "stage alone (a finer ratio of the export; no hbm time)")
     ap.add_argument("--work", default=None, help="folder for worktree, caches, outputs")
+    ap.add_argument("--cache-from", default=None,
+                    help="a stage cache holding this scene's mesh and ROM (both versions "
+                         "must build the same ROM key): linked into each version's cache "
+                         "instead of the warm-up runs (the pump's converged ROM takes "
+                         "minutes)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     work = Path(args.work or tempfile.mkdtemp(prefix="bench_redesign_"))
@@ -126,6 +144,9 @@ def main(argv: list[str] | None = None) -> int:
     load_start = os.getloadavg()[0]
     caches = {k: work / f"cache_{k}" for k in trees}
     for k, tree in trees.items():                 # mesh and ROM once per version
+        if args.cache_from:
+            link_stages(Path(args.cache_from), caches[k], ("mesh", "rom"))
+            continue
         LOG.info("warm-up %s (%s)", k, revs[k])
         run_scene(tree, args.scene, work / f"warm_{k}", caches[k])
     stages = ("export", "total") if args.export_only else ("hbm", "export", "total")
@@ -177,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
         "command": f"python -m benchmarks.bench_redesign --baseline {args.baseline} "
                    + (f"--new {args.new} " if args.new else "")
                    + f"--repeats {args.repeats} --scene {args.scene}"
-                   + (" --export-only" if args.export_only else ""),
+                   + (" --export-only" if args.export_only else "")
+                   + (" --cache-from CACHE" if args.cache_from else ""),
         "summary": summary,
         "headline": headline,
         "revisions": revs, "ratios": ratios, "export_over_hbm": share,

@@ -20,7 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
-from study.outputs.acoustics import P_REF, V_REF, erp_harmonics, power_db, velocity_level_db
+from study.outputs.acoustics import (
+    P_REF,
+    V_REF,
+    PowerForm,
+    erp_harmonics,
+    power_db,
+    velocity_level_db,
+)
 from study.outputs.fields import accelerometer_rows
 from study.outputs.points import point_at
 
@@ -191,8 +198,10 @@ def _torus_total(W: np.ndarray, qk: np.ndarray, freq: np.ndarray, rho: float,
 def _housing_nvh(result, out: NVH) -> NVH:
     """The housing's ERP per harmonic (and in all) and the accelerometers' velocities at
     every point, from the ROM coordinates ``q̃_k = HBMProblem.recover(point)`` of the
-    coupled response (every mesh at once) and the cached radiation data of the machine's
-    radiating part (``result.rom.radiation``); ``out`` unchanged without it."""
+    coupled response (every mesh at once), or its modal coordinates
+    (``HBMProblem.modal_coordinates``, ``q̃_k = phi eta_k``) with ``phi^T W phi``, and
+    the cached radiation data of the machine's radiating part (``result.rom.radiation``);
+    ``out`` unchanged without it."""
     pb, br = result.problem, result.branch
     rad = getattr(result.rom, "radiation", None) if result.rom is not None else None
     if rad is None:
@@ -204,16 +213,28 @@ def _housing_nvh(result, out: NVH) -> NVH:
     erp = np.zeros((n, idx.size))
     total = None if hs.periodic else np.zeros(n)
     accels = result.scene.outputs.accelerometers
+    W = rad["W"]
     if accels:
         arows, apos, adir = accelerometer_rows(accels, rad)
         avel = np.zeros((len(accels), n, idx.size), dtype=complex)
+    # in the modes of the coupled system (an "loa" condensation with modal damping) the
+    # radiation matrix and the accelerometer rows are carried over once: one product per
+    # point instead of two (the coordinates themselves are never formed)
+    eta0 = pb.modal_coordinates(point_at(result, 0)) if n else None
+    modal = eta0 is not None
+    if modal:
+        W = pb.phi.T @ W @ pb.phi
+        W = 0.5 * (W + W.T)
+        if accels:
+            arows = arows @ pb.phi
+    W = PowerForm(W)
     for i in range(n):
         pt = point_at(result, i)
-        qk = pb.recover(pt)
+        qk = (eta0 if i == 0 else pb.modal_coordinates(pt)) if modal else pb.recover(pt)
         w0 = hs.fundamental_rad_s(pt.omega)
-        erp[i] = erp_harmonics(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+        erp[i] = erp_harmonics(W, qk, idx * w0, ac.air_density, ac.sound_speed)
         if total is not None:
-            total[i] = _torus_total(rad["W"], qk, idx * w0, ac.air_density, ac.sound_speed)
+            total[i] = _torus_total(W, qk, idx * w0, ac.air_density, ac.sound_speed)
         if accels:
             avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
     if total is None:             # distinct frequencies: the powers add (acoustics module)

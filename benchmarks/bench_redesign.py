@@ -146,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     for k, tree in trees.items():                 # mesh and ROM once per version
         if args.cache_from:
             link_stages(Path(args.cache_from), caches[k], ("mesh", "rom"))
-            continue
+            if not args.export_only:              # (export-only needs the hbm entry)
+                continue
         LOG.info("warm-up %s (%s)", k, revs[k])
         run_scene(tree, args.scene, work / f"warm_{k}", caches[k])
     stages = ("export", "total") if args.export_only else ("hbm", "export", "total")
@@ -174,8 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     what = ("the export stage alone (hbm cached per version)" if args.export_only else
             "the whole curve with stability (hbm stage) and the export")
     summary = (f"{args.scene}: {what}, old {revs['old']} against new {revs['new']}, "
-               f"{args.repeats} interleaved pairs after a warm-up (mesh and ROM cached per "
-               "version). Median ratio new/old: "
+               f"{args.repeats} interleaved pairs "
+               + ("(mesh and ROM linked from one cache)" if args.cache_from else
+                  "after a warm-up (mesh and ROM cached per version)")
+               + ". Median ratio new/old: "
                + ", ".join(f"{'whole run' if s == 'total' else s} {med[s]:.2f}"
                            for s in stages))
     headline = {f"{s} new/old" + (" (export only)" if args.export_only else ""): med[s]

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from core.files import atomic_write
+from core.processes import forked_map
 from study.outputs.acoustics import (
     P_REF,
     V_REF,
@@ -220,23 +221,30 @@ def _housing_nvh(result, out: NVH) -> NVH:
     # in the modes of the coupled system (an "loa" condensation with modal damping) the
     # radiation matrix and the accelerometer rows are carried over once: one product per
     # point instead of two (the coordinates themselves are never formed)
-    eta0 = pb.modal_coordinates(point_at(result, 0)) if n else None
-    modal = eta0 is not None
+    modal = n > 0 and pb.modal_coordinates(point_at(result, 0)) is not None
     if modal:
         W = pb.phi.T @ W @ pb.phi
         W = 0.5 * (W + W.T)
         if accels:
             arows = arows @ pb.phi
     W = PowerForm(W)
-    for i in range(n):
+
+    def point_rows(i: int):
         pt = point_at(result, i)
-        qk = (eta0 if i == 0 else pb.modal_coordinates(pt)) if modal else pb.recover(pt)
-        w0 = hs.fundamental_rad_s(pt.omega)
-        erp[i] = erp_harmonics(W, qk, idx * w0, ac.air_density, ac.sound_speed)
+        qk = pb.modal_coordinates(pt) if modal else pb.recover(pt)
+        w = idx * hs.fundamental_rad_s(pt.omega)
+        return (erp_harmonics(W, qk, w, ac.air_density, ac.sound_speed),
+                None if total is None else _torus_total(W, qk, w, ac.air_density,
+                                                        ac.sound_speed),
+                1j * w[None, :] * (arows @ qk) if accels else None)
+
+    # the points are independent: shared with forked processes (the other cores)
+    for i, (e, t, a) in enumerate(forked_map(point_rows, n)):
+        erp[i] = e
         if total is not None:
-            total[i] = _torus_total(W, qk, idx * w0, ac.air_density, ac.sound_speed)
+            total[i] = t
         if accels:
-            avel[:, i] = 1j * (idx * w0)[None, :] * (arows @ qk)
+            avel[:, i] = a
     if total is None:             # distinct frequencies: the powers add (acoustics module)
         total = erp.sum(axis=1)
     if n:

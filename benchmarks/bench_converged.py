@@ -273,6 +273,11 @@ def write(record: dict, eps: float) -> dict:
                                 "TI contact", "HBM contact", "HBM solutions", "Delta distance"],
                     "rows": speed_rows}],
         "records": records, "peak_rss_mb": peak_rss_mb()}
+    shipped = [r for r in records if "(shipped)" in r["set"]]
+    if shipped:
+        r = shipped[0]
+        payload["headline"] = {"shipped set: curve with stability, wall [s]": r["wall_s"],
+                               "shipped set: largest std error against TI": r["max_err_std"]}
     path = write_json("converged", payload)
     log.info("wrote %s", path)
     return payload

@@ -40,6 +40,18 @@ def random_modal_system(n=20, seed=0, zeta=0.03, kbar=2.0e3, n_gear=12):
     return m, c, k, g
 
 
+
+def random_mesh_problem(n: int, seed: int, zeta: float, n_gear: int, k1: float,
+                        harmonics: int, kbar: float = 2.0e3) -> hbm.HBMProblem:
+    """A random modal system (:func:`random_modal_system`) with one gear mesh of mean
+    stiffness ``kbar`` and first harmonic ``k1`` (1 tooth, backlash 1e-3) along its gear
+    direction, forced by 2 g + g cos, on ``harmonics`` harmonics."""
+    m, c, k, g = random_modal_system(n=n, seed=seed, zeta=zeta, kbar=kbar, n_gear=n_gear)
+    return hbm.HBMProblem(hbm.LinearSystem(m, c, k),
+                          [hbm.GearMesh(g, 1, {0: kbar, 1: k1}, backlash=1e-3)],
+                          hbm.Excitation(n, constant={0: 2.0 * g, 1: 1.0 * g}),
+                          hbm.HarmonicSet.build(1, harmonics))
+
 def gear_and_stiff_mode_problem():
     """A gear mode and a weakly coupled stiff mode (10 % modal damping, eq. 19),
     parametric mesh stiffness, one tooth; its branch over 0.3-1.6 rad/s has two folds."""

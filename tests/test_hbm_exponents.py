@@ -10,7 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sdof_problem
+from hbm_models import (
+    RPM,
+    gear_and_stiff_mode_problem,
+    random_mesh_problem,
+    random_modal_system,
+    sdof_problem,
+)
 
 import hbm
 from hbm.basis import real_blocks
@@ -47,11 +53,7 @@ def _two_dof():
 
 
 def _twelve_dof():
-    m, c, k, g = random_modal_system(n=12, seed=1, zeta=0.02, kbar=2e3, n_gear=6)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
-                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 400}, backlash=1e-3)],
-                        hbm.Excitation(12, constant={0: 2.0 * g, 1: 1.0 * g}),
-                        hbm.HarmonicSet.build(1, 8))
+    pb = random_mesh_problem(n=12, seed=1, zeta=0.02, n_gear=6, k1=400, harmonics=8)
     w = np.sqrt(pb.w2[~pb.rigid])
     return pb, 0.3 * w.min() / RPM, 1.5 * w.max() / RPM
 

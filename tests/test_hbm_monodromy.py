@@ -4,7 +4,13 @@ and the parity of the harmonic balance's real exponents (T.9)."""
 
 import numpy as np
 import pytest
-from hbm_models import RPM, gear_and_stiff_mode_problem, random_modal_system, sdof_problem
+from hbm_models import (
+    RPM,
+    gear_and_stiff_mode_problem,
+    random_mesh_problem,
+    random_modal_system,
+    sdof_problem,
+)
 from scipy.integrate import solve_ivp
 
 import hbm
@@ -127,15 +133,15 @@ def test_converged_harmonic_set_agrees_with_fold_parity(make):
         assert st.fold_parity and st.consistent and st.exponents[0].imag == 0.0
 
 
+def _twenty_modes():
+    """20 modes, a period long against all but a few of them (they contract)."""
+    pb = random_mesh_problem(n=20, seed=3, zeta=0.03, n_gear=8, k1=600, harmonics=10)
+    return pb, pb.solve(0.15 * np.sqrt(pb.w2).min() / RPM)
+
+
 def test_subspace_iteration_matches_full_monodromy():
     """Dominant exponents from a 4-column block equal those of the full monodromy."""
-    m, c, k, g = random_modal_system(n=20, seed=3, zeta=0.03, kbar=2e3, n_gear=8)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
-                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 600}, backlash=1e-3)],
-                        hbm.Excitation(20, constant={0: 2.0 * g, 1: 1.0 * g}),
-                        hbm.HarmonicSet.build(1, 10))
-    w = np.sqrt(pb.w2)
-    pt = pb.solve(0.15 * w.min() / RPM)       # a long period: all but a few modes contract
+    pb, pt = _twenty_modes()
     full = monodromy_exponents(pb, pt, columns=40, rtol=1.0, max_refine=0)
     sub = monodromy_exponents(pb, pt, columns=4, rtol=1.0, max_refine=0)
     assert full.columns == 40 and sub.columns < 40
@@ -200,15 +206,6 @@ def test_exponents_of_zero_multipliers_are_minus_infinity_without_warnings():
     assert lam[1] == pytest.approx(np.log(0.3 + 0.4j) / period, rel=1e-14)
     assert lam[2] == pytest.approx(np.log(0.4) / period, rel=1e-14)
     assert lam[3].real == -np.inf and lam[3].imag == 0.0
-
-
-def _twenty_modes():
-    m, c, k, g = random_modal_system(n=20, seed=3, zeta=0.03, kbar=2e3, n_gear=8)
-    pb = hbm.HBMProblem(hbm.LinearSystem(m, c, k),
-                        [hbm.GearMesh(g, 1, {0: 2e3, 1: 600}, backlash=1e-3)],
-                        hbm.Excitation(20, constant={0: 2.0 * g, 1: 1.0 * g}),
-                        hbm.HarmonicSet.build(1, 10))
-    return pb, pb.solve(0.15 * np.sqrt(pb.w2).min() / RPM)
 
 
 def test_a_wider_start_basis_keeps_its_block_size():

@@ -22,12 +22,19 @@ __all__ = ["forked_map", "fork_workers"]
 MAX_WORKERS = 4
 
 
+#: Variables in which MPI launchers give the number of ranks they started.
+_RANK_COUNTS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE")
+
+
 def fork_workers() -> int:
-    """Processes available for :func:`forked_map`: the cores (at most
-    :data:`MAX_WORKERS`), 1 where ``fork`` is missing."""
+    """Processes available for :func:`forked_map`: the cores shared among the ranks an MPI
+    launcher started (each rank forks its own), at most :data:`MAX_WORKERS`; 1 where
+    ``fork`` is missing."""
     if "fork" not in mp.get_all_start_methods():
         return 1
-    return max(1, min(os.cpu_count() or 1, MAX_WORKERS))
+    ranks = next((int(v) for v in (os.environ.get(k, "") for k in _RANK_COUNTS)
+                  if v.isdigit() and int(v) > 0), 1)
+    return max(1, min((os.cpu_count() or 1) // ranks, MAX_WORKERS))
 
 
 def _share(func: Callable[[int], Any], start: int, stop: int, conn) -> None:

@@ -42,3 +42,14 @@ def test_few_items_stay_in_the_calling_process():
     pids = processes.forked_map(lambda i: os.getpid(), 10, workers=4, min_items=8)
     assert set(pids) == {os.getpid()}
     assert processes.forked_map(lambda i: i, 0) == []
+
+
+def test_the_cores_are_shared_among_mpi_ranks(monkeypatch):
+    monkeypatch.setattr(processes.os, "cpu_count", lambda: 4)
+    for k in processes._RANK_COUNTS:
+        monkeypatch.delenv(k, raising=False)
+    assert processes.fork_workers() == 4
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    assert processes.fork_workers() == 2
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "4")
+    assert processes.fork_workers() == 1

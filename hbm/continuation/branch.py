@@ -369,12 +369,16 @@ class Recorder:
         del self.serials[n:]
         self._settled = min(self._settled, n)
         self.segments.truncate(n)
-        keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
-        self.folds = [self.folds[i] for i in keep]
-        self.fold_index = [self.fold_index[i] for i in keep]
-        del self.grazing[self.n_grazing[n - 1]:]
+        self.folds, self.fold_index, self.grazing, self.loops = self._events_on(n)
         del self.n_grazing[n:]
-        self.loops = [lp for lp in self.loops if lp[0] < n]
+
+    def _events_on(self, n: int) -> tuple[list, list, list, list]:
+        """The folds (speeds and indices), grazing points and loops found on the first
+        ``n`` points (``n >= 1``), as new lists."""
+        keep = [i for i, f in enumerate(self.fold_index) if f + 1 < n]
+        return ([self.folds[i] for i in keep], [self.fold_index[i] for i in keep],
+                self.grazing[:self.n_grazing[n - 1]],
+                [lp for lp in self.loops if lp[0] < n])
 
     def settled_prefix(self) -> int:
         """How many points from the first hold their stability verdicts (amortised
@@ -410,14 +414,14 @@ class Recorder:
         arrays = {k: self._rows[k].stacked(self.lists[k], k in self.stat_names, view, n)
                   for k in (*POINT_FIELDS, *self.stat_names)}
         stats = {k: arrays.pop(k) for k in self.stat_names}
-        folds = [(f, i) for f, i in zip(self.folds, self.fold_index, strict=True)
-                 if upto is None or i + 1 < n]
+        folds, fold_index, grazing, loops = (
+            (self.folds, self.fold_index, self.grazing, self.loops) if upto is None
+            else self._events_on(n))
         return Branch(**self.meta, **arrays, stats=stats, element_names=self.element_names,
                       element_statistics=self.element_statistics,
-                      loops=[tuple(lp) for lp in self.loops if upto is None or lp[0] < n],
-                      grazing=list(self.grazing if upto is None
-                                   else self.grazing[:self.n_grazing[n - 1]]),
-                      folds=[f for f, _ in folds], fold_index=[i for _, i in folds],
+                      loops=[tuple(lp) for lp in loops],
+                      grazing=list(grazing), folds=list(folds),
+                      fold_index=list(fold_index),
                       step_cuts=counters["step_cuts"],
                       secant_retries=counters["secant_retries"],
                       corner_steps=counters["corner_steps"],

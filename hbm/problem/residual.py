@@ -490,16 +490,21 @@ class HBMProblem:
                 raise ValueError("recover: omega is required with raw unknowns")
         return self.scheme.recover(u, omega)
 
+    @property
+    def sums_modally(self) -> bool:
+        """Whether the condensation sums over the eq. (17) modes (``"loa"`` with a modal
+        damping): :meth:`modal_coordinates` then exists."""
+        return self.modal and hasattr(self.scheme, "modal_coordinates")
+
     def modal_coordinates(self, point: Point) -> np.ndarray | None:
         """The point's coordinates in the eq. (17) modes, ``recover(point) = phi @ eta``
-        (n_modes, n_harmonics) complex, when the condensation sums modally (``"loa"`` with
-        a modal damping); else None. A quadratic form of every DOF, such as a radiated
-        power ``q^H W q``, is then ``eta^H (phi^T W phi) eta``: one product per point
-        instead of two."""
-        scheme = self.scheme
-        if not (self.modal and hasattr(scheme, "modal_coordinates")):
+        (n_modes, n_harmonics) complex (m), when the condensation sums modally
+        (:attr:`sums_modally`); else None. A quadratic form of every DOF, such as a
+        radiated power ``q^H W q``, is then ``eta^H (phi^T W phi) eta``: one product per
+        point instead of two."""
+        if not self.sums_modally:
             return None
-        return scheme.modal_coordinates(point.unknowns, point.omega)
+        return self.scheme.modal_coordinates(point.unknowns, point.omega)
 
     def fine_grid(self, n_time: int) -> tuple[Synthesis, tuple]:
         """Synthesis operator (``synth @ x_real``) and every element's parameters on a grid

@@ -221,7 +221,7 @@ def _housing_nvh(result, out: NVH) -> NVH:
     # in the modes of the coupled system (an "loa" condensation with modal damping) the
     # radiation matrix and the accelerometer rows are carried over once: one product per
     # point instead of two (the coordinates themselves are never formed)
-    modal = n > 0 and pb.modal_coordinates(point_at(result, 0)) is not None
+    modal = pb.sums_modally
     if modal:
         W = pb.phi.T @ W @ pb.phi
         W = 0.5 * (W + W.T)

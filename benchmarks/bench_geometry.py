@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 
-from benchmarks.common import median_time, peak_rss_mb, write_json
+from benchmarks.common import median_time, peak_rss_mb, records_table, write_json
 from geometry import PumpParams, build_pump, gmsh_session, preset
 
 LOG = logging.getLogger(__name__)
@@ -53,8 +53,7 @@ def main(argv: list[str] | None = None) -> None:
                    "(median) and size per preset.",
         "results": rows,
         "peak_rss_mb": peak_rss_mb(),
-        "tables": [{"title": "geometry: pump meshing", "columns": columns,
-                    "rows": [[r[c] for c in columns] for r in rows]}],
+        "tables": [records_table("geometry: pump meshing", columns, rows)],
     })
     for r in rows:
         LOG.info("%s: %d nodes, %d P2 DOF, min SICN %.3f, %.2f s", r["preset"], r["n_nodes"],

@@ -66,6 +66,13 @@ def machine() -> dict[str, Any]:
     }
 
 
+def records_table(title: str, columns: list[str], records: list[dict]) -> dict[str, Any]:
+    """A table of a payload (rendered by :mod:`benchmarks.report`): one row per record,
+    its values under ``columns``."""
+    return {"title": title, "columns": columns,
+            "rows": [[r[c] for c in columns] for r in records]}
+
+
 def write_json(name: str, payload: dict[str, Any], path: Path | None = None) -> Path:
     """Write ``benchmarks/results/<name>.json`` (or ``path``) atomically and return its
     path."""

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import finished_run, write_json
+from benchmarks.common import finished_run, records_table, write_json
 
 log = logging.getLogger("unstable_ti")
 
@@ -133,8 +133,7 @@ def main(argv: list[str] | None = None) -> dict:
                "summary": summary,
                "headline": {"unstable speeds integrated": len(records),
                             "of them settling on a stable orbit of the curve": n_on},
-               "tables": [{"title": "unstable speeds", "columns": cols,
-                           "rows": [[r[c] for c in cols] for r in records]}],
+               "tables": [records_table("unstable speeds", cols, records)],
                "records": records}
     write_json(f"unstable_ti_{Path(args.scene).stem}", payload, args.out)
     log.info("%s", summary)

@@ -25,7 +25,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from benchmarks.common import finished_run, write_json
+from benchmarks.common import finished_run, records_table, write_json
 
 log = logging.getLogger("verdict_check_ti")
 
@@ -97,8 +97,7 @@ def main(argv: list[str] | None = None) -> dict:
                             "verdicts agreeing with time integration, after the check":
                             sum(r["agrees_after"] for r in records),
                             "verdicts checked against time integration": n},
-               "tables": [{"title": "verdicts", "columns": cols,
-                           "rows": [[r[c] for c in cols] for r in records]}],
+               "tables": [records_table("verdicts", cols, records)],
                "records": records}
     write_json(f"verdict_check_{Path(args.scene).stem}", payload, args.out)
     log.info("%s", summary)

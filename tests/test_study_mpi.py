@@ -148,6 +148,14 @@ def test_two_ranks_results_equal_serial(runs, cmd):
         assert fs["nvh/erp"].shape == fp["nvh/erp"].shape and fs["nvh/erp"][()].max() > 0
         assert _rel(fs["nvh/erp"][()], fp["nvh/erp"][()]) < 1e-10
         assert _rel(fs["nvh/radiation"].attrs["area"], fp["nvh/radiation"].attrs["area"]) < 1e-12
+        # the bifurcation diagram: `export` writes it from the branches (no time
+        # responses, so no source-2 rows); its branch samples are those of the run
+        src = fp["bifurcation/source"][()]
+        assert src.size and (cmd == "run" or not np.any(src == 2))
+        ms, mp = fs["bifurcation/source"][()] < 2, src < 2
+        for name in ("rpm", "load", "delta"):
+            assert _rel(fs["bifurcation/" + name][()][ms],
+                        fp["bifurcation/" + name][()][mp]) < 1e-10, name
 
 
 def test_rom_files_of_two_ranks_equal_serial(runs, tmp_path):

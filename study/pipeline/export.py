@@ -86,7 +86,8 @@ def export(result, figures: bool = True, housing: bool = True) -> None:
     renders = write_housing(result) if housing else []
     if figures:
         comm.root_call(_figures, result, renders)   # plots, renderings, checks, report.md
-    else:
+    else:       # no time responses: the diagram of the branches alone, no plot
+        comm.root_call(write_bifurcation_files, result, plot=False)
         result.checks = comm.root_call(run_checks, result)
     comm.root_call(record_checks, result)
 
@@ -204,17 +205,18 @@ def write_attractor_files(result) -> None:
     write_bifurcation_files(result)
 
 
-def write_bifurcation_files(result) -> None:
+def write_bifurcation_files(result, plot: bool = True) -> None:
     """The run's bifurcation diagram (:mod:`study.outputs.bifurcation`, after the time
-    responses): ``result.bifurcation``, ``/bifurcation`` of results.h5 and, when the
-    scene's plots ask for it, bifurcation.png. None on a torus basis (no period)."""
+    responses ``result.attractors``, if any): ``result.bifurcation``, ``/bifurcation`` of
+    results.h5 and, when ``plot`` and the scene's plots ask for it, bifurcation.png.
+    None on a torus basis (no period)."""
     from study.outputs.bifurcation import diagram, write_bifurcation_group
 
     if not result.problem.periodic or result.branch is None or not len(result.branch):
         return
     result.bifurcation = diagram(result)
     write_bifurcation_group(result.results, result.bifurcation)
-    if "bifurcation" in result.scene.outputs.plots:
+    if plot and "bifurcation" in result.scene.outputs.plots:
         from study.plots.bifurcation import bifurcation_plot
 
         result.figures.append(bifurcation_plot(

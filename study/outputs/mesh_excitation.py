@@ -2,8 +2,9 @@
 contact analysis or a table (``source = "ltca" | "table"``, issue 38): its arrays
 (:class:`MeshExcitation`), built from :mod:`gears` (:func:`from_source`), kept by the
 ltca stage's cache (:meth:`MeshExcitation.save` / :meth:`MeshExcitation.load`, one
-``.npz``) and written to results.h5 ``/mesh_excitation`` (:func:`write_group`;
-docs/results-format.md). SI units.
+``.npz``) and written to results.h5 ``/mesh_excitation`` (:func:`write_group`; a train's meshes in
+``/elements/<i>/mesh_excitation``, :func:`write_element_groups`; docs/results-format.md)
+and summarised in report.md (:func:`source_lines`). SI units.
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from study.scene.excitation import solve_cached
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MeshExcitation", "from_source", "write_group", "PROFILE_BINS"]
+__all__ = ["MeshExcitation", "from_source", "write_group", "write_element_groups",
+           "source_lines", "PROFILE_BINS"]
 
 #: Profile bins of the contact pattern.
 PROFILE_BINS = 40
@@ -164,3 +166,36 @@ def write_group(f, data: MeshExcitation) -> None:
             g[name] = data.arrays[name]
             g[name].attrs["unit"] = unit
             g[name].attrs["meaning"] = meaning
+
+
+def write_element_groups(f, per_mesh: dict[str, MeshExcitation]) -> None:
+    """``/elements/<i>/mesh_excitation`` of a train's results.h5 (:func:`write_group` in
+    the group of the element named like the mesh) for each mesh of ``per_mesh``."""
+    groups = {g.attrs["name"]: g for g in f["elements"].values()}
+    for name, data in per_mesh.items():
+        if name not in groups:
+            raise KeyError(f"results.h5 /elements holds no element named {name!r} "
+                           f"(it has {sorted(groups)})")
+        write_group(groups[name], data)
+
+
+def source_lines(src: MeshSource, data: MeshExcitation | None, where: str,
+                 mesh: str = "") -> list[str]:
+    """report.md lines of an ``ltca``/``table`` source: where k_m and the TE come from
+    and the harmonics kept, with the LTCA's loaded STE, k_m range and the Harris map's
+    smallest STE fluctuation; ``where`` names the results.h5 group of the arrays,
+    ``mesh`` the train mesh (empty for a one-pair scene)."""
+    of = f" of {mesh}" if mesh else ""
+    out = [f"- mesh excitation{of}: k_m from `{src.stiffness}`, TE from `{src.te}` "
+           f"({src.harmonics} mesh harmonics kept; arrays in results.h5 `{where}`)"]
+    if data is not None and data.has_ltca:
+        a = data.arrays
+        i = int(np.argmin(a["harris_ste_peak_to_peak"]))
+        out.append(f"- LTCA{of} at {data.torque:g} N·m ({data.periods} mesh period(s) × "
+                   f"{data.n_positions} positions, {data.n_slices} slice(s)): loaded STE "
+                   f"peak-to-peak {np.ptp(a['ste']) * 1e6:.3f} µm, k_m "
+                   f"{a['stiffness'].min() * 1e-6:.1f}–{a['stiffness'].max() * 1e-6:.1f} N/µm; "
+                   f"Harris map: smallest STE fluctuation "
+                   f"{a['harris_ste_peak_to_peak'][i] * 1e6:.3f} µm at "
+                   f"{a['harris_torque'][i]:.3g} N·m")
+    return out

@@ -332,22 +332,12 @@ def rom_line(result) -> list[str]:
 
 def _mesh_source_lines(result) -> list[str]:
     """The ``ltca``/``table`` sources of k_m and TE (none for ``fourier`` scenes)."""
-    src, data = result.scene.mesh_source, getattr(result, "mesh_excitation", None)
+    from study.outputs.mesh_excitation import source_lines
+
+    src = result.scene.mesh_source
     if src is None:
         return []
-    out = [f"- mesh excitation: k_m from `{src.stiffness}`, TE from `{src.te}` "
-           f"({src.harmonics} mesh harmonics kept; arrays in results.h5 `/mesh_excitation`)"]
-    if data is not None and data.has_ltca:
-        a = data.arrays
-        i = int(np.argmin(a["harris_ste_peak_to_peak"]))
-        out.append(f"- LTCA at {data.torque:g} N·m ({data.periods} mesh period(s) × "
-                   f"{data.n_positions} positions, {data.n_slices} slice(s)): loaded STE "
-                   f"peak-to-peak {np.ptp(a['ste']) * 1e6:.3f} µm, k_m "
-                   f"{a['stiffness'].min() * 1e-6:.1f}–{a['stiffness'].max() * 1e-6:.1f} N/µm; "
-                   f"Harris map: smallest STE fluctuation "
-                   f"{a['harris_ste_peak_to_peak'][i] * 1e6:.3f} µm at "
-                   f"{a['harris_torque'][i]:.3g} N·m")
-    return out
+    return source_lines(src, getattr(result, "mesh_excitation", None), "/mesh_excitation")
 
 
 def _pair_model_lines(result) -> list[str]:

@@ -118,6 +118,7 @@ def mesh_report_lines(result) -> list[str]:
         f"harmonics, {np.prod(pb.harmonics.n_time)} AFT samples"]
     if not pb.harmonics.periodic:
         lines.append("- stability: not computed on a torus (docs/theory.md §14.2)")
+    lines += _source_lines(result)
     if not len(br):
         return lines
     lines += ["", "### Per mesh along the branch", "",
@@ -160,3 +161,19 @@ def mesh_report_lines(result) -> list[str]:
                 cells.append(" ".join(str(int(v)) for v in seq[:24]) or "–")
             lines.append(f"| {pt.rpm:.1f} | " + " | ".join(cells) + " |")
     return lines
+
+
+def _source_lines(result) -> list[str]:
+    """The ``ltca``/``table`` sources of the meshes that have one
+    (:func:`study.outputs.mesh_excitation.source_lines`, arrays in
+    ``/elements/<i>/mesh_excitation``)."""
+    from study.outputs.mesh_excitation import source_lines
+
+    names = [el.name for el in result.problem.elements]
+    per_mesh = getattr(result, "train_excitations", None) or {}
+    out = []
+    for m in result.scene.meshes:
+        if m.source is not None:
+            out += source_lines(m.source, per_mesh.get(m.name),
+                                f"/elements/{names.index(m.name)}/mesh_excitation", m.name)
+    return out

@@ -36,7 +36,9 @@ def _extra(result):
     mesh = getattr(result, "mesh_excitation", None)
     secondary = getattr(result, "secondary", None)
     checks = getattr(result, "verdict_checks", None)
-    if result.rom is None and nvh is None and mesh is None and not secondary and checks is None:
+    per_mesh = getattr(result, "train_excitations", None) or {}
+    if result.rom is None and nvh is None and mesh is None and not secondary and \
+            checks is None and not per_mesh:
         return None
 
     def extra(f) -> None:
@@ -47,6 +49,9 @@ def _extra(result):
         if mesh is not None:
             from study.outputs.mesh_excitation import write_group
             write_group(f, mesh)
+        if per_mesh:
+            from study.outputs.mesh_excitation import write_element_groups
+            write_element_groups(f, per_mesh)
         if checks is not None:
             checks.write_group(f)
         if secondary:
@@ -178,6 +183,10 @@ def draw_figures(result, renders: list[Path] = ()) -> None:
             from study.plots.mesh_excitation import mesh_excitation_plots
             result.figures += mesh_excitation_plots(result.mesh_excitation, result.scene,
                                                     Path(result.out))
+        if getattr(result, "train_excitations", None):
+            from study.plots.mesh_excitation import train_excitation_plots
+            result.figures += train_excitation_plots(result.train_excitations, result.scene,
+                                                     Path(result.out))
     finally:
         pngs = [r.wait() for r in running]
     result.figures[at:at] = [p for p in pngs if p is not None]

@@ -53,6 +53,7 @@ def report_from_results(scene_path: Path, out: Path, overrides: dict | None = No
         res.stages["branches"] = res.status["branches"].text
     if scene.mesh_source is not None:           # the ltca stage's arrays (cached)
         res.mesh_excitation = pipe.comm.root_call(pipe.run_mesh_excitation)
+    res.train_excitations = pipe.comm.root_call(pipe.run_train_excitations)
     # the housing fields from the cached ROM (rank 0 writes); their renderings, if asked,
     # run beside the plots
     renders = write_housing(res) if scene.outputs.housing_field else []

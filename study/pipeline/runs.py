@@ -95,6 +95,9 @@ class RunResult:
     mesh_excitation
         :class:`study.outputs.mesh_excitation.MeshExcitation` of an ``ltca``/``table``
         source (None: both ``fourier``).
+    train_excitations : dict
+        A train's mesh name -> :class:`study.outputs.mesh_excitation.MeshExcitation` of
+        every mesh with an ``ltca``/``table`` source (empty otherwise).
     verdict_checks
         :class:`study.outputs.verdict_checks.VerdictChecks`: the verdicts in doubt checked
         on a richer harmonic set (None: none checked).
@@ -128,6 +131,7 @@ class RunResult:
     checks: list = field(default_factory=list)
     speed_uses: list = field(default_factory=list)
     mesh_excitation: Any = None
+    train_excitations: dict = field(default_factory=dict)
     secondary: list = field(default_factory=list)
     verdict_checks: Any = None
     secondary_nvh: dict = field(default_factory=dict)

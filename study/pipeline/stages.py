@@ -14,7 +14,8 @@ fe        mesh key, the machine's FE inputs (the pump: ``[materials]``,
 rom       fe key, ``[rom]``
 ltca      (``source = "ltca"`` only) the LTCA's inputs (macro- and micro-geometry,
           torque, positions, slices, bodies), Harris torques, harmonics; the arrays
-          of the outputs (the scene's series come from the same solve)
+          of the outputs (the scene's series come from the same solve); a train: one
+          entry per mesh with that source
 hbm       rom key (FE) or the lumped machine's linear key (``[lumped]`` + gear),
           mesh stiffness, TE, load, backlash, external, damping, ``[hbm]``,
           ``[continuation]``
@@ -50,7 +51,7 @@ from study.pipeline.cache import StageCache, source_hash, stage_key
 from study.pipeline.parallel import mark_collective, world
 from study.pipeline.progress import ProgressBar, StageBar
 from study.pipeline.runs import RunResult, SolverError, StageStatus
-from study.scene.data import Scene
+from study.scene.data import MeshSource, Scene
 from study.scene.errors import SceneError, StageUnavailable
 
 logger = logging.getLogger(__name__)
@@ -241,28 +242,31 @@ class Pipeline:
         return d
 
     # ------------------------------------------------------------------ ltca
-    def ltca_key(self) -> str:
-        """Key of the ltca stage: the LTCA's inputs (:class:`gears.LtcaCase`), the Harris
-        torques, the harmonics and sources, and the code of gears and of the arrays."""
-        src = self.scene.mesh_source
+    def ltca_key(self, src: MeshSource | None = None) -> str:
+        """Key of the ltca stage of ``src`` (default: the one-pair scene's source): the
+        LTCA's inputs (:class:`gears.LtcaCase`), the Harris torques, the harmonics and
+        sources, and the code of gears and of the arrays."""
+        src = self.scene.mesh_source if src is None else src
         return stage_key("ltca", {"case": src.case, "harris_torques": src.harris_torques,
                                   "harmonics": src.harmonics, "stiffness": src.stiffness,
                                   "te": src.te},
                          source_hash("gears", "study.scene.excitation",
                                      "study.outputs.mesh_excitation"))
 
-    def run_mesh_excitation(self):
+    def run_mesh_excitation(self, src: MeshSource | None = None, mesh: str = ""):
         """The arrays of an ``ltca``/``table`` mesh excitation
-        (:class:`study.outputs.mesh_excitation.MeshExcitation`), the LTCA's cached by
-        :meth:`ltca_key` (stage ``ltca``); None when both sources are ``fourier``."""
+        (:class:`study.outputs.mesh_excitation.MeshExcitation`) of ``src`` (default: the
+        one-pair scene's; ``mesh``: the train mesh it belongs to, which names its key
+        ``ltca <mesh>``), the LTCA's cached by :meth:`ltca_key` (stage ``ltca``); None
+        when both sources are ``fourier``."""
         from study.outputs.mesh_excitation import MeshExcitation, from_source
 
-        src = self.scene.mesh_source
+        src = self.scene.mesh_source if src is None else src
         if src is None:
             return None
         if src.case is None:                       # tables only: nothing to solve
             return from_source(src)
-        key = self.keys["ltca"] = self.ltca_key()
+        key = self.keys[f"ltca {mesh}" if mesh else "ltca"] = self.ltca_key(src)
         hit = self.cache.lookup("ltca", key)
         if hit is not None:
             self._log_stage("ltca", StageStatus("cached", from_cache=True))
@@ -274,6 +278,13 @@ class Pipeline:
                          {"positions": int(data.arrays["t"].size)}, elapsed=dt)
         self._log_stage("ltca", StageStatus("ran", seconds=time.perf_counter() - t))
         return data
+
+    def run_train_excitations(self) -> dict:
+        """Mesh name -> :class:`~study.outputs.mesh_excitation.MeshExcitation` of every
+        mesh of a train whose k_m or TE has an ``ltca``/``table`` source (each LTCA cached
+        under its own key, :meth:`run_mesh_excitation`); empty for other scenes."""
+        return {m.name: self.run_mesh_excitation(m.source, m.name)
+                for m in self.scene.meshes if m.source is not None}
 
     # ------------------------------------------------------------------ hbm
     def problem(self):
@@ -537,6 +548,7 @@ class Pipeline:
                            self.keys, rom=rom, status=self.status)
         if s.mesh_source is not None:
             result.mesh_excitation = self.comm.root_call(self.run_mesh_excitation)
+        result.train_excitations = self.comm.root_call(self.run_train_excitations)
 
         def checkpoint(branch) -> None:
             write_partial(result, branch)

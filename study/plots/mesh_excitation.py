@@ -13,7 +13,7 @@ from gears.excitation import fourier_sample
 from study.outputs.mesh_excitation import MeshExcitation
 from study.plots.common import plt, save_figure
 
-__all__ = ["mesh_excitation_plots", "parameter_study_plot"]
+__all__ = ["mesh_excitation_plots", "parameter_study_plot", "train_excitation_plots"]
 
 _FINE = 512    # samples of a Fourier series over one mesh period
 
@@ -130,27 +130,46 @@ def _harris_plot(data: MeshExcitation, path: Path, title: str) -> Path:
 
 
 def mesh_excitation_plots(data: MeshExcitation, scene, out: Path) -> list[Path]:
-    """The PNGs of a run's ``ltca``/``table`` mesh excitation in ``out``: ``mesh_ste_tvms``
-    (one mesh period, with the series kept), and with the LTCA ``mesh_load_sharing``,
-    ``mesh_harris``, ``mesh_hunting`` (pitch deviations: the hunting period and its
-    shaft orders) and ``mesh_contact_pattern`` (slices across the face)."""
-    out = Path(out)
-    name = scene.name
-    paths = [_period_plot(data, scene.mesh_stiffness, scene.transmission_error,
-                          out / "mesh_ste_tvms.png",
+    """The PNGs of a one-pair run's ``ltca``/``table`` mesh excitation in ``out``:
+    ``mesh_ste_tvms`` (one mesh period, with the series kept), and with the LTCA
+    ``mesh_load_sharing``, ``mesh_harris``, ``mesh_hunting`` (pitch deviations: the
+    hunting period and its shaft orders) and ``mesh_contact_pattern`` (slices across the
+    face)."""
+    return _plots(data, scene.mesh_source, scene.mesh_stiffness, scene.transmission_error,
+                  Path(out), scene.name, "")
+
+
+def train_excitation_plots(per_mesh: dict[str, MeshExcitation], scene,
+                           out: Path) -> list[Path]:
+    """The same PNGs (:func:`mesh_excitation_plots`) for every mesh of a train in
+    ``per_mesh`` (mesh name -> arrays), each file name ending with ``_<mesh>``."""
+    meshes = {m.name: m for m in scene.meshes}
+    paths = []
+    for name, data in per_mesh.items():
+        m = meshes[name]
+        paths += _plots(data, m.source, m.mesh_stiffness, m.transmission_error, Path(out),
+                        f"{scene.name}, {name}", f"_{name}")
+    return paths
+
+
+def _plots(data: MeshExcitation, src, stiffness, te, out: Path, name: str,
+           suffix: str) -> list[Path]:
+    """:func:`mesh_excitation_plots` of one mesh: its source ``src``, the series ``stiffness``
+    and ``te`` the dynamics take, titles starting with ``name``, file names ending with
+    ``suffix``."""
+    paths = [_period_plot(data, stiffness, te, out / f"mesh_ste_tvms{suffix}.png",
                           f"{name}: STE and TVMS over a mesh period "
                           f"(k_m: {data.stiffness_source}, TE: {data.te_source})")]
     if not data.has_ltca:
         return paths
-    src = scene.mesh_source
-    paths.append(_sharing_plot(data, src.case.load, out / "mesh_load_sharing.png",
+    paths.append(_sharing_plot(data, src.case.load, out / f"mesh_load_sharing{suffix}.png",
                                f"{name}: load sharing between tooth pairs"))
-    paths.append(_harris_plot(data, out / "mesh_harris.png", f"{name}: Harris map"))
+    paths.append(_harris_plot(data, out / f"mesh_harris{suffix}.png", f"{name}: Harris map"))
     if data.periods > 1:
-        paths.append(_hunting_plot(data, src.case.pair.teeth, out / "mesh_hunting.png",
+        paths.append(_hunting_plot(data, src.case.pair.teeth, out / f"mesh_hunting{suffix}.png",
                                    f"{name}: over the hunting period"))
     if data.n_slices > 1:
-        paths.append(_pattern_plot(data, out / "mesh_contact_pattern.png",
+        paths.append(_pattern_plot(data, out / f"mesh_contact_pattern{suffix}.png",
                                    f"{name}: contact pattern at {data.torque:g} N·m"))
     return paths
 

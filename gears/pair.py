@@ -109,10 +109,16 @@ def pair_frame(alpha: float, *, sense: int = 1) -> np.ndarray:
 
 def line_of_action_vector(alpha: float, beta: float, rb1: float, rb2: float, *,
                           hand: int = 1, sense: int = 1) -> np.ndarray:
-    """Restriction of G to q_c = (u1..u3, θ1..θ3, u4..u6, θ4..θ6), the paper's eq. (11).
+    """Restriction of G to q_c = (u1..u3, θ1..θ3, u4..u6, θ4..θ6), the paper's eq. (11)
+    with the sign of its θ_x' entries corrected (docs/theory.md §1).
 
     Δ = Gᵀ q_c (m) is the approach of the two active flanks along the line of action,
-    the gear DOF expressed in the frame :func:`pair_frame` (same ``sense``).
+    the gear DOF expressed in the frame :func:`pair_frame` (same ``sense``): the motion of
+    the pitch point as a point of each gear, projected on the flank normal
+    ``n + tan β e_z'``. Every rigid motion of the pair gives Δ = 0. Eq. (11) as printed
+    has ``+r_b tan α tan β`` on θ_x' (θ1 and θ4), which puts the two gears' contact points
+    at different places along the line of action: a rigid rotation of the whole pair
+    about x' would load the teeth. The entries differ only for helical pairs.
 
     Parameters
     ----------
@@ -121,7 +127,7 @@ def line_of_action_vector(alpha: float, beta: float, rb1: float, rb2: float, *,
     rb1, rb2 : float
         Base radii of gear 1 and gear 2 (m), > 0.
     hand : {1, -1}
-        Sign applied to tan β: 1 is eq. (11) as printed. In the frame of (T.1) a flank
+        Sign applied to tan β: 1 is the hand of eq. (11). In the frame of (T.1) a flank
         normal with a +tan β axial part belongs to a left-hand gear 1 (right-hand
         gear 2); -1 gives the other hand. No effect when β = 0.
     sense : {1, -1}
@@ -133,8 +139,8 @@ def line_of_action_vector(alpha: float, beta: float, rb1: float, rb2: float, *,
     -------
     numpy.ndarray, shape (12,)
         ``sense = hand = 1``:
-        (0, 1, tan β, r_b1 tan α tan β, −r_b1 tan β, r_b1,
-        0, −1, −tan β, r_b2 tan α tan β, −r_b2 tan β, r_b2).
+        (0, 1, tan β, −r_b1 tan α tan β, −r_b1 tan β, r_b1,
+        0, −1, −tan β, −r_b2 tan α tan β, −r_b2 tan β, r_b2).
     """
     check_range("alpha", alpha, lo=0.0, hi=0.5 * math.pi, hi_open=True, unit="rad")
     check_range("beta", beta, lo=-0.5 * math.pi, hi=0.5 * math.pi, lo_open=True,
@@ -144,9 +150,9 @@ def line_of_action_vector(alpha: float, beta: float, rb1: float, rb2: float, *,
     _check_sign("hand", hand)
     _check_sign("sense", sense)
     ta, tb = math.tan(alpha), hand * math.tan(beta)
-    return np.array(  # eq. (11); sense = ±1 and hand = ±1 multiply exactly
-        [0.0, 1.0, sense * tb, sense * rb1 * ta * tb, -rb1 * tb, sense * rb1,
-         0.0, -1.0, -sense * tb, sense * rb2 * ta * tb, -rb2 * tb, sense * rb2]
+    return np.array(  # eq. (11), θ_x' corrected; sense = ±1 and hand = ±1 multiply exactly
+        [0.0, 1.0, sense * tb, -sense * rb1 * ta * tb, -rb1 * tb, sense * rb1,
+         0.0, -1.0, -sense * tb, -sense * rb2 * ta * tb, -rb2 * tb, sense * rb2]
     )  # fmt: skip
 
 

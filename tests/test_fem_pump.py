@@ -58,10 +58,11 @@ def test_contract_nodes_and_gear_dofs(pump: fem.FEModel) -> None:
 
 
 def _eq11_before_gears(alpha: float, beta: float, rb1: float, rb2: float) -> np.ndarray:
-    """eq. (11) as fem/frames.py computed it before the gears package took it over."""
+    """eq. (11) as fem/frames.py computed it before the gears package took it over, with
+    the θ_x' entries' sign corrected since (docs/theory.md §1; spur pairs unchanged)."""
     ta, tb = math.tan(alpha), math.tan(beta)
-    return np.array([0.0, 1.0, tb, rb1 * ta * tb, -rb1 * tb, rb1,
-                     0.0, -1.0, -tb, rb2 * ta * tb, -rb2 * tb, rb2])
+    return np.array([0.0, 1.0, tb, -rb1 * ta * tb, -rb1 * tb, rb1,
+                     0.0, -1.0, -tb, -rb2 * ta * tb, -rb2 * tb, rb2])
 
 
 @pytest.mark.parametrize("scene", ["pump.toml", "pump-paper.toml"])

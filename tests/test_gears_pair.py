@@ -1,5 +1,6 @@
 """gears.pair: the gear-pair frame of Fig. 1 and G of eq. (11) against the motion of the
-base-circle tangent points, for both senses of rotation and both helix hands; the pair
+base-circle tangent points (spur) and of the pitch point (helical: rigid motions of the
+pair give no approach), for both senses of rotation and both helix hands; the pair
 geometry against a textbook spur pair and the ISO/TR 6336-30 helical example."""
 from __future__ import annotations
 
@@ -55,9 +56,10 @@ def test_eq11_helical_entries_hand_and_sense() -> None:
     alpha, beta, rb1, rb2 = 0.35, 0.2, 0.05, 0.04
     G = line_of_action_vector(alpha, beta, rb1, rb2)
     ta, tb = math.tan(alpha), math.tan(beta)
-    expected = [0, 1, tb, rb1 * ta * tb, -rb1 * tb, rb1, 0, -1, -tb, rb2 * ta * tb, -rb2 * tb,
-                rb2]
-    np.testing.assert_array_equal(G, expected)                 # eq. (11) as printed
+    # eq. (11) with its θ_x' entries of the opposite sign (docs/theory.md §1)
+    expected = [0, 1, tb, -rb1 * ta * tb, -rb1 * tb, rb1, 0, -1, -tb, -rb2 * ta * tb,
+                -rb2 * tb, rb2]
+    np.testing.assert_array_equal(G, expected)
     # the other hand is tan β -> −tan β
     np.testing.assert_array_equal(line_of_action_vector(alpha, beta, rb1, rb2, hand=-1),
                                   line_of_action_vector(alpha, -beta, rb1, rb2))
@@ -72,6 +74,40 @@ def test_eq11_helical_entries_hand_and_sense() -> None:
         q1 = np.concatenate([R1.T @ x for x in v])
         q2 = np.concatenate([R2.T @ (Q @ x) for x in v])
         assert G2 @ q2 == pytest.approx(G @ q1, rel=1e-13)
+
+
+@pytest.mark.parametrize("sense", [1, -1])
+@pytest.mark.parametrize("hand", [1, -1])
+def test_helical_g_is_the_motion_of_the_pitch_point_and_ignores_rigid_motions(
+        sense: int, hand: int) -> None:
+    """A helical pair (β = 0.2 rad): Gᵀ q_c is the approach of the two gears at the pitch
+    point along the flank normal ``n + s tan β e_z'`` (s the axial entry of G), for any
+    motion of the gear centres; a rigid motion of the whole pair (common translation and
+    rotation about any point) gives Δ = 0. Eq. (11) as printed, with +r_b tan α tan β on
+    θ_x', fails both by ~1e-2 of the motion here."""
+    alpha, beta, rb1, rb2 = 0.35, 0.2, 0.05, 0.04
+    a = (rb1 + rb2) / math.cos(alpha)
+    G = line_of_action_vector(alpha, beta, rb1, rb2, hand=hand, sense=sense)
+    printed = G.copy()
+    printed[[3, 9]] *= -1.0
+    R = pair_frame(alpha, sense=sense)
+    c1, c2 = np.zeros(3), np.array([a, 0.0, 0.0])
+    pitch = np.array([rb1 / math.cos(alpha), 0.0, 0.0])
+    normal = R @ np.array([0.0, 1.0, G[2]])
+    assert G[2] == pytest.approx(sense * hand * math.tan(beta), rel=1e-15)
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(5):
+        u1, th1, u2, th2 = rng.normal(size=(4, 3))
+        delta = normal @ ((u1 + np.cross(th1, pitch - c1)) - (u2 + np.cross(th2, pitch - c2)))
+        q_c = np.concatenate([R.T @ u1, R.T @ th1, R.T @ u2, R.T @ th2])
+        assert abs(G @ q_c - delta) < 1e-14
+        worst = max(worst, abs(printed @ q_c - delta))
+        t, w, p = rng.normal(size=(3, 3))
+        q_c = np.concatenate([R.T @ (t + np.cross(w, c1 - p)), R.T @ w,
+                              R.T @ (t + np.cross(w, c2 - p)), R.T @ w])
+        assert abs(G @ q_c) < 1e-14
+    assert worst > 1e-3
 
 
 def test_bad_frame_and_vector_input_is_refused() -> None:

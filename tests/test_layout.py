@@ -355,7 +355,7 @@ def test_product_tests_import_no_benchmarks() -> None:
             f"{path.relative_to(ROOT)} imports benchmarks: move the test to benchmarks/tests/")
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["tool"]["pytest"]["ini_options"]["testpaths"] == ["tests", "benchmarks/tests"]
-    assert "pytest -q tests benchmarks/tests" in (ROOT / "Makefile").read_text()
+    assert "pytest -q $(XDIST) tests benchmarks/tests" in (ROOT / "Makefile").read_text()
 
 
 def test_hbm_imports_without_the_fe_stack() -> None:

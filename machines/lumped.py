@@ -17,20 +17,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from fractions import Fraction
-from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from gears.pair import line_of_action_vector, pair_frame
-from machines.base import GearBody, GearMeshSpec, LinearModel, LumpedMachine, Part, Shaft
+from machines.base import LinearModel, LumpedMachine, Part
+from machines.pair import OnePair
 from machines.registry import register
 
 __all__ = ["LumpedGearPair", "disk_inertia", "gear_inertias", "equivalent_mass",
            "sdof_matrices", "sdof_forcing"]
-
-SHAFTS = ("in", "out")
 
 
 def disk_inertia(radius: float, width: float, density: float) -> float:
@@ -86,36 +82,17 @@ def sdof_forcing(scene: Any) -> dict[int, np.ndarray]:
 
 
 @register
-class LumpedGearPair(LumpedMachine):
+class LumpedGearPair(OnePair, LumpedMachine):
     """The 1:1 spur or helical pair of ``[gear]`` as one DOF Δ on the line of action.
 
-    Its gear bodies ``in/gear`` and ``out/gear`` (no FE node) and its one mesh are
-    those of the pump (same frame of Fig. 1 and eq. 11 vector); the model's coordinate
-    is Δ itself, so its direction is 1.
+    Its shafts, gear bodies ``in/gear`` and ``out/gear`` (no FE node) and its one mesh
+    are those of the pump (:class:`machines.pair.OnePair`: same frame of Fig. 1 and
+    eq. 11 vector); the model's coordinate is Δ itself, so its direction is 1.
     """
 
     kind = "lumped"
     model = "sdof"
     summary = "single-DOF gear pair, no FE"
-
-    @cached_property
-    def shafts(self) -> tuple[Shaft, ...]:
-        z = self.scene.gear.teeth
-        return (Shaft("in", Fraction(1)), Shaft("out", Fraction(z, z)))
-
-    @cached_property
-    def gear_bodies(self) -> tuple[GearBody, ...]:
-        g = self.scene.gear
-        frame = pair_frame(g.pressure_angle)
-        return tuple(GearBody(f"{s}/gear", s, None, g.teeth, g.base_radius, frame)
-                     for s in SHAFTS)
-
-    @cached_property
-    def gear_meshes(self) -> tuple[GearMeshSpec, ...]:
-        g = self.scene.gear
-        v = line_of_action_vector(g.pressure_angle, g.helix_angle, g.base_radius,
-                                  g.base_radius)
-        return (GearMeshSpec("gear mesh", ("in/gear", "out/gear"), v, g.teeth, Fraction(1)),)
 
     @property
     def load_nodes(self) -> tuple[str, ...]:
@@ -125,13 +102,6 @@ class LumpedGearPair(LumpedMachine):
     @property
     def parts(self) -> tuple[Part, ...]:
         return ()
-
-    def static_mesh_loads(self) -> tuple[float, ...]:
-        """F_s = T / r_b1 (``Scene.static_load``)."""
-        return (self.scene.static_load,)
-
-    def mean_mesh_stiffness(self) -> tuple[float, ...]:
-        return (self.scene.mesh_stiffness.mean,)
 
     def stage_inputs(self, stage: str) -> dict[str, Any]:
         if stage != "linear":

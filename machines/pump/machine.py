@@ -9,7 +9,6 @@ free FE sections reach them through :func:`machines.pump.params.fe_parameters`.
 """
 from __future__ import annotations
 
-from fractions import Fraction
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -17,17 +16,15 @@ from typing import Any
 import numpy as np
 
 from core.errors import InputError
-from gears.pair import line_of_action_vector, pair_frame
-from machines.base import GearBody, GearMeshSpec, Part, Shaft
+from machines.base import Part
 from machines.fe import FEMachine, load_mesh, write_mesh_info
+from machines.pair import SHAFTS, OnePair
 from machines.pump.params import FEParams, fe_parameters
 from machines.registry import register
 from machines.rom import rom_stage_inputs
 
 __all__ = ["Pump", "SHAFTS", "N_STATIONS", "LOAD_NODES", "PARTS"]
 
-#: The shafts: the motor's (reference speed) and the impeller's.
-SHAFTS = ("in", "out")
 #: Stations per shaft where the aerodynamic loads act (eq. 1).
 N_STATIONS = 6
 #: Named FE nodes whose basis rows are kept with the ROM (loads act there).
@@ -38,7 +35,7 @@ PARTS = (Part("shaft_in"), Part("shaft_out"), Part("housing", radiates=True))
 
 
 @register
-class Pump(FEMachine):
+class Pump(OnePair, FEMachine):
     """The pump (see the module docstring)."""
 
     kind = "fe"
@@ -46,26 +43,9 @@ class Pump(FEMachine):
     mesh_file = "pump.msh"
 
     # ------------------------------------------------------------------ what it is
-    @cached_property
-    def shafts(self) -> tuple[Shaft, ...]:
-        z = self.scene.gear.teeth
-        return (Shaft("in", Fraction(1)), Shaft("out", Fraction(z, z)))
-
-    @cached_property
-    def gear_bodies(self) -> tuple[GearBody, ...]:
-        """``in/gear`` (gear 1, driving) and ``out/gear``, both in the frame of Fig. 1."""
-        g = self.scene.gear
-        frame = pair_frame(g.pressure_angle)
-        return tuple(GearBody(f"{s}/gear", s, f"{s}/gear", g.teeth, g.base_radius, frame)
-                     for s in SHAFTS)
-
-    @cached_property
-    def gear_meshes(self) -> tuple[GearMeshSpec, ...]:
-        """The one mesh, eq. (11) with the ``[gear]`` angles and base radii."""
-        g = self.scene.gear
-        v = line_of_action_vector(g.pressure_angle, g.helix_angle, g.base_radius,
-                                  g.base_radius)
-        return (GearMeshSpec("gear mesh", ("in/gear", "out/gear"), v, g.teeth, Fraction(1)),)
+    def gear_node(self, shaft: str) -> str:
+        """Each gear body is the FE node of the same name (``in/gear``, ``out/gear``)."""
+        return f"{shaft}/gear"
 
     @property
     def load_nodes(self) -> tuple[str, ...]:
@@ -74,13 +54,6 @@ class Pump(FEMachine):
     @property
     def parts(self) -> tuple[Part, ...]:
         return PARTS
-
-    def static_mesh_loads(self) -> tuple[float, ...]:
-        """F_s = T / r_b1: the impeller torque T, balanced by the motor through the mesh."""
-        return (self.scene.static_load,)
-
-    def mean_mesh_stiffness(self) -> tuple[float, ...]:
-        return (self.scene.mesh_stiffness.mean,)
 
     @cached_property
     def params(self) -> FEParams:

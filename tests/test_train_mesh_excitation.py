@@ -88,6 +88,8 @@ def test_plots_and_report_name_the_mesh(ltca_train):
     assert "- mesh excitation of stage2: k_m from `ltca`, TE from `ltca`" in report
     assert "arrays in results.h5 `/elements/1/mesh_excitation`" in report
     assert "- LTCA of stage2 at " in report and "of stage1:" not in report
+    # the Meshes table says where each k̄ comes from
+    assert "| 464.3 (ISO 6336) |" in report and "| 574.1 (LTCA) |" in report
     # `geardyn report` from results.h5 draws them again from the cached arrays
     (first.out / "mesh_harris_stage2.png").unlink()
     report_from_results(path, first.out, QUICK, cache=str(first.out.parent / "cache"))

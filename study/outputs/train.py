@@ -103,7 +103,9 @@ def mesh_report_lines(result) -> list[str]:
              "| mesh | gears (Z₁:Z₂) | mesh order (of the drive) | F_s (N) | k̄ (N/µm) | "
              "b (µm) | ε_α | phase at t = 0 |", "|---|---|---:|---:|---:|---:|---:|---|"]
     for m, sm in zip(layout.meshes, sc.meshes, strict=True):
-        iso = " (ISO 6336)" if sm.mesh_stiffness.estimated else ""
+        src = sm.source.stiffness if sm.source is not None else "fourier"
+        iso = {"ltca": " (LTCA)", "table": " (table)"}.get(
+            src, " (ISO 6336)" if sm.mesh_stiffness.estimated else "")
         lines.append(
             f"| {m.name} | {m.gears[0]}:{m.gears[1]} ({m.teeth[0]}:{m.teeth[1]}) | "
             f"{m.frequency_ratio} = {float(m.frequency_ratio):.5g} | {m.static_load:.1f} | "

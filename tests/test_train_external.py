@@ -11,7 +11,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from test_train_lumped import TWO_STAGE, train_toml
+from test_train_lumped import SIX, TWO_STAGE, train_toml
 from train_time_models import hbm_state, integrate_train
 
 import hbm
@@ -82,7 +82,7 @@ def test_shipped_two_stage_with_an_output_order_sizes():
     the torus at the default bound 2^16, the periodic set at 2^18."""
     over = {"external.aero": [{"shaft": "output", "order": 1,
                                "torque_Nm": [0.0, 0.0, 20.0]}]}
-    sc = load_scene("scenes/two-stage-lumped.toml", over)
+    sc = load_scene("scenes/two-stage-lumped.toml", {**over, **SIX})
     lay = machine_for(sc).layout
     assert lay.hunting_fundamental() == Fraction(23, 4087)
     c = train_basis_choice(sc, lay)
@@ -91,7 +91,8 @@ def test_shipped_two_stage_with_an_output_order_sizes():
     assert max(lay.periodic_indices(6)) == 32179
     assert (c.torus_harmonics, c.torus_samples) == (254, 65536)
     assert c.basis.grid == (64, 64, 16)
-    sc2 = load_scene("scenes/two-stage-lumped.toml", {**over, "hbm.max_aft_samples": 1 << 18})
+    sc2 = load_scene("scenes/two-stage-lumped.toml",
+                     {**over, **SIX, "hbm.max_aft_samples": 1 << 18})
     assert train_basis_choice(sc2, machine_for(sc2).layout).kind == "periodic"
 
 
@@ -164,7 +165,7 @@ def test_periodic_and_torus_agree_with_an_output_shaft_order(rpm, rtol):
             "hbm.max_aft_samples": 1 << 18}
     out = {}
     for basis in ("periodic", "torus"):
-        sc = load_scene("scenes/two-stage-lumped.toml", {**over, "hbm.basis": basis})
+        sc = load_scene("scenes/two-stage-lumped.toml", {**over, **SIX, "hbm.basis": basis})
         pb, machine = _problem(sc)
         assert pb.harmonics.dimension == (1 if basis == "periodic" else 3)
         if basis == "torus":
@@ -193,9 +194,9 @@ def test_torus_names_a_resonance_within_the_reach_of_the_set(caplog):
     assert "use hbm.basis = 'periodic'" in caplog.text
     mid = {"external.aero": [{"shaft": "intermediate", "order": 1,
                               "torque_Nm": [0.0, 0.0, 10.0]}]}
-    lay = machine_for(load_scene("scenes/two-stage-lumped.toml", mid)).layout
+    lay = machine_for(load_scene("scenes/two-stage-lumped.toml", {**mid, **SIX})).layout
     assert torus_resonance(torus_basis(lay, 6)) == (4, -13, 3)
-    plain = machine_for(load_scene("scenes/two-stage-lumped.toml")).layout
+    plain = machine_for(load_scene("scenes/two-stage-lumped.toml", SIX)).layout
     assert torus_resonance(torus_basis(plain, 6)) is None
 
 
@@ -276,7 +277,7 @@ def test_sideband_order_needs_shaft_orders_and_periodic_bound_says_the_size():
     over = {"external.aero": [{"shaft": "output", "order": 1,
                                "torque_Nm": [0.0, 0.0, 20.0]}], "hbm.basis": "periodic"}
     with pytest.raises(SceneError) as err:
-        load_scene("scenes/two-stage-lumped.toml", over)
+        load_scene("scenes/two-stage-lumped.toml", {**over, **SIX})
     assert err.value.field == "hbm.max_aft_samples"
     assert "with its shaft orders" in str(err.value)
     assert "254 harmonics up to index 32179 and 262144 AFT samples" in str(err.value)
@@ -291,7 +292,7 @@ def test_stability_over_a_long_hunting_period():
     over = {"external.aero": [{"shaft": "output", "order": 1,
                                "torque_Nm": [0.0, 0.0, 20.0]}],
             "hbm.max_aft_samples": 1 << 18, "hbm.basis": "periodic"}
-    pb, _ = _problem(load_scene("scenes/two-stage-lumped.toml", over))
+    pb, _ = _problem(load_scene("scenes/two-stage-lumped.toml", {**over, **SIX}))
     assert pb.steps == (4087, 1273)
     r = monodromy_exponents(pb, pb.solve(3238.0, tol=1e-10))
     assert r.n_steps >= 16 * 4087

@@ -1,5 +1,6 @@
 """docs/tutorial.md stays true: its scene loads without warning and gives the numbers the
-text quotes (issue 39 item 6)."""
+text quotes (issue 39 item 6); section 8's LTCA tables, put in the shipped two-stage
+scene as the text says, give the LTCA it quotes."""
 from __future__ import annotations
 
 import logging
@@ -7,6 +8,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from study.scene import SceneError, parse_scene
@@ -15,9 +17,14 @@ ROOT = Path(__file__).resolve().parents[1]
 TEXT = (ROOT / "docs" / "tutorial.md").read_text()
 
 
+def _blocks() -> list[str]:
+    return re.findall(r"```toml\n(.*?)```", TEXT, flags=re.S)
+
+
 def _scene_text() -> str:
-    blocks = re.findall(r"```toml\n(.*?)```", TEXT, flags=re.S)
-    assert len(blocks) == 1
+    """Section 2's scene (the first of the two TOML blocks)."""
+    blocks = _blocks()
+    assert len(blocks) == 2
     return blocks[0]
 
 
@@ -42,3 +49,29 @@ def test_tutorial_unit_slip_is_refused_as_quoted():
         parse_scene(bad, "my-gearbox")
     quoted = "materials.housing_E_GPa = 0.07 GPa: outside the plausible range [0.1, 1500] GPa"
     assert str(err.value).startswith(quoted) and quoted in TEXT
+
+
+def test_section_8_ltca_tables_give_the_quoted_ltca():
+    """Section 8: stage 2 of scenes/two-stage-lumped.toml from the LTCA with tip relief and
+    crowning: its torque, k̄, STE peak-to-peak (and without the relief) as quoted."""
+    import gears
+
+    snippet = _blocks()[1]
+    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
+    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
+              '[meshes.transmission_error]\nestimate = true\n')
+    head, tail = text.rsplit(stage2, 1)
+    s = parse_scene(head + snippet + tail, "my-reducer")
+    m = s.meshes[1]
+    ste = gears.solve_ltca(m.source.case).ste
+    plain = parse_scene(head + snippet.replace("tip_relief_um = 20.0", "tip_relief_um = 0.0")
+                        + tail, "no-relief")
+    no_relief = gears.solve_ltca(plain.meshes[1].source.case).ste
+    quoted = (f"LTCA of stage2 at {m.source.case.torque:.3f} N·m", f"{np.ptp(ste) * 1e6:.3f} µm",
+              f"`{m.mesh_stiffness.mean / 1e6:.1f} (LTCA)`",
+              f"({np.ptp(no_relief) * 1e6:.2f} µm peak-to-peak without the relief")
+    assert quoted == ("LTCA of stage2 at 132.609 N·m", "3.104 µm", "`548.3 (LTCA)`",
+                      "(8.30 µm peak-to-peak without the relief")
+    flat = " ".join(TEXT.split())
+    for q in quoted:
+        assert q in flat, q

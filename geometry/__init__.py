@@ -22,6 +22,7 @@ _WHERE = {
     "import_part": "cad", "write_step": "cad",
     "build_housing": "housing", "build_box_housing": "housing",
     "build_gearbox": "gearbox", "gear_node": "gearbox", "CadHousing": "gearbox",
+    "MeshHousing": "gearbox",
     "GearboxParams": "gearbox_params", "GearboxShaftParams": "gearbox_params",
     "GearboxHousingParams": "gearbox_params", "GearSeatParams": "gearbox_params",
     "JournalParams": "gearbox_params", "Bore": "params", "BoxHousing": "params",
@@ -46,6 +47,7 @@ __all__ = [
     "Bore",
     "BoxHousing",
     "CadHousing",
+    "MeshHousing",
     "GearSeatParams",
     "GearboxHousingParams",
     "GearboxParams",
@@ -91,7 +93,7 @@ __all__ = [
 
 if TYPE_CHECKING:  # static analysers see the names eagerly
     from .cad import LENGTH_UNITS, CadPart, HealOptions, ImportedSolid, import_part, write_step
-    from .gearbox import CadHousing, build_gearbox, gear_node
+    from .gearbox import CadHousing, MeshHousing, build_gearbox, gear_node
     from .gearbox_params import (
         GearboxHousingParams,
         GearboxParams,

@@ -32,6 +32,7 @@ from machines.gearbox.params import (
     cad_housing,
     gearbox_geometry,
     gearbox_parameters,
+    mesh_housing,
 )
 from machines.registry import register
 from machines.rom import rom_stage_inputs
@@ -148,7 +149,7 @@ class Gearbox(FEMachine):
             out = {"geometry": dataclasses.asdict(self.geometry),
                    "housing": dataclasses.asdict(self.params.options),
                    "mesh": dataclasses.asdict(self.params.mesh)}
-            if self.params.options.source == "cad":  # the file's content, not its name
+            if self.params.options.source in ("cad", "mesh"):  # the file's content
                 f = Path(self.params.options.file)
                 out["cad_sha256"] = (hashlib.sha256(f.read_bytes()).hexdigest()
                                      if f.is_file() else None)
@@ -184,8 +185,10 @@ class Gearbox(FEMachine):
         p = self.params
         with gmsh_session():
             try:
-                cad = cad_housing(p.options) if p.options.source == "cad" else None
-                meshed = build_gearbox(self.geometry, p.mesh, cad=cad)
+                src = p.options.source
+                meshed = build_gearbox(
+                    self.geometry, p.mesh, cad=cad_housing(p.options) if src == "cad" else None,
+                    mesh_housing=mesh_housing(p.options) if src == "mesh" else None)
             except InputError:
                 raise
             except (ValueError, RuntimeError) as exc:

@@ -19,10 +19,13 @@ from core.units import FE_SUFFIXES
 from machines.sections import FEParameterError, convert_section
 
 __all__ = ["HousingOptions", "GearboxFEParams", "gearbox_parameters", "gearbox_geometry",
-           "bearing_names", "cad_housing"]
+           "bearing_names", "cad_housing", "mesh_housing"]
 
-#: Housing sources: the parametric box, or a CAD file (issue 37's geometry.cad).
-SOURCES = ("parametric", "cad")
+#: Housing sources: the parametric box, a CAD file (issue 37's geometry.cad) or an
+#: existing volume mesh (geometry.meshfile).
+SOURCES = ("parametric", "cad", "mesh")
+#: What a housing mesh of 4-node tetrahedra gets (geometry.meshfile.FIRST_ORDER).
+FIRST_ORDER = ("refuse", "upgrade")
 LINKS = ("rigid", "distributing")
 
 
@@ -33,25 +36,32 @@ class HousingOptions:
     Attributes
     ----------
     source : str
-        ``"parametric"`` (the box of :mod:`geometry.gearbox` that follows the shafts) or
+        ``"parametric"`` (the box of :mod:`geometry.gearbox` that follows the shafts),
         ``"cad"`` (``file`` read by :func:`geometry.import_cad`, the seats found by their
-        axes from the shafts).
+        axes from the shafts) or ``"mesh"`` (``file`` an existing volume mesh of ten-node
+        tetrahedra, ``.msh``, ``.inp`` or ``.bdf``/``.nas``/``.fem``, kept as it is, the
+        seats found the same way on its boundary facets).
     file : str
-        The CAD file (``source = "cad"``), relative to the scene's folder or absolute.
+        The CAD or mesh file (``source = "cad"`` or ``"mesh"``), relative to the working
+        directory or absolute.
     unit : str
         Its length unit (``"mm"``).
+    first_order : str
+        ``source = "mesh"``: ``"refuse"`` a mesh of 4-node tetrahedra, or ``"upgrade"`` it
+        with straight mid-edge nodes.
     bore_link, journal_link, hub_link : str
         Links of the bores, the journals and the gear seats to their nodes: ``"rigid"``
         (RBE2) or ``"distributing"`` (RBE3-type).
     bearing_width : float
         Width of every bearing (m): the journal's and the seat's axial extent.
     bore_radii : tuple of float
-        CAD only: the bore radius of each shaft's bearings (m), in the order of
+        CAD or mesh: the bore radius of each shaft's bearings (m), in the order of
         ``[[shafts]]``; default shaft radius + ``bearing_section``.
     feet_y : float
-        CAD only: y of the feet's bolted faces (plane normal -y) in the gearbox's frame, m.
+        CAD or mesh: y of the feet's bolted faces (plane normal -y) in the gearbox's
+        frame, m.
     offset : tuple of 3 floats
-        CAD only: translation of the file's geometry into the gearbox's frame (the first
+        CAD or mesh: translation of the file's geometry into the gearbox's frame (the first
         shaft on the z axis, the shafts' starts at z = 0), m; empty: none.
     """
 
@@ -65,6 +75,7 @@ class HousingOptions:
     bore_radii: tuple[float, ...] = ()
     feet_y: float = math.nan
     offset: tuple[float, ...] = ()
+    first_order: str = "refuse"
 
     def __post_init__(self) -> None:
         if self.source not in SOURCES:
@@ -77,16 +88,21 @@ class HousingOptions:
         if not self.bearing_width > 0:
             raise FEParameterError(f"housing.bearing_width = {self.bearing_width!r}: must be "
                                    "> 0 (m)")
-        if self.source == "cad":
+        if self.first_order not in FIRST_ORDER:
+            raise FEParameterError(f"housing.first_order = {self.first_order!r}: allowed "
+                                   f"{', '.join(map(repr, FIRST_ORDER))}")
+        if self.source in ("cad", "mesh"):
+            what = {"cad": "CAD file (STEP, IGES, BREP)",
+                    "mesh": "mesh file (.msh, .inp, .bdf, .nas, .fem)"}[self.source]
             if not self.file:
-                raise FEParameterError("housing.file = '': source = 'cad' needs the CAD "
-                                       "file (STEP, IGES, BREP)")
+                raise FEParameterError(f"housing.file = '': source = '{self.source}' needs "
+                                       f"the {what}")
             if self.offset and len(self.offset) != 3:
                 raise FEParameterError(f"housing.offset = {list(self.offset)}: must be 3 "
                                        "lengths (x, y, z)")
             if not math.isfinite(self.feet_y):
-                raise FEParameterError("housing.feet_y: source = 'cad' needs the y of the "
-                                       "feet's bolted faces (feet_y_mm)")
+                raise FEParameterError(f"housing.feet_y: source = '{self.source}' needs the "
+                                       "y of the feet's bolted faces (feet_y_mm)")
 
 
 @dataclass(frozen=True)
@@ -150,6 +166,17 @@ def cad_housing(options: HousingOptions) -> Any:
     return geometry.CadHousing(options.file, options.unit,
                                tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
                                tuple(options.bore_radii), options.feet_y)
+
+
+def mesh_housing(options: HousingOptions) -> Any:
+    """The :class:`geometry.MeshHousing` of ``[housing]`` with ``source = "mesh"``; the
+    file is relative to the working directory (or absolute)."""
+    import geometry
+
+    return geometry.MeshHousing(options.file, options.unit,
+                                tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
+                                tuple(options.bore_radii), options.feet_y,
+                                options.first_order)
 
 
 def bearing_names(shaft: Any) -> list[str]:

@@ -236,6 +236,37 @@ def test_overrides_and_set_values():
         scene_from_dict(apply_overrides(MINIMAL, {"load.torque_Nm": "abc"}))
 
 
+def test_set_reaches_an_entry_of_an_array_of_tables_by_name_or_index():
+    """``--set meshes.stage2.backlash_um`` or ``meshes[1].backlash_um`` changes that mesh
+    only (the train's [[meshes]]), deeper keys too; a wrong name, index or a bare array
+    is refused naming what the scene has."""
+    from study.scene.load import load_scene
+
+    path = Path(__file__).resolve().parents[1] / "scenes" / "two-stage-lumped.toml"
+    base = load_scene(path)
+    s = load_scene(path, {"meshes.stage2.backlash_um": 25.0, "meshes[0].angle_deg": 10.0,
+                          "gears.p1.face_width_mm": 30.0})
+    assert s.meshes[1].backlash == pytest.approx(25e-6, rel=1e-12)
+    assert s.meshes[0].backlash == base.meshes[0].backlash
+    assert s.meshes[0].angle == pytest.approx(math.radians(10.0), rel=1e-12)
+    assert s.meshes[1].angle == base.meshes[1].angle
+    assert s.gears[0].face_width == pytest.approx(30e-3) and \
+        s.gears[1].face_width == base.gears[1].face_width
+    raw = apply_overrides({"meshes": [{"name": "a", "x": {"y": 1}}]}, {"meshes.a.x.y": 2})
+    assert raw["meshes"][0]["x"]["y"] == 2
+    for key, words in (("meshes.stage3.backlash_um", "no entry named 'stage3' (its names: "
+                                                     "'stage1', 'stage2'"),
+                       ("meshes[2].backlash_um", "index 2 out of range: [[meshes]] has 2 "
+                                                 "entries"),
+                       ("meshes.backlash_um", "[[meshes]] is an array of tables; name an "
+                                              "entry"),
+                       ("load[0].torque_Nm", "'load' is not an array of tables")):
+        with pytest.raises(SceneError) as err:
+            load_scene(path, {key: 20.0})
+        assert str(err.value).startswith(f"--set {key}: ") and words in str(err.value), \
+            str(err.value)
+
+
 # ---------------------------------------------------------------- property-based fuzzing
 
 _BAD_VALUES = st.one_of(

@@ -46,3 +46,52 @@ def test_the_study_refuses_what_it_cannot_compare(tmp_path, capsys):
     assert main(["microgeometry", LTCA, "--out", out, "--set",
                  "micro_geometry.both.tip_relief_um=0,3000", *QUICK]) == EXIT_INPUT
     assert "micro_geometry.gear1.tip_relief_um" in capsys.readouterr().err
+
+
+def _train_scene(path: Path) -> Path:
+    """scenes/two-stage-lumped.toml with stage 2 from the LTCA (crowning, tip relief
+    starting at 40 / 135 mm: docs/tutorial.md section 8)."""
+    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
+    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
+              '[meshes.transmission_error]\nestimate = true\n')
+    head, tail = text.rsplit(stage2, 1)
+    ltca = ('[meshes.mesh_stiffness]\nsource = "ltca"\n[meshes.transmission_error]\n'
+            'source = "ltca"\nkind = "loaded"\n[meshes.micro_geometry.both]\n'
+            'tip_relief_um = 20.0\ncrowning_um = 4.0\n[meshes.micro_geometry.gear1]\n'
+            'tip_relief_start_diameter_mm = 40.0\n[meshes.micro_geometry.gear2]\n'
+            'tip_relief_start_diameter_mm = 135.0\n')
+    path.write_text(head + ltca + tail)
+    return path
+
+
+def test_a_train_mesh_named_in_the_key(tmp_path, capsys):
+    """On a train the key names the mesh (``meshes.stage2.…``): the table gives that mesh's
+    LTCA (STE peak-to-peak 8.30 µm without relief, 3.10 µm with 20 µm) and its own
+    mesh-load std (element 1 of results.h5); a key of no mesh, or of a mesh without the
+    LTCA, is refused."""
+    import h5py
+    import numpy as np
+
+    scene = str(_train_scene(tmp_path / "reducer.toml"))
+    quick = ["--set", "continuation.speed_rpm=[8000.0,9000.0]", "--set",
+             "hbm.mesh_harmonics=4", "--set", "outputs.plots=[\"forced_response\"]",
+             "--no-progress", "-q"]
+    out = tmp_path / "study"
+    assert main(["microgeometry", scene, "--out", str(out), "--set",
+                 "meshes.stage2.micro_geometry.both.tip_relief_um=0,20", *quick]) == EXIT_OK
+    rows = {r.split("|")[1].strip(): [c.strip() for c in r.split("|")[2:-1]]
+            for r in (out / "microgeometry.md").read_text().splitlines()
+            if r.startswith(("| 0 |", "| 20 |"))}
+    assert float(rows["0"][0]) == pytest.approx(8.303, abs=0.01)
+    assert float(rows["20"][0]) == pytest.approx(3.104, abs=0.01)
+    with h5py.File(out / "tip_relief_um=20" / "results.h5", "r") as f:
+        std = f["continuation/mesh_load_std"][()][:, 1]
+    assert float(rows["20"][2]) == pytest.approx(float(np.max(std)), rel=1e-3)
+    assert (out / "tip_relief_um=20" / "mesh_harris_stage2.png").exists()
+    assert main(["microgeometry", scene, "--out", str(tmp_path / "y"), "--set",
+                 "hbm.mesh_harmonics=3,4", "-q"]) == EXIT_INPUT
+    assert "varies a key of one mesh: meshes.<name>" in capsys.readouterr().err
+    assert main(["microgeometry", scene, "--out", str(tmp_path / "z"), "--set",
+                 "meshes.stage1.backlash_um=30,40", "-q"]) == EXIT_INPUT
+    assert "mesh 'stage1''s mesh_stiffness and transmission_error do not come from the " \
+        "LTCA" in capsys.readouterr().err

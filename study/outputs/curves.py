@@ -262,10 +262,10 @@ def class_intervals(rpm: np.ndarray, contact: np.ndarray,
     return {c: merge_intervals(iv) for c, iv in out.items()}
 
 
-def contact_intervals(branch) -> dict[int, list[tuple[float, float]]]:
-    """Merged speed intervals (rpm) of a branch with impacts, per class, bounded by its
-    grazing speeds (:func:`class_intervals`)."""
-    mesh = branch.element(0)
+def contact_intervals(branch, element: int = 0) -> dict[int, list[tuple[float, float]]]:
+    """Merged speed intervals (rpm) of a branch with impacts on element ``element``, per
+    class, bounded by its grazing speeds (:func:`class_intervals`)."""
+    mesh = branch.element(element)
     return class_intervals(branch.rpm, mesh.contact, [g.rpm for g in mesh.grazing])
 
 

@@ -175,11 +175,11 @@ def _plots(data: MeshExcitation, src, stiffness, te, out: Path, name: str,
 
 
 def parameter_study_plot(values: list, branches: list, meshes: list, nvhs: list, key: str,
-                         path: Path) -> Path:
-    """A micro-geometry study (:mod:`study.studies.microgeometry`): the mesh-load std
-    against speed for each value (grazing points as diamonds), the LTCA's STE
-    peak-to-peak and the largest mesh-load std against the value, and (FE scenes) the
-    housing's total ERP against speed."""
+                         path: Path, element: int = 0) -> Path:
+    """A micro-geometry study (:mod:`study.studies.microgeometry`): the mesh-load std of
+    element ``element`` (the studied mesh) against speed for each value (its grazing
+    points as diamonds), the LTCA's STE peak-to-peak and the largest mesh-load std against
+    the value, and (FE scenes) the housing's total ERP against speed."""
     erp = [n is not None and n.erp is not None for n in nvhs]
     n_panels = 3 if any(erp) else 2
     fig, axes = plt.subplots(n_panels, 1, figsize=(8, 3.3 * n_panels))
@@ -188,9 +188,10 @@ def parameter_study_plot(values: list, branches: list, meshes: list, nvhs: list,
     ax = axes[0]
     for j, (v, br) in enumerate(zip(values, branches, strict=True)):
         col = colours[j % len(colours)]
-        std = br.element(0).mesh_load_std
+        cur = br.element(element)
+        std = cur.mesh_load_std
         ax.plot(br.rpm, std, color=col, lw=1.2, label=f"{label} = {v}")
-        g = sorted(br.grazing, key=lambda p: p.rpm)
+        g = sorted(cur.grazing, key=lambda p: p.rpm)
         if g:
             ax.plot([p.rpm for p in g], np.interp([p.rpm for p in g], br.rpm, std), "D",
                     ms=5, mfc="white", mec=col)
@@ -207,7 +208,7 @@ def parameter_study_plot(values: list, branches: list, meshes: list, nvhs: list,
     ax.set_ylabel("STE peak-to-peak (µm)", color="tab:blue")
     ax.set_ylim(bottom=0)
     ax2 = ax.twinx()
-    ax2.plot(x, [br.element(0).mesh_load_std.max() for br in branches], "s--",
+    ax2.plot(x, [br.element(element).mesh_load_std.max() for br in branches], "s--",
              color="tab:red", label="largest mesh-load std (N)")
     ax2.set_ylabel("largest mesh-load std (N)", color="tab:red")
     ax2.set_ylim(bottom=0)

@@ -1,8 +1,10 @@
 """``geardyn microgeometry``: one micro-geometry (or LTCA) parameter varied over a list of
-values on a scene whose mesh excitation comes from the LTCA (issue 38 item 4), and what
-it does to the vibro-impact map: per value the loaded STE's peak-to-peak and mean
-stiffness, the mesh-load std over the speed range, the grazing speeds and impact
-ranges, and (FE scenes) the housing's equivalent radiated power.
+values on a scene whose mesh excitation comes from the LTCA (issue 38 item 4) — a
+one-pair scene, or the mesh of a train the key names (``meshes.<name>.…`` or
+``meshes[i].…``) —, and what it does to the vibro-impact map of that mesh: per value
+the loaded STE's peak-to-peak and mean stiffness, the mesh-load std over the speed
+range, the grazing speeds and impact ranges, and (FE scenes) the housing's equivalent
+radiated power.
 
 Each value is one run of the pipeline (:func:`study.pipeline.stages.run_scene`) in
 ``OUT/<key>=<value>/``, sharing one stage cache: only the ltca and hbm stages rerun (the
@@ -33,15 +35,47 @@ from study.scene.load import load_scene
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MicroVariant", "run_microgeometry", "microgeometry_rows", "write_microgeometry"]
+__all__ = ["MicroVariant", "run_microgeometry", "microgeometry_rows", "write_microgeometry",
+           "studied_mesh"]
 
 
 @dataclass
 class MicroVariant:
-    """One value of the varied key and its run (``result`` None when it failed)."""
+    """One value of the varied key and its run (``result`` None when it failed); ``mesh``
+    the train mesh studied (empty for a one-pair scene) and ``element`` its index."""
 
     value: Any
     result: Any
+    mesh: str = ""
+    element: int = 0
+
+    @property
+    def excitation(self) -> Any:
+        """The studied mesh's :class:`~study.outputs.mesh_excitation.MeshExcitation`."""
+        r = self.result
+        if r is None:
+            return None
+        return r.train_excitations.get(self.mesh) if self.mesh else r.mesh_excitation
+
+
+def studied_mesh(scene: Any, key: str) -> tuple[str, int, Any]:
+    """(mesh name, element index, its ``MeshSource``) that ``key`` varies: the one-pair
+    scene's mesh (``""``, 0), or the train mesh the key names (``meshes.<name>.…`` or
+    ``meshes[i].…``)."""
+    if not scene.meshes:
+        return "", 0, scene.mesh_source
+    names = [m.name for m in scene.meshes]
+    parts = key.split(".")
+    m = re.fullmatch(r"meshes\[(\d+)\]", parts[0])
+    if m and int(m.group(1)) < len(names):
+        i = int(m.group(1))
+    elif parts[0] == "meshes" and len(parts) > 2 and parts[1] in names:
+        i = names.index(parts[1])
+    else:
+        raise SceneError(f"--set {key}: a train's micro-geometry study varies a key of one "
+                         f"mesh: meshes.<name>.… or meshes[i].… (its meshes: "
+                         f"{', '.join(map(repr, names))})")
+    return names[i], i, scene.meshes[i].source
 
 
 def _folder(key: str, value: Any) -> str:
@@ -63,8 +97,10 @@ def run_microgeometry(scene_path: str | Path, out: str | Path, key: str, values:
         raise SceneError(f"--set {key}: give at least two values to compare")
     base = dict(overrides or {})
     scenes = [load_scene(scene_path, {**base, key: v}) for v in values]
-    if scenes[0].mesh_source is None or not scenes[0].mesh_source.uses_ltca:
-        raise SceneError("microgeometry: the scene's mesh_stiffness and transmission_error "
+    mesh, element, src = studied_mesh(scenes[0], key)
+    if src is None or not src.uses_ltca:
+        where = f"mesh {mesh!r}'s" if mesh else "the scene's"
+        raise SceneError(f"microgeometry: {where} mesh_stiffness and transmission_error "
                          "do not come from the LTCA (set source = 'ltca' in one of them)")
     out = Path(out)
     variants = []
@@ -72,12 +108,12 @@ def run_microgeometry(scene_path: str | Path, out: str | Path, key: str, values:
         logger.info("microgeometry: %s = %s", key, v)
         try:
             r = run_scene(sc, out / _folder(key, v), **run_kwargs)
-            variants.append(MicroVariant(v, r))
+            variants.append(MicroVariant(v, r, mesh, element))
         except SolverError as exc:
             logger.error("microgeometry: %s = %s: %s", key, v, exc)
             keep = exc.result if (exc.result is not None and exc.result.branch is not None
                                   and len(exc.result.branch) > 1) else None
-            variants.append(MicroVariant(v, keep))
+            variants.append(MicroVariant(v, keep, mesh, element))
     return variants
 
 
@@ -91,19 +127,20 @@ def microgeometry_rows(variants: list[MicroVariant]) -> list[dict[str, Any]]:
         if r is None:
             rows.append({**row, "status": "failed"})
             continue
-        data = r.mesh_excitation
+        data = var.excitation
         if data is not None and data.has_ltca:
             row["ste_peak_to_peak_um"] = float(np.ptp(data.mesh_cycle("ste"))) * 1e6
             row["stiffness_mean_N_per_um"] = float(data.arrays["stiffness"].mean()) * 1e-6
         br = r.branch
-        std = br.element(0).mesh_load_std
+        cur = br.element(var.element)
+        std = cur.mesh_load_std
         i = int(np.argmax(std))
         row.update(max_std_N=float(std[i]), at_rpm=float(br.rpm[i]),
                    mean_std_N=float(np.mean(std)),
                    grazing_rpm=[round(float(g.rpm), 1)
-                                for g in sorted(br.grazing, key=lambda g: g.rpm)],
+                                for g in sorted(cur.grazing, key=lambda g: g.rpm)],
                    impacts="; ".join(f"{'SS' if c == 1 else 'DS'} {a:.0f}–{b:.0f}"
-                                     for c, ivs in contact_intervals(br).items()
+                                     for c, ivs in contact_intervals(br, var.element).items()
                                      for a, b in ivs) or "none",
                    status=br.status)
         nvh = getattr(r, "nvh", None)
@@ -160,8 +197,8 @@ def write_microgeometry(out: str | Path, key: str, variants: list[MicroVariant]
         f.write(buf.getvalue())
     ok = [v for v in variants if v.result is not None]
     png = parameter_study_plot(
-        [v.value for v in ok], [v.result.branch for v in ok],
-        [v.result.mesh_excitation for v in ok],
-        [getattr(v.result, "nvh", None) for v in ok], key, out / "microgeometry.png")
+        [v.value for v in ok], [v.result.branch for v in ok], [v.excitation for v in ok],
+        [getattr(v.result, "nvh", None) for v in ok], key, out / "microgeometry.png",
+        element=ok[0].element if ok else 0)
     logger.info("wrote %s, %s and %s", md, path_csv, png)
     return md, path_csv, png

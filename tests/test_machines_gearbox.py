@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from fractions import Fraction
+from pathlib import Path
 
 import gearbox_support as gs
 import numpy as np
@@ -13,6 +14,8 @@ import pytest
 from core.errors import InputError
 from machines import check_contract
 from machines.gearbox import Gearbox
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_description_of_the_two_stage_gearbox() -> None:
@@ -137,3 +140,70 @@ def test_shipped_gearbox_scenes_load(path: str) -> None:
     assert 1 / m.shaft("output").speed_ratio == Fraction(4087, 437)
     np.testing.assert_allclose(m.static_mesh_loads(), [2313.43, 7427.33], rtol=1e-5)
     assert m.radiating_part == "housing"
+
+
+def _compliance(m, folder) -> tuple[float, float]:
+    """(fᵀ K⁻¹ f, ‖K‖_F) of the FE model with the meshes as their mean springs under the
+    load torques f (the statics of :func:`test_fe_statics_carry_the_torque_path`)."""
+    from petsc4py import PETSc
+
+    model = m.build_fe_model(folder)
+    K = model.K.copy()
+    km = np.asarray(m.mean_mesh_stiffness())
+    idx = model.gear_dofs.astype(PETSc.IntType)
+    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    K.setValues(idx, idx, (model.G * km) @ model.G.T, addv=PETSc.InsertMode.ADD_VALUES)
+    K.assemble()
+    f = K.createVecLeft()
+    for node, t in m.load_torques().items():
+        dofs = model.node_dofs[node]
+        for j in range(6):
+            if dofs[j] >= 0 and t[j]:
+                f.setValue(int(dofs[j]), t[j], addv=PETSc.InsertMode.ADD_VALUES)
+    f.assemble()
+    ksp = PETSc.KSP().create(K.getComm())
+    ksp.setOperators(K)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    q = K.createVecRight()
+    ksp.solve(f, q)
+    return float(f.dot(q)), float(K.norm(PETSc.NormType.FROBENIUS))
+
+
+def test_bore_link_per_bearing_reaches_the_fe_parts() -> None:
+    """``[[shafts.bearings]] bore_link``/``journal_link``: 'distributing' on every
+    bearing gives the FE parts of ``[housing] bore_link = "distributing"``; 'housing'
+    (the default) takes [housing]'s; a bad value names the bearing."""
+    from study import load_scene
+    from study.scene.errors import SceneError
+
+    scene = ROOT / "scenes" / "two-stage-gearbox-demo.toml"
+    base = load_scene(scene)
+    every = {f"shafts.{s.name}.bearings[{j}].bore_link": "distributing"
+             for s in base.shafts for j in range(len(s.bearings))}
+    parts = Gearbox(load_scene(scene, every)).fe_parts()[1]
+    assert parts == Gearbox(load_scene(scene, {"housing.bore_link": "distributing"})
+                            ).fe_parts()[1]
+    one = Gearbox(load_scene(scene, {"shafts.output.bearings[1].journal_link":
+                                     "distributing"})).fe_parts()[1]
+    assert [(b.bore_link, b.journal_link) for b in one] == [("rigid", "rigid")] * 5 + \
+        [("rigid", "distributing")]
+    with pytest.raises(SceneError, match=r"shafts\[2\].bearings\[1\].bore_link = 'glued'"):
+        load_scene(scene, {"shafts.output.bearings[1].bore_link": "glued"})
+
+
+@pytest.mark.fem
+def test_one_distributing_bore_softens_between_rigid_and_all(tmp_path) -> None:
+    """The FE model with one bore linked 'distributing' (RBE3-type: no stiffness added):
+    its compliance under the load torques lies between the all-rigid model's and the
+    all-distributing one's."""
+    pytest.importorskip("dolfinx")
+    from study import load_scene
+
+    scene = ROOT / "scenes" / "two-stage-gearbox-demo.toml"
+    rigid = Gearbox(load_scene(scene))
+    rigid.build_mesh(tmp_path)                 # the links do not change the mesh
+    c = {name: _compliance(Gearbox(load_scene(scene, over)), tmp_path)[0] for name, over in
+         (("rigid", {}), ("one", {"shafts.output.bearings[1].bore_link": "distributing"}),
+          ("every", {"housing.bore_link": "distributing"}))}
+    assert c["rigid"] * (1 + 1e-6) < c["one"] < c["every"] * (1 - 1e-6), c

@@ -211,9 +211,11 @@ class Gearbox(FEMachine):
         bearings = []
         for s in self.scene.shafts:
             for name, b in zip(bearing_names(s), s.bearings, strict=True):
-                bearings.append(GearboxBearing(s.name, name, b.radial, b.axial,
-                                               journal_link=o.journal_link,
-                                               bore_link=o.bore_link))
+                bearings.append(GearboxBearing(
+                    s.name, name, b.radial, b.axial,
+                    journal_link=o.journal_link if b.journal_link == "housing" else
+                    b.journal_link,
+                    bore_link=o.bore_link if b.bore_link == "housing" else b.bore_link))
         d = self.scene.drive
         drive = GearboxDrive(d.shaft, d.motor_inertia, d.motor_torsional_stiffness)
         loads = [GearboxLoad(ld.shaft, ld.inertia, ld.torsional_stiffness)

@@ -332,11 +332,14 @@ class OutputsData:
 
 @dataclass(frozen=True)
 class BearingData:
-    """``[[shafts.bearings]]``: axial position (m), radial and axial stiffness (N/m)."""
+    """``[[shafts.bearings]]``: axial position (m), radial and axial stiffness (N/m), and
+    (gearbox) the links of its bore and journal (``"housing"``: those of ``[housing]``)."""
 
     position: float
     radial: float
     axial: float
+    bore_link: str = "housing"
+    journal_link: str = "housing"
 
 
 @dataclass(frozen=True)

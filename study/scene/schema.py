@@ -316,6 +316,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                               doc="radial stiffness"),
         "axial_N_per_um": _f(None, "N_per_um", 0, 1e7, lo_open=True, required=True,
                              doc="axial stiffness"),
+        "bore_link": _c("housing", ("housing", "rigid", "distributing"),
+                        "gearbox: link of this bearing's bore to its node, RBE2 'rigid' or "
+                        "RBE3-type 'distributing'; 'housing': [housing] bore_link"),
+        "journal_link": _c("housing", ("housing", "rigid", "distributing"),
+                           "gearbox: link of this bearing's journal to its node; 'housing': "
+                           "[housing] journal_link"),
     },
     "gears": {
         "name": Spec("str", None, doc="gear (body) name, unique", required=True),

@@ -44,6 +44,8 @@ class Bearing:
     position: float
     radial: float = 2.0e8
     axial: float = 5.0e7
+    bore_link: str = "housing"
+    journal_link: str = "housing"
 
 
 @dataclass(frozen=True)

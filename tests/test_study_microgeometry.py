@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from train_scenes import LTCA_RELIEVED, two_stage_with_stage2
 
 from study.cli import EXIT_INPUT, EXIT_OK, main
 
@@ -48,22 +49,6 @@ def test_the_study_refuses_what_it_cannot_compare(tmp_path, capsys):
     assert "micro_geometry.gear1.tip_relief_um" in capsys.readouterr().err
 
 
-def _train_scene(path: Path) -> Path:
-    """scenes/two-stage-lumped.toml with stage 2 from the LTCA (crowning, tip relief
-    starting at 40 / 135 mm: docs/tutorial.md section 8)."""
-    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
-    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
-              '[meshes.transmission_error]\nestimate = true\n')
-    head, tail = text.rsplit(stage2, 1)
-    ltca = ('[meshes.mesh_stiffness]\nsource = "ltca"\n[meshes.transmission_error]\n'
-            'source = "ltca"\nkind = "loaded"\n[meshes.micro_geometry.both]\n'
-            'tip_relief_um = 20.0\ncrowning_um = 4.0\n[meshes.micro_geometry.gear1]\n'
-            'tip_relief_start_diameter_mm = 40.0\n[meshes.micro_geometry.gear2]\n'
-            'tip_relief_start_diameter_mm = 135.0\n')
-    path.write_text(head + ltca + tail)
-    return path
-
-
 def test_a_train_mesh_named_in_the_key(tmp_path, capsys):
     """On a train the key names the mesh (``meshes.stage2.…``): the table gives that mesh's
     LTCA (STE peak-to-peak 8.30 µm without relief, 3.10 µm with 20 µm) and its own
@@ -72,7 +57,9 @@ def test_a_train_mesh_named_in_the_key(tmp_path, capsys):
     import h5py
     import numpy as np
 
-    scene = str(_train_scene(tmp_path / "reducer.toml"))
+    scene = tmp_path / "reducer.toml"
+    scene.write_text(two_stage_with_stage2(LTCA_RELIEVED))
+    scene = str(scene)
     quick = ["--set", "continuation.speed_rpm=[8000.0,9000.0]", "--set",
              "hbm.mesh_harmonics=4", "--set", "outputs.plots=[\"forced_response\"]",
              "--no-progress", "-q"]

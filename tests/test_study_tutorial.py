@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from train_scenes import LTCA_RELIEVED, two_stage_with_stage2
 
 from study.scene import SceneError, parse_scene
 
@@ -57,15 +58,15 @@ def test_section_8_ltca_tables_give_the_quoted_ltca():
     import gears
 
     snippet = _blocks()[1]
-    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
-    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
-              '[meshes.transmission_error]\nestimate = true\n')
-    head, tail = text.rsplit(stage2, 1)
-    s = parse_scene(head + snippet + tail, "my-reducer")
+    s = parse_scene(two_stage_with_stage2(snippet), "my-reducer")
+    # the tests' copy of the snippet (train_scenes.LTCA_RELIEVED) is the same case
+    assert parse_scene(two_stage_with_stage2(LTCA_RELIEVED), "copy").meshes[1].source == \
+        s.meshes[1].source
     m = s.meshes[1]
     ste = gears.solve_ltca(m.source.case).ste
-    plain = parse_scene(head + snippet.replace("tip_relief_um = 20.0", "tip_relief_um = 0.0")
-                        + tail, "no-relief")
+    plain = parse_scene(two_stage_with_stage2(snippet.replace("tip_relief_um = 20.0",
+                                                              "tip_relief_um = 0.0")),
+                        "no-relief")
     no_relief = gears.solve_ltca(plain.meshes[1].source.case).ste
     quoted = (f"LTCA of stage2 at {m.source.case.torque:.3f} N·m", f"{np.ptp(ste) * 1e6:.3f} µm",
               f"`{m.mesh_stiffness.mean / 1e6:.1f} (LTCA)`",

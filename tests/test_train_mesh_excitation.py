@@ -8,6 +8,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from train_scenes import two_stage_with_stage2
 
 import gears
 from study.pipeline.replay import report_from_results
@@ -24,15 +25,11 @@ def ltca_train(tmp_path_factory):
     """The lumped two-stage train with stage 2 from the LTCA of its own pair (tip relief
     on the wheel), run twice on one cache."""
     tmp = tmp_path_factory.mktemp("ltca_train")
-    text = (ROOT / "scenes" / "two-stage-lumped.toml").read_text()
-    stage2 = ('[meshes.mesh_stiffness]\nestimate = true\nn_harmonics = 5\n'
-              '[meshes.transmission_error]\nestimate = true\n')
-    head, tail = text.rsplit(stage2, 1)
     ltca = ('[meshes.mesh_stiffness]\nsource = "ltca"\n[meshes.transmission_error]\n'
             'source = "ltca"\nkind = "loaded"\n[meshes.micro_geometry.gear2]\n'
             'tip_relief_um = 8.0\ntip_relief_start_diameter_mm = 135.5\n')
     path = tmp / "ltca-train.toml"
-    path.write_text(head + ltca + tail)
+    path.write_text(two_stage_with_stage2(ltca))
     scene = load_scene(path, QUICK)
     first = run_scene(scene, tmp / "a", cache_dir=tmp / "cache", progress=False)
     second = run_scene(scene, tmp / "b", cache_dir=tmp / "cache", progress=False)

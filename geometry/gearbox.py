@@ -32,6 +32,7 @@ from core.errors import InputError
 
 from .gearbox_params import GearboxParams, GearboxShaftParams
 from .housing import build_box_housing
+from .meshfile import refuse_flat_elements
 from .meshing import add_groups, check_sizes, generate, mesh_volume, quality, set_part_size
 from .model import MeshedModel, PartEntities
 from .params import MeshOptions, preset
@@ -333,21 +334,15 @@ def build_gearbox(params: GearboxParams, mesh_options: MeshOptions | None = None
                       {k: local for k in part.surfaces if "/bearing_" in k or "/seat_" in k})
     if given is None:
         groups = add_groups(volumes, volume_tags(params))
-        report = generate({v: p.volume for v, p in volumes.items()}, opts)
-        part_volumes = {v: float(gmsh.model.occ.getMass(3, p.volume))
-                        for v, p in volumes.items()}
-    else:
-        generate({v: p.volume for v, p in volumes.items()}, opts)
-        part_volumes = {v: float(gmsh.model.occ.getMass(3, p.volume))
-                        for v, p in volumes.items()}
+    report = generate({v: p.volume for v, p in volumes.items()}, opts)
+    part_volumes = {v: float(gmsh.model.occ.getMass(3, p.volume)) for v, p in volumes.items()}
+    if given is not None:       # the housing's elements after the shafts', as they are
         volumes["housing"] = _add_mesh_housing(given)
         part_volumes["housing"] = mesh_volume(volumes["housing"].volume)
         groups = add_groups(volumes, volume_tags(params))
         report = quality({v: p.volume for v, p in volumes.items()}, opts.poor_sicn)
-        if not report.per_part["housing"]["min_sicn"] > 0:
-            raise InputError.of("housing.file", str(mesh_housing.path), "holds inverted or "
-                                f"flat elements (min SICN "
-                                f"{report.per_part['housing']['min_sicn']:.3g} <= 0)")
+        refuse_flat_elements(report.per_part["housing"]["min_sicn"], "housing.file",
+                             mesh_housing.path)
     centres: dict[str, np.ndarray] = {}
     for part in volumes.values():
         centres.update({k: np.asarray(c, dtype=float).copy() for k, c in part.centres.items()})

@@ -33,7 +33,13 @@ from core.errors import InputError
 from .cad import CadPart, ImportedSolid, import_part
 from .cadfaces import face_candidates, find_mount, find_seat, part_faces
 from .locate import BearingSeat, Mount
-from .meshfile import MeshPart, add_facet_surface, add_volume_mesh, read_volume_mesh
+from .meshfile import (
+    MeshPart,
+    add_facet_surface,
+    add_volume_mesh,
+    read_volume_mesh,
+    refuse_flat_elements,
+)
 from .meshing import MAX_ELEMENTS, TETS_PER_SIZE_CUBED, generate, mesh_volume, points_of, quality
 from .meshsurface import MeshBoundary
 from .model import ImportedModel
@@ -322,9 +328,7 @@ def import_mesh(parts: MeshPart | Sequence[MeshPart], seats: Sequence[BearingSea
     if not report.min_sicn > 0:
         worst = min(report.per_part, key=lambda k: report.per_part[k]["min_sicn"])
         i = [p.name for p in parts].index(worst)
-        raise InputError.of(f"parts[{i}].path", str(parts[i].path),
-                            f"holds inverted or flat elements (min SICN "
-                            f"{report.min_sicn:.3g} <= 0): fix the mesh")
+        refuse_flat_elements(report.min_sicn, f"parts[{i}].path", parts[i].path)
     log.info("%s: %s", model_name, report.summary())
     return ImportedModel(groups=groups, centres=centres, quality=report, parts=solids,
                          seats=seat_reports, mounts=mount_reports, mesh_options=None,

@@ -329,6 +329,14 @@ def read_volume_mesh(part: MeshPart, where: str = "part") -> VolumeMesh:
                       face_sets=face_sets, node_sets=node_sets, notes=notes)
 
 
+def refuse_flat_elements(min_sicn: float, field: str, path: str | os.PathLike[str]) -> None:
+    """Refuse a file's mesh whose quality report has inverted or flat curved elements
+    (minimum SICN <= 0), naming ``field`` and the file."""
+    if not min_sicn > 0:
+        raise InputError.of(field, str(path), f"holds inverted or flat elements (min SICN "
+                            f"{min_sicn:.3g} <= 0): fix the mesh")
+
+
 def add_volume_mesh(mesh: VolumeMesh, node_offset: int = 0) -> int:
     """Add the mesh to the current gmsh model as a discrete volume; returns its tag.
 

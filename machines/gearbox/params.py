@@ -158,14 +158,19 @@ def gearbox_parameters(fe: dict[str, dict]) -> GearboxFEParams:
     return GearboxFEParams(housing, options, opts, mats)
 
 
+def _placement(options: HousingOptions) -> tuple:
+    """(file, unit, offset (m), bore radii (m), feet y (m)) of a CAD or mesh housing."""
+    return (options.file, options.unit,
+            tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
+            tuple(options.bore_radii), options.feet_y)
+
+
 def cad_housing(options: HousingOptions) -> Any:
     """The :class:`geometry.CadHousing` of ``[housing]`` with ``source = "cad"``; the file
     is relative to the working directory (or absolute)."""
     import geometry
 
-    return geometry.CadHousing(options.file, options.unit,
-                               tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
-                               tuple(options.bore_radii), options.feet_y)
+    return geometry.CadHousing(*_placement(options))
 
 
 def mesh_housing(options: HousingOptions) -> Any:
@@ -173,10 +178,7 @@ def mesh_housing(options: HousingOptions) -> Any:
     file is relative to the working directory (or absolute)."""
     import geometry
 
-    return geometry.MeshHousing(options.file, options.unit,
-                                tuple(options.offset) if options.offset else (0.0, 0.0, 0.0),
-                                tuple(options.bore_radii), options.feet_y,
-                                options.first_order)
+    return geometry.MeshHousing(*_placement(options), options.first_order)
 
 
 def bearing_names(shaft: Any) -> list[str]:

@@ -7,11 +7,12 @@ from __future__ import annotations
 import copy
 import re
 import tomllib
+from collections.abc import Sequence
 from typing import Any
 
 from study.scene.errors import SceneError
 
-__all__ = ["apply_overrides", "parse_set_values"]
+__all__ = ["apply_overrides", "entry_index", "parse_set_values"]
 
 
 #: ``meshes[1]``: entry 1 (from 0) of an array of tables.
@@ -53,6 +54,19 @@ def apply_overrides(raw: dict, overrides: dict[str, Any]) -> dict:
             i += 1
         node[parts[-1]] = value
     return out
+
+
+def entry_index(dotted: str, array: str, names: Sequence[str]) -> int | None:
+    """The index of the entry of ``[[array]]`` that the ``--set`` key ``dotted`` addresses
+    (``array.<name>.…`` or ``array[i].…``, as :func:`apply_overrides` reads it; ``names``
+    the entries' names in order), None when it addresses none of them."""
+    parts = dotted.split(".")
+    m = _INDEXED.fullmatch(parts[0])
+    if m and m.group(1) == array and int(m.group(2)) < len(names):
+        return int(m.group(2))
+    if parts[0] == array and len(parts) > 2 and parts[1] in names:
+        return list(names).index(parts[1])
+    return None
 
 
 def _tables(node: dict, key: str, dotted: str) -> list[dict]:

@@ -32,6 +32,7 @@ from study.pipeline.stages import run_scene
 from study.plots.mesh_excitation import parameter_study_plot
 from study.scene.errors import SceneError
 from study.scene.load import load_scene
+from study.scene.overrides import entry_index
 
 logger = logging.getLogger(__name__)
 
@@ -65,13 +66,8 @@ def studied_mesh(scene: Any, key: str) -> tuple[str, int, Any]:
     if not scene.meshes:
         return "", 0, scene.mesh_source
     names = [m.name for m in scene.meshes]
-    parts = key.split(".")
-    m = re.fullmatch(r"meshes\[(\d+)\]", parts[0])
-    if m and int(m.group(1)) < len(names):
-        i = int(m.group(1))
-    elif parts[0] == "meshes" and len(parts) > 2 and parts[1] in names:
-        i = names.index(parts[1])
-    else:
+    i = entry_index(key, "meshes", names)
+    if i is None:
         raise SceneError(f"--set {key}: a train's micro-geometry study varies a key of one "
                          f"mesh: meshes.<name>.… or meshes[i].… (its meshes: "
                          f"{', '.join(map(repr, names))})")
